@@ -1,0 +1,86 @@
+"""The ``zeromode`` command line: serve the API, analyse frames, show examples."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+from zeromode.solver.errors import DomainError
+from zeromode.solver.frame import Frame
+
+
+def _load_json(path: str) -> dict:
+    with (sys.stdin if path == "-" else open(path)) as fh:
+        return json.load(fh)
+
+
+def _frame_from_json(doc: dict) -> Frame:
+    doc = doc.get("frame", doc)
+    return Frame.build(doc["positions"], doc.get("edges", []), doc.get("specified", []), dim=doc.get("dim"))
+
+
+def cmd_serve(args) -> int:
+    import uvicorn
+
+    print(
+        f"zeromode listening on http://{args.host}:{args.port}  (try: curl -s "
+        f"http://{args.host}:{args.port}/v1/examples/outward_2d/request | curl -s -H "
+        f"'content-type: application/json' -d @- http://{args.host}:{args.port}/v1/design)",
+        flush=True,
+    )
+    uvicorn.run(
+        "zeromode.service.app:app", host=args.host, port=args.port, workers=args.workers, log_level="info"
+    )
+    return 0
+
+
+def cmd_analyze(args) -> int:
+    from zeromode.solver.rigidity import analyze
+
+    result = analyze(_frame_from_json(_load_json(args.frame)))
+    if args.pretty:
+        c = result.counts()
+        print(
+            f"N={c['nodes']} N_B={c['edges']} d={c['dim']}  Maxwell count {c['maxwell_count']}\n"
+            f"rank C = {c['rank']}  (σ_r = {c['rank_gap']['last_nonzero']:.3e}, "
+            f"σ_r+1 = {c['rank_gap']['first_zero']:.3e})\n"
+            f"zero modes {c['zero_modes']} = {c['rigid_body_modes']} rigid + "
+            f"{c['nontrivial_zero_modes']} nontrivial;  self-stresses {c['self_stresses']}"
+        )
+    else:
+        out = {**result.counts(), "modes": result.modes.tolist(), "stresses": result.stresses.tolist()}
+        json.dump(out, sys.stdout)
+        print()
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="zeromode", description=__doc__)
+    sub = parser.add_subparsers(dest="command", required=True)
+    serve = sub.add_parser("serve", help="run the REST service")
+    serve.add_argument("--host", default="127.0.0.1")
+    serve.add_argument("--port", type=int, default=8000)
+    serve.add_argument("--workers", type=int, default=1)
+    serve.set_defaults(func=cmd_serve)
+    an = sub.add_parser("analyze", help="analyse a frame given as JSON (file or - for stdin)")
+    an.add_argument("frame")
+    an.add_argument("--pretty", action="store_true", help="a readable summary instead of JSON")
+    an.set_defaults(func=cmd_analyze)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except DomainError as exc:
+        print(f"error [{exc.code}]: {exc.message}", file=sys.stderr)
+        return 2
+    except (OSError, json.JSONDecodeError, KeyError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

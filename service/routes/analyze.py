@@ -1,0 +1,31 @@
+"""POST /v1/analyze — counts and bases of a frame's zero modes and self-stresses."""
+
+from __future__ import annotations
+
+import time
+
+from fastapi import APIRouter
+
+from zeromode.service.convert import frame_from_model
+from zeromode.service.schemas.analyze import AnalyzeRequest, AnalyzeResponse
+from zeromode.service.schemas.common import ERROR_RESPONSES
+from zeromode.solver.rigidity import analyze
+
+router = APIRouter(prefix="/v1", tags=["analysis"])
+
+
+@router.post("/analyze", response_model=AnalyzeResponse, responses=ERROR_RESPONSES)
+def post_analyze(request: AnalyzeRequest) -> dict:
+    """Rank of the compatibility matrix, zero modes, rigid motions and self-stresses of a frame."""
+    t0 = time.perf_counter()
+    frame = frame_from_model(request.frame)
+    opts = request.options
+    result = analyze(frame, rtol=opts.rtol, method=opts.method, bases=opts.bases)
+    return {
+        **result.counts(),
+        "modes": result.modes.tolist(),
+        "stresses": result.stresses.tolist(),
+        "method": result.method,
+        "bases_included": result.bases_included,
+        "timings_ms": {"total": 1e3 * (time.perf_counter() - t0)},
+    }

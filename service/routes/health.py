@@ -1,0 +1,18 @@
+"""GET /health."""
+
+from fastapi import APIRouter
+from pydantic import BaseModel
+
+from zeromode.service import __version__
+
+router = APIRouter(tags=["health"])
+
+
+class Health(BaseModel):
+    status: str
+    version: str
+
+
+@router.get("/health", response_model=Health)
+def health() -> dict:
+    return {"status": "ok", "version": __version__}

@@ -1,0 +1,36 @@
+"""POST /v1/analyze."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import BaseModel, Field
+
+from zeromode.service.schemas.common import AnalysisCounts, FrameModel, Points
+
+
+class AnalyzeOptions(BaseModel):
+    rtol: float = Field(
+        default=1e-9, gt=0, lt=1, description="Relative threshold: σ ≤ rtol·σ_max counts as zero."
+    )
+    method: Literal["auto", "dense", "sparse"] = Field(
+        default="auto", description="Full SVD, sparse shift-invert subspace iteration, or by size."
+    )
+    bases: bool = Field(default=True, description="Return the mode and stress bases (if small enough).")
+
+
+class AnalyzeRequest(BaseModel):
+    frame: FrameModel
+    options: AnalyzeOptions = Field(default_factory=AnalyzeOptions)
+
+
+class AnalyzeResponse(AnalysisCounts):
+    modes: list[Points] = Field(
+        description="Orthonormal basis of the nontrivial zero modes, each N×d, ⟂ every rigid motion."
+    )
+    stresses: list[list[float]] = Field(description="Orthonormal basis of the self-stresses (N_B each).")
+    method: str = Field(description="'dense' or 'sparse': which route decided the rank.")
+    bases_included: bool = Field(
+        description="False when the bases were too large to return (counts are exact regardless)."
+    )
+    timings_ms: dict[str, float]

@@ -1,0 +1,62 @@
+"""Shared request/response models: Frame, rank gap, error body, the analysis counts."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import BaseModel, Field, FiniteFloat
+
+from zeromode.service.settings import SETTINGS
+
+Point = list[FiniteFloat]
+Points = list[Point]
+
+
+class FrameModel(BaseModel):
+    """A bar-and-joint frame. Node indices are 0-based; an edge and its reverse are the same edge."""
+
+    dim: Literal[2, 3] = Field(description="Spatial dimension d.")
+    positions: Points = Field(
+        max_length=SETTINGS.max_nodes, description="N×d node positions (row list)."
+    )
+    edges: list[tuple[int, int]] = Field(
+        default_factory=list, max_length=SETTINGS.max_edges, description="N_B bars [i, j], i ≠ j."
+    )
+    specified: list[int] = Field(
+        default_factory=list, description="Indices of the specified nodes (default: none)."
+    )
+
+
+class RankGapModel(BaseModel):
+    last_nonzero: float = Field(description="σ_r of the scale-normalised C (0 when rank is 0).")
+    first_zero: float = Field(description="σ_{r+1} of the scale-normalised C (0 when there is none).")
+
+
+class AnalysisCounts(BaseModel):
+    """The /v1/analyze fields without the bases (embedded in design reports)."""
+
+    nodes: int = Field(description="N")
+    edges: int = Field(description="N_B")
+    dim: int = Field(description="d")
+    maxwell_count: int = Field(description="d·N − N_B")
+    rank: int = Field(description="rank of the compatibility matrix C (N_B × dN)")
+    zero_modes: int = Field(description="dim N(C) = d·N − rank")
+    rigid_body_modes: int = Field(description="dimension of the rigid motions of this configuration")
+    nontrivial_zero_modes: int = Field(description="zero_modes − rigid_body_modes")
+    self_stresses: int = Field(description="N_B − rank")
+    rank_gap: RankGapModel
+
+
+class ErrorDetail(BaseModel):
+    code: str = Field(description="Fixed snake_case error code.")
+    message: str = Field(description="One human sentence naming the problem.")
+
+
+class ErrorResponse(BaseModel):
+    detail: ErrorDetail
+
+
+ERROR_RESPONSES = {
+    413: {"model": ErrorResponse, "description": "Request body too large."},
+    422: {"model": ErrorResponse, "description": "Invalid request or domain failure (see code)."},
+}

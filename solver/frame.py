@@ -1,0 +1,151 @@
+"""The Maxwell frame: N point nodes in d dimensions joined by N_B rigid bars.
+
+A frame is validated once, when it is built, so every function downstream can trust it:
+finite positions of shape (N, d) with d in {2, 3}; edges of shape (N_B, 2), in range,
+no self-loops, no duplicate (or reversed duplicate) edges, no bar of zero length; and
+``specified`` node indices, unique and in range.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from zeromode.solver.errors import InvalidInput
+
+# Two joined nodes closer than this fraction of the frame's RMS radius are coincident.
+COINCIDENT_RTOL = 1e-12
+
+
+def _readonly(array: np.ndarray) -> np.ndarray:
+    array.flags.writeable = False
+    return array
+
+
+def check_positions(positions, dim: int | None = None, name: str = "positions") -> np.ndarray:
+    """Return positions as a finite float array of shape (N, d), d in {2, 3}, or raise."""
+    try:
+        x = np.asarray(positions, dtype=float)
+    except (TypeError, ValueError):
+        raise InvalidInput("invalid_shape", f"{name} must be a list of points of equal length.")
+    if x.ndim != 2:
+        raise InvalidInput("invalid_shape", f"{name} must be a list of points, got shape {x.shape}.")
+    if dim is None:
+        dim = x.shape[1]
+    if dim not in (2, 3):
+        raise InvalidInput("invalid_dim", f"dim must be 2 or 3, got {dim}.")
+    if x.shape[1] != dim:
+        raise InvalidInput(
+            "invalid_shape", f"every point in {name} must have {dim} coordinates, got {x.shape[1]}."
+        )
+    bad = np.argwhere(~np.isfinite(x))
+    if bad.size:
+        i, a = bad[0]
+        raise InvalidInput("not_finite", f"{name}[{i}][{a}] is not a finite number.")
+    return x
+
+
+def rms_radius(x: np.ndarray) -> float:
+    """Root-mean-square distance of the points from their centroid (0 for a single point)."""
+    if len(x) == 0:
+        return 0.0
+    return float(np.sqrt(np.mean(np.sum((x - x.mean(axis=0)) ** 2, axis=1))))
+
+
+@dataclass(frozen=True, eq=False)
+class Frame:
+    """A validated bar-and-joint frame.
+
+    positions: (N, d) float, read-only.  edges: (N_B, 2) int, read-only, in the order given.
+    specified: indices of the specified nodes V_S (possibly empty).
+    """
+
+    positions: np.ndarray
+    edges: np.ndarray
+    specified: tuple[int, ...] = ()
+
+    @classmethod
+    def build(cls, positions, edges, specified=(), dim: int | None = None) -> Frame:
+        """Validate raw input (lists or arrays) and return a Frame; raise InvalidInput naming the bad element."""
+        x = check_positions(positions, dim)
+        n = len(x)
+        e = np.asarray(edges if len(edges) else np.zeros((0, 2)), dtype=float)
+        if e.ndim != 2 or e.shape[1] != 2:
+            raise InvalidInput("invalid_edges", "edges must be a list of [i, j] pairs.")
+        if not np.all(np.isfinite(e)) or not np.all(e == np.round(e)):
+            k = int(np.argwhere(~np.isfinite(e) | (e != np.round(e)))[0][0])
+            raise InvalidInput("invalid_edges", f"edge {k} must hold two integer node indices.")
+        e = e.astype(np.int64)
+        out = np.argwhere((e < 0) | (e >= n))
+        if out.size:
+            k = int(out[0][0])
+            raise InvalidInput(
+                "edge_out_of_range",
+                f"edge {k} = {e[k].tolist()} names a node outside 0..{n - 1}.",
+            )
+        loops = np.flatnonzero(e[:, 0] == e[:, 1])
+        if loops.size:
+            k = int(loops[0])
+            raise InvalidInput("self_loop", f"edge {k} = {e[k].tolist()} joins a node to itself.")
+        key = np.sort(e, axis=1)
+        _, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+        repeated = np.flatnonzero(counts[inverse.ravel()] > 1)
+        if repeated.size:
+            k0 = int(repeated[0])
+            k1 = int(next(k for k in repeated[1:] if inverse.ravel()[k] == inverse.ravel()[k0]))
+            raise InvalidInput(
+                "duplicate_edge",
+                f"edges {k0} and {k1} both join nodes {key[k0].tolist()}.",
+            )
+        if len(e):
+            lengths = np.linalg.norm(x[e[:, 0]] - x[e[:, 1]], axis=1)
+            scale = max(rms_radius(x), float(np.max(np.abs(x))), np.finfo(float).tiny)
+            short = np.flatnonzero(lengths <= COINCIDENT_RTOL * scale)
+            if short.size:
+                k = int(short[0])
+                raise InvalidInput(
+                    "zero_length_bar",
+                    f"edge {k} = {e[k].tolist()} joins two coincident nodes.",
+                )
+        spec_raw = np.asarray(specified if len(specified) else [], dtype=float).ravel()
+        if not np.all(np.isfinite(spec_raw)) or np.any(spec_raw != np.round(spec_raw)):
+            raise InvalidInput("invalid_specified", "specified must hold integer node indices.")
+        spec = tuple(int(i) for i in spec_raw)
+        if any(i < 0 or i >= n for i in spec):
+            bad = next(i for i in spec if i < 0 or i >= n)
+            raise InvalidInput("invalid_specified", f"specified node {bad} is outside 0..{n - 1}.")
+        if len(set(spec)) != len(spec):
+            raise InvalidInput("invalid_specified", "specified lists a node more than once.")
+        return cls(_readonly(x.copy()), _readonly(e), spec)
+
+    @property
+    def dim(self) -> int:
+        return int(self.positions.shape[1])
+
+    @property
+    def n_nodes(self) -> int:
+        return int(self.positions.shape[0])
+
+    @property
+    def n_edges(self) -> int:
+        return int(self.edges.shape[0])
+
+    @property
+    def maxwell_count(self) -> int:
+        """d·N − N_B (Eq. 2 of the paper)."""
+        return self.dim * self.n_nodes - self.n_edges
+
+    def normalised_positions(self) -> np.ndarray:
+        """Positions centred at the centroid and divided by the RMS radius (identity scale for one point)."""
+        x = self.positions - self.positions.mean(axis=0)
+        r = rms_radius(self.positions)
+        return x / r if r > 0 else x
+
+    def to_dict(self) -> dict:
+        return {
+            "dim": self.dim,
+            "positions": self.positions.tolist(),
+            "edges": self.edges.tolist(),
+            "specified": list(self.specified),
+        }

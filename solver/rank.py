@@ -1,0 +1,67 @@
+"""Numerical rank decisions with a reported margin.
+
+Every rank in zeromode is decided here, on a matrix that the caller has already made
+scale-free (see ``Frame.normalised_positions``), by a threshold *relative* to the largest
+singular value. The decision is reported with its evidence: the last singular value kept
+(σ_r) and the first one dropped (σ_{r+1}), so a user can see how clear the call was.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+# σ_i ≤ RTOL·σ_max counts as zero. Designed frames have σ_r/σ_max ≳ 1e-4 and floating-point
+# noise sits near 1e-15, so 1e-9 leaves several decades of margin on both sides.
+RTOL = 1e-9
+
+
+@dataclass(frozen=True)
+class RankGap:
+    """Evidence for a rank decision: σ_r (last kept) and σ_{r+1} (first dropped; 0 if none)."""
+
+    last_nonzero: float
+    first_zero: float
+
+    def to_dict(self) -> dict:
+        return {"last_nonzero": self.last_nonzero, "first_zero": self.first_zero}
+
+
+def decide_rank(singular_values: np.ndarray, rtol: float = RTOL) -> tuple[int, RankGap]:
+    """Rank from descending singular values: count σ_i > rtol·σ_1; return it with its gap."""
+    s = np.asarray(singular_values, dtype=float)
+    if s.size == 0 or s[0] == 0.0:
+        return 0, RankGap(0.0, float(s[0]) if s.size else 0.0)
+    r = int(np.count_nonzero(s > rtol * s[0]))
+    return r, RankGap(float(s[r - 1]), float(s[r]) if r < s.size else 0.0)
+
+
+def orthonormal_range(matrix: np.ndarray, rtol: float = RTOL) -> np.ndarray:
+    """Orthonormal basis (columns) of the column space of ``matrix``, rank decided relatively."""
+    if matrix.size == 0:
+        return np.zeros((matrix.shape[0], 0))
+    u, s, _ = np.linalg.svd(matrix, full_matrices=False)
+    r, _ = decide_rank(s, rtol)
+    return u[:, :r]
+
+
+def nullspace(matrix: np.ndarray, rtol: float = RTOL) -> tuple[np.ndarray, int, RankGap]:
+    """Orthonormal basis (columns) of N(matrix), with the rank and its gap."""
+    rows, cols = matrix.shape
+    if rows == 0:
+        return np.eye(cols), 0, RankGap(0.0, 0.0)
+    _, s, vt = np.linalg.svd(matrix, full_matrices=True)
+    r, gap = decide_rank(s, rtol)
+    return vt[r:].T.copy(), r, gap
+
+
+def complement_within(space: np.ndarray, sub: np.ndarray) -> np.ndarray:
+    """Orthonormal basis of span(space) ⊖ span(sub), for ``space`` orthonormal and span(sub) ⊆ span(space).
+
+    Shapes: space (n, z) orthonormal, sub (n, ρ) orthonormal with ρ ≤ z → result (n, z − ρ).
+    """
+    if sub.shape[1] == 0:
+        return space
+    u, _, _ = np.linalg.svd(space.T @ sub, full_matrices=True)
+    return space @ u[:, sub.shape[1]:]
