@@ -12,7 +12,7 @@ from fastapi.responses import JSONResponse
 
 from zeromode.service import __version__
 from zeromode.service.errors import error_body, install_error_handlers
-from zeromode.service.routes import analyze, health
+from zeromode.service.routes import analyze, design, examples, health
 from zeromode.service.settings import SETTINGS, Settings
 
 log = logging.getLogger("zeromode")
@@ -28,7 +28,7 @@ def create_app(settings: Settings = SETTINGS) -> FastAPI:
         ),
     )
     install_error_handlers(app)
-    for module in (health, analyze):
+    for module in (health, analyze, design, examples):
         app.include_router(module.router)
 
     @app.middleware("http")
@@ -41,6 +41,14 @@ def create_app(settings: Settings = SETTINGS) -> FastAPI:
                 content=error_body(
                     "body_too_large",
                     f"the request body has {length} bytes; the limit is {settings.max_body_bytes}.",
+                ),
+            )
+        if length is None and request.method in ("POST", "PUT", "PATCH"):
+            # A chunked body has no Content-Length and would slip past the size limit above.
+            return JSONResponse(
+                status_code=411,
+                content=error_body(
+                    "length_required", "a request body needs a Content-Length header (no chunked bodies)."
                 ),
             )
         if settings.api_key and request.url.path.startswith("/v1/"):

@@ -55,6 +55,21 @@ def cmd_analyze(args) -> int:
     return 0
 
 
+def cmd_example(args) -> int:
+    from zeromode.solver.examples import example_description, example_names, example_request
+
+    if args.action == "list":
+        for name in example_names():
+            print(f"{name:24s} {example_description(name)}")
+        return 0
+    if not args.name:
+        print("error: 'zeromode example show' needs a NAME (see 'zeromode example list').", file=sys.stderr)
+        return 2
+    json.dump(example_request(args.name), sys.stdout, indent=2)
+    print()
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="zeromode", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -67,6 +82,10 @@ def build_parser() -> argparse.ArgumentParser:
     an.add_argument("frame")
     an.add_argument("--pretty", action="store_true", help="a readable summary instead of JSON")
     an.set_defaults(func=cmd_analyze)
+    ex = sub.add_parser("example", help="list the paper's named examples or print one as a /v1/design request")
+    ex.add_argument("action", choices=["list", "show"])
+    ex.add_argument("name", nargs="?")
+    ex.set_defaults(func=cmd_example)
     return parser
 
 

@@ -27,7 +27,7 @@ def check_positions(positions, dim: int | None = None, name: str = "positions") 
     """Return positions as a finite float array of shape (N, d), d in {2, 3}, or raise."""
     try:
         x = np.asarray(positions, dtype=float)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise InvalidInput("invalid_shape", f"{name} must be a list of points of equal length.")
     if x.ndim != 2:
         raise InvalidInput("invalid_shape", f"{name} must be a list of points, got shape {x.shape}.")
@@ -46,11 +46,24 @@ def check_positions(positions, dim: int | None = None, name: str = "positions") 
     return x
 
 
+def _unit_scaled(x: np.ndarray) -> tuple[np.ndarray, float]:
+    """(x / m, m) with m = max |x_ia|, so sums of squares can neither overflow nor underflow."""
+    m = float(np.max(np.abs(x))) if x.size else 0.0
+    return (x / m, m) if m > 0 else (x, 1.0)
+
+
+def _centred_rms(y: np.ndarray) -> tuple[np.ndarray, float]:
+    """Points moved to their centroid, and their RMS distance from it."""
+    y = y - y.mean(axis=0)
+    return y, float(np.sqrt(np.mean(np.sum(y**2, axis=1))))
+
+
 def rms_radius(x: np.ndarray) -> float:
     """Root-mean-square distance of the points from their centroid (0 for a single point)."""
     if len(x) == 0:
         return 0.0
-    return float(np.sqrt(np.mean(np.sum((x - x.mean(axis=0)) ** 2, axis=1))))
+    y, m = _unit_scaled(x)
+    return m * _centred_rms(y)[1]
 
 
 @dataclass(frozen=True, eq=False)
@@ -70,20 +83,24 @@ class Frame:
         """Validate raw input (lists or arrays) and return a Frame; raise InvalidInput naming the bad element."""
         x = check_positions(positions, dim)
         n = len(x)
-        e = np.asarray(edges if len(edges) else np.zeros((0, 2)), dtype=float)
+        try:
+            e = np.asarray(edges if len(edges) else np.zeros((0, 2)), dtype=float)
+        except (TypeError, ValueError, OverflowError):
+            e = np.zeros(0)  # ragged or non-numeric: reported just below
         if e.ndim != 2 or e.shape[1] != 2:
             raise InvalidInput("invalid_edges", "edges must be a list of [i, j] pairs.")
         if not np.all(np.isfinite(e)) or not np.all(e == np.round(e)):
             k = int(np.argwhere(~np.isfinite(e) | (e != np.round(e)))[0][0])
             raise InvalidInput("invalid_edges", f"edge {k} must hold two integer node indices.")
-        e = e.astype(np.int64)
+        # Range is checked before the integer cast, which would wrap indices past 2**63.
         out = np.argwhere((e < 0) | (e >= n))
         if out.size:
             k = int(out[0][0])
             raise InvalidInput(
                 "edge_out_of_range",
-                f"edge {k} = {e[k].tolist()} names a node outside 0..{n - 1}.",
+                f"edge {k} = {[int(v) for v in e[k]]} names a node outside 0..{n - 1}.",
             )
+        e = e.astype(np.int64)
         loops = np.flatnonzero(e[:, 0] == e[:, 1])
         if loops.size:
             k = int(loops[0])
@@ -99,8 +116,10 @@ class Frame:
                 f"edges {k0} and {k1} both join nodes {key[k0].tolist()}.",
             )
         if len(e):
-            lengths = np.linalg.norm(x[e[:, 0]] - x[e[:, 1]], axis=1)
-            scale = max(rms_radius(x), float(np.max(np.abs(x))), np.finfo(float).tiny)
+            # Compared in units of max |x|, which keeps the test scale-free at any magnitude.
+            y, _ = _unit_scaled(x)
+            lengths = np.linalg.norm(y[e[:, 0]] - y[e[:, 1]], axis=1)
+            scale = max(_centred_rms(y)[1], float(np.max(np.abs(y))), np.finfo(float).tiny)
             short = np.flatnonzero(lengths <= COINCIDENT_RTOL * scale)
             if short.size:
                 k = int(short[0])
@@ -108,15 +127,22 @@ class Frame:
                     "zero_length_bar",
                     f"edge {k} = {e[k].tolist()} joins two coincident nodes.",
                 )
-        spec_raw = np.asarray(specified if len(specified) else [], dtype=float).ravel()
-        if not np.all(np.isfinite(spec_raw)) or np.any(spec_raw != np.round(spec_raw)):
-            raise InvalidInput("invalid_specified", "specified must hold integer node indices.")
+        try:
+            spec_raw = np.asarray(specified if len(specified) else [], dtype=float)
+        except (TypeError, ValueError, OverflowError):
+            spec_raw = np.full(1, np.nan)  # ragged or non-numeric: reported just below
+        integral = np.all(np.isfinite(spec_raw)) and np.all(spec_raw == np.round(spec_raw))
+        if spec_raw.ndim != 1 or not integral:
+            raise InvalidInput(
+                "invalid_specified", "specified must be a list of integer node indices."
+            )
         spec = tuple(int(i) for i in spec_raw)
         if any(i < 0 or i >= n for i in spec):
             bad = next(i for i in spec if i < 0 or i >= n)
             raise InvalidInput("invalid_specified", f"specified node {bad} is outside 0..{n - 1}.")
         if len(set(spec)) != len(spec):
-            raise InvalidInput("invalid_specified", "specified lists a node more than once.")
+            twice = next(i for k, i in enumerate(spec) if i in spec[:k])
+            raise InvalidInput("invalid_specified", f"specified lists node {twice} more than once.")
         return cls(_readonly(x.copy()), _readonly(e), spec)
 
     @property
@@ -138,8 +164,8 @@ class Frame:
 
     def normalised_positions(self) -> np.ndarray:
         """Positions centred at the centroid and divided by the RMS radius (identity scale for one point)."""
-        x = self.positions - self.positions.mean(axis=0)
-        r = rms_radius(self.positions)
+        # Divided by max |x| first, so neither the centring nor the RMS overflows or underflows.
+        x, r = _centred_rms(_unit_scaled(self.positions)[0])
         return x / r if r > 0 else x
 
     def to_dict(self) -> dict:

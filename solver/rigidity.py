@@ -37,12 +37,15 @@ DENSE_MAX_DOF = 1200
 BASIS_MAX_NUMBERS = 4_000_000
 
 
-def compatibility_matrix(positions: np.ndarray, edges: np.ndarray) -> sp.csr_matrix:
-    """C (N_B × dN, sparse CSR): row e holds (x_i − x_j) at node i and (x_j − x_i) at node j."""
+def compatibility_matrix(positions: np.ndarray, edges: np.ndarray, dense: bool = False):
+    """C (N_B × dN): row e holds (x_i − x_j) at node i and (x_j − x_i) at node j.
+
+    Sparse CSR by default; ``dense=True`` returns an ndarray (cheaper for tiny frames).
+    """
     n, d = positions.shape
     nb = len(edges)
     if nb == 0:
-        return sp.csr_matrix((0, n * d))
+        return np.zeros((0, n * d)) if dense else sp.csr_matrix((0, n * d))
     i, j = edges[:, 0], edges[:, 1]
     diff = positions[i] - positions[j]  # (N_B, d)
     rows = np.repeat(np.arange(nb), 2 * d)
@@ -50,6 +53,10 @@ def compatibility_matrix(positions: np.ndarray, edges: np.ndarray) -> sp.csr_mat
         [(d * i)[:, None] + np.arange(d), (d * j)[:, None] + np.arange(d)], axis=1
     ).ravel()
     vals = np.concatenate([diff, -diff], axis=1).ravel()
+    if dense:
+        c = np.zeros((nb, n * d))
+        c[rows, cols] = vals  # (row, col) pairs are distinct: i ≠ j within a row
+        return c
     return sp.csr_matrix((vals, (rows, cols)), shape=(nb, n * d))
 
 

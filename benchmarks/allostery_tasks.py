@@ -1,0 +1,176 @@
+"""Seeded allosteric design tasks: a random rigid 2D spring network, a source and a target pair.
+
+A task asks for η = ε_T/ε_S, the strain of the target pair per unit strain of the source pair
+(pair strain ε_p = (x_i − x_j)·(u_i − u_j)/|x_i − x_j|², linear response). The same task reads
+as a prescribed motion of the four specified nodes (``specified_motion``), the form the
+analytic designer takes: the source pair pulled apart along its axis by ε_S, the target pair
+by η ε_S.
+
+Networks are "jammed-like": N soft disks relaxed inside a circular wall at packing fraction
+0.9 (above 2D jamming), Delaunay-triangulated, then diluted — long boundary bars first, the rest
+in seeded random order — keeping only removals that open no zero mode, down to an excess
+coordination ΔZ = Z − Z_iso above the isostatic count N_B = dN − d(d+1)/2.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+from scipy.spatial import Delaunay, cKDTree
+
+from benchmarks.pruning import FLOPPY_RTOL, PinnedStiffness, free_dofs, unit_compatibility
+from zeromode.solver import Frame
+
+DIM = 2
+PACKING_FRACTION = 0.9
+RELAX_STEPS = 300
+# Bars longer than this many median lengths are slivers along the wall; they go first.
+LONG_BAR = 1.5
+DEFAULT_EXCESS_COORDINATION = 0.5
+
+
+@dataclass(frozen=True, eq=False)
+class AllosteryTask:
+    """One design task. frame.specified = (*source_pair, *target_pair)."""
+
+    frame: Frame
+    source_pair: tuple[int, int]
+    target_pair: tuple[int, int]
+    ratio: float
+    tol: float
+    seed: int
+    excess_coordination: float
+
+    @property
+    def n_nodes(self) -> int:
+        return self.frame.n_nodes
+
+    def pair_motion(self, pair: tuple[int, int], strain: float) -> np.ndarray:
+        """(2, d) motion of ``pair`` = (i, j): ±½ strain·(x_i − x_j), so ε_pair = strain."""
+        x = self.frame.positions
+        half = 0.5 * strain * (x[pair[0]] - x[pair[1]])
+        return np.stack([half, -half])
+
+    def specified_motion(self, source_strain: float = 1.0) -> np.ndarray:
+        """(4, d) prescribed motion of frame.specified: source strain ε_S, target strain η ε_S."""
+        return np.concatenate(
+            [
+                self.pair_motion(self.source_pair, source_strain),
+                self.pair_motion(self.target_pair, self.ratio * source_strain),
+            ]
+        )
+
+
+def relaxed_disks(n: int, rng: np.random.Generator) -> tuple[np.ndarray, float]:
+    """(N, 2) centres of N soft disks relaxed in the unit circle, and their diameter σ.
+
+    Gradient descent on the harmonic overlap energy Σ (σ − r_ij)² (plus the wall), from uniform
+    random centres; σ fixes the packing fraction N π σ²/4 = PACKING_FRACTION · π.
+    """
+    sigma = 2.0 * np.sqrt(PACKING_FRACTION / n)
+    r = np.sqrt(rng.uniform(0, 1, n))
+    theta = rng.uniform(0, 2 * np.pi, n)
+    x = np.column_stack([r * np.cos(theta), r * np.sin(theta)])
+    for _ in range(RELAX_STEPS):
+        pairs = cKDTree(x).query_pairs(sigma, output_type="ndarray")
+        step = np.zeros_like(x)
+        if len(pairs):
+            d = x[pairs[:, 0]] - x[pairs[:, 1]]
+            dist = np.linalg.norm(d, axis=1, keepdims=True)
+            push = 0.25 * (sigma - dist) * d / np.maximum(dist, 1e-12)
+            np.add.at(step, pairs[:, 0], push)
+            np.add.at(step, pairs[:, 1], -push)
+        radius = np.linalg.norm(x, axis=1, keepdims=True)
+        outside = np.maximum(radius + 0.5 * sigma - 1.0, 0.0)
+        step -= 0.5 * outside * x / np.maximum(radius, 1e-12)
+        x = x + step
+    return x, sigma
+
+
+@lru_cache(maxsize=64)
+def random_network(
+    n: int, seed: int, excess_coordination: float = DEFAULT_EXCESS_COORDINATION
+) -> Frame:
+    """A rigid jammed-like 2D network of ``n`` nodes with Z − Z_iso ≈ ``excess_coordination``.
+
+    Z = 2 N_B / N and Z_iso = 2(dN − 3)/N, so the dilution stops at
+    N_B = dN − 3 + round(ΔZ · N / 2) bars, or earlier if no bar can go without opening a zero
+    mode. A bar b can go iff 1 − G_bb > FLOPPY_RTOL (unit stiffnesses; see benchmarks.pruning).
+    """
+    rng = np.random.default_rng(seed)
+    x, _ = relaxed_disks(n, rng)
+    simplices = Delaunay(x).simplices
+    tri_edges = np.concatenate([simplices[:, [0, 1]], simplices[:, [1, 2]], simplices[:, [0, 2]]])
+    edges = np.unique(np.sort(tri_edges, axis=1), axis=0)
+    lengths = np.linalg.norm(x[edges[:, 0]] - x[edges[:, 1]], axis=1)
+    target = DIM * n - 3 + int(round(excess_coordination * n / 2))
+
+    q = unit_compatibility(x, edges)
+    k = np.ones(len(edges))
+    free = free_dofs(x / np.sqrt(np.mean(np.sum((x - x.mean(axis=0)) ** 2, axis=1))))
+    alive = np.ones(len(edges), dtype=bool)
+    order = rng.permutation(len(edges))
+    order = np.concatenate(
+        [order[lengths[order] > LONG_BAR * np.median(lengths)],
+         order[lengths[order] <= LONG_BAR * np.median(lengths)]]
+    )
+    green = PinnedStiffness(q, k, alive, free)
+    for b in order:
+        if alive.sum() <= target:
+            break
+        qb = q[b].toarray().ravel()
+        if 1.0 - qb @ green.solve(qb) > FLOPPY_RTOL:
+            alive[b] = False
+            green = PinnedStiffness(q, k, alive, free)
+    return Frame.build(x, edges[alive])
+
+
+def _neighbour(frame: Frame, node: int, rng: np.random.Generator) -> int:
+    e = frame.edges
+    nbrs = np.concatenate([e[e[:, 0] == node, 1], e[e[:, 1] == node, 0]])
+    return int(rng.choice(np.sort(nbrs)))
+
+
+def make_task(
+    n: int,
+    seed: int,
+    ratio: float,
+    tol: float | None = None,
+    excess_coordination: float = DEFAULT_EXCESS_COORDINATION,
+) -> AllosteryTask:
+    """A seeded task on ``random_network(n, seed, ΔZ)``.
+
+    Source: a random node and a random bonded neighbour. Target: a random node at least 3/4 of
+    the largest distance from the source node, and a random bonded neighbour of it.
+    tol defaults to 1 % of max(|ratio|, 1) (Rocks et al. count 1 % as success).
+    """
+    net = random_network(n, seed, excess_coordination)
+    rng = np.random.default_rng([seed, 1])
+    x = net.positions
+    s1 = int(rng.integers(n))
+    dist = np.linalg.norm(x - x[s1], axis=1)
+    far = np.flatnonzero(dist >= 0.75 * dist.max())
+    t1 = int(rng.choice(far))
+    s2, t2 = _neighbour(net, s1, rng), _neighbour(net, t1, rng)
+    frame = Frame.build(net.positions, net.edges, specified=(s1, s2, t1, t2))
+    return AllosteryTask(
+        frame=frame,
+        source_pair=(s1, s2),
+        target_pair=(t1, t2),
+        ratio=float(ratio),
+        tol=float(0.01 * max(abs(ratio), 1.0) if tol is None else tol),
+        seed=seed,
+        excess_coordination=excess_coordination,
+    )
+
+
+def task_sweep(sizes, seeds, ratios, excess_coordination=DEFAULT_EXCESS_COORDINATION):
+    """Every (N, seed, η) task of the sweep (networks are cached, so ratios share them)."""
+    return [
+        make_task(n, seed, ratio, excess_coordination=excess_coordination)
+        for n in sizes
+        for seed in seeds
+        for ratio in ratios
+    ]

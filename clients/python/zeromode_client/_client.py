@@ -1,0 +1,228 @@
+"""Client and AsyncClient: one typed method per endpoint, over httpx."""
+
+from __future__ import annotations
+
+import asyncio
+import time
+from collections.abc import Mapping
+from types import TracebackType
+from typing import Any, Literal, Self, TypeVar
+
+import httpx
+from numpy.typing import ArrayLike
+
+from zeromode_client import _endpoints as ep
+from zeromode_client._core import DEFAULT_TIMEOUT, VERSION, Call, Retry, build_request, parse
+from zeromode_client._models import Analysis, Design, Frame, Health, Result, SolutionSpace
+
+T = TypeVar("T")
+FrameLike = Frame | Mapping[str, Any]
+TimeoutLike = float | httpx.Timeout | None
+
+
+class _BaseClient:
+    """Configuration shared by both clients (nothing here sends anything)."""
+
+    def __init__(
+        self,
+        base_url: str,
+        *,
+        api_key: str | None,
+        timeout: TimeoutLike,
+        retries: int,
+        backoff: float,
+        headers: Mapping[str, str] | None,
+    ) -> None:
+        self._retry = Retry(retries, backoff)
+        self._options: dict[str, Any] = {
+            "base_url": base_url.rstrip("/"),
+            "timeout": timeout,
+            "headers": {
+                "user-agent": f"zeromode-client/{VERSION}",
+                **({"x-api-key": api_key} if api_key is not None else {}),
+                **(headers or {}),
+            },
+        }
+
+    @property
+    def base_url(self) -> str:
+        return str(self._options["base_url"])
+
+    @property
+    def retries(self) -> int:
+        return self._retry.retries
+
+
+class Client(_BaseClient):
+    """Synchronous client for the zeromode REST service.
+
+    ``Client("http://127.0.0.1:8000", api_key=None, timeout=DEFAULT_TIMEOUT, retries=2,
+    backoff=0.5)``. Use it as a context manager (or call ``close()``). Every method raises
+    ``ZeromodeError`` on an error answer (``.status``, ``.code``, ``.message``),
+    ``ZeromodeConnectionError`` once ``retries`` reconnections have failed, and
+    ``ZeromodeTimeoutError`` when an answer takes longer than ``timeout``.
+    """
+
+    def __init__(
+        self,
+        base_url: str,
+        *,
+        api_key: str | None = None,
+        timeout: TimeoutLike = DEFAULT_TIMEOUT,
+        retries: int = 2,
+        backoff: float = 0.5,
+        headers: Mapping[str, str] | None = None,
+        transport: httpx.BaseTransport | None = None,
+    ) -> None:
+        super().__init__(
+            base_url, api_key=api_key, timeout=timeout, retries=retries, backoff=backoff, headers=headers
+        )
+        self._http = httpx.Client(**self._options, transport=transport)
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        self.close()
+
+    def close(self) -> None:
+        self._http.close()
+
+    def _send(self, call: Call[T]) -> T:
+        request = build_request(self._http, call)
+        attempt = 1
+        while True:
+            try:
+                return parse(call, self._http.send(request))
+            except httpx.TransportError as exc:
+                delay = self._retry.delay_after(exc, request, attempt)
+            time.sleep(delay)
+            attempt += 1
+
+    def health(self) -> Health:
+        """GET /health."""
+        return self._send(ep.health())
+
+    def analyze(
+        self,
+        frame: FrameLike,
+        *,
+        rtol: float | None = None,
+        method: Literal["auto", "dense", "sparse"] | None = None,
+        bases: bool | None = None,
+    ) -> Analysis:
+        """POST /v1/analyze: rank, zero modes, rigid motions and self-stresses of ``frame``."""
+        return self._send(ep.analyze(frame, _given(rtol=rtol, method=method, bases=bases)))
+
+    def solution_space(self, positions: ArrayLike, motions: ArrayLike, samples: int = 16) -> SolutionSpace:
+        """POST /v1/solution-space for specified positions x_S and motions u_S (both k×d)."""
+        return self._send(ep.solution_space(positions, motions, samples))
+
+    def design(self, positions: ArrayLike, motions: ArrayLike, **options: Any) -> Design:
+        """POST /v1/design: ``motions`` is k×d or M×k×d; ``options`` go to the request's options."""
+        return self._send(ep.design(positions, motions, options))
+
+    def certify(self, frame: FrameLike, **fields: Any) -> Result:
+        """POST /v1/certify with ``{"frame": frame, **fields}``."""
+        return self._send(ep.capability("/v1/certify", fields, frame))
+
+    def motion(self, frame: FrameLike, **fields: Any) -> Result:
+        """POST /v1/motion with ``{"frame": frame, **fields}``."""
+        return self._send(ep.capability("/v1/motion", fields, frame))
+
+    def refine(self, frame: FrameLike, **fields: Any) -> Result:
+        """POST /v1/refine with ``{"frame": frame, **fields}``."""
+        return self._send(ep.capability("/v1/refine", fields, frame))
+
+    def design_auxetic(self, **fields: Any) -> Result:
+        """POST /v1/design/auxetic with ``fields`` as the request object."""
+        return self._send(ep.capability("/v1/design/auxetic", fields))
+
+    def design_allosteric(self, **fields: Any) -> Result:
+        """POST /v1/design/allosteric with ``fields`` as the request object."""
+        return self._send(ep.capability("/v1/design/allosteric", fields))
+
+
+class AsyncClient(_BaseClient):
+    """Asynchronous twin of ``Client``: same constructor, same methods, each awaited."""
+
+    def __init__(
+        self,
+        base_url: str,
+        *,
+        api_key: str | None = None,
+        timeout: TimeoutLike = DEFAULT_TIMEOUT,
+        retries: int = 2,
+        backoff: float = 0.5,
+        headers: Mapping[str, str] | None = None,
+        transport: httpx.AsyncBaseTransport | None = None,
+    ) -> None:
+        super().__init__(
+            base_url, api_key=api_key, timeout=timeout, retries=retries, backoff=backoff, headers=headers
+        )
+        self._http = httpx.AsyncClient(**self._options, transport=transport)
+
+    async def __aenter__(self) -> Self:
+        return self
+
+    async def __aexit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        await self.aclose()
+
+    async def aclose(self) -> None:
+        await self._http.aclose()
+
+    async def _send(self, call: Call[T]) -> T:
+        request = build_request(self._http, call)
+        attempt = 1
+        while True:
+            try:
+                return parse(call, await self._http.send(request))
+            except httpx.TransportError as exc:
+                delay = self._retry.delay_after(exc, request, attempt)
+            await asyncio.sleep(delay)
+            attempt += 1
+
+    async def health(self) -> Health:
+        return await self._send(ep.health())
+
+    async def analyze(
+        self,
+        frame: FrameLike,
+        *,
+        rtol: float | None = None,
+        method: Literal["auto", "dense", "sparse"] | None = None,
+        bases: bool | None = None,
+    ) -> Analysis:
+        return await self._send(ep.analyze(frame, _given(rtol=rtol, method=method, bases=bases)))
+
+    async def solution_space(
+        self, positions: ArrayLike, motions: ArrayLike, samples: int = 16
+    ) -> SolutionSpace:
+        return await self._send(ep.solution_space(positions, motions, samples))
+
+    async def design(self, positions: ArrayLike, motions: ArrayLike, **options: Any) -> Design:
+        return await self._send(ep.design(positions, motions, options))
+
+    async def certify(self, frame: FrameLike, **fields: Any) -> Result:
+        return await self._send(ep.capability("/v1/certify", fields, frame))
+
+    async def motion(self, frame: FrameLike, **fields: Any) -> Result:
+        return await self._send(ep.capability("/v1/motion", fields, frame))
+
+    async def refine(self, frame: FrameLike, **fields: Any) -> Result:
+        return await self._send(ep.capability("/v1/refine", fields, frame))
+
+    async def design_auxetic(self, **fields: Any) -> Result:
+        return await self._send(ep.capability("/v1/design/auxetic", fields))
+
+    async def design_allosteric(self, **fields: Any) -> Result:
+        return await self._send(ep.capability("/v1/design/allosteric", fields))
+
+
+def _given(**options: Any) -> dict[str, Any]:
+    """The options the caller set (None means: the service's default)."""
+    return {k: v for k, v in options.items() if v is not None}

@@ -1,0 +1,67 @@
+"""One builder per endpoint of the REST contract: the request body and the parser of the answer."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from zeromode_client._core import Call, jsonable
+from zeromode_client._models import Analysis, Design, Frame, Health, Result, SolutionSpace
+
+
+def as_frame(frame: Frame | Mapping[str, Any]) -> Frame:
+    return frame if isinstance(frame, Frame) else Frame.from_json(frame)
+
+
+def points(values: ArrayLike, name: str) -> np.ndarray:
+    """A k×d array of specified positions or motions (shape errors caught before sending)."""
+    array = np.asarray(values, dtype=float)
+    if array.ndim != 2:
+        raise ValueError(f"{name} must be a k×d array, got shape {array.shape}.")
+    return array
+
+
+def health() -> Call[Health]:
+    return Call("GET", "/health", None, lambda data: Health(str(data["status"]), str(data["version"])))
+
+
+def analyze(frame: Frame | Mapping[str, Any], options: Mapping[str, Any]) -> Call[Analysis]:
+    body: dict[str, Any] = {"frame": as_frame(frame).to_json()}
+    if options:
+        body["options"] = jsonable(options)
+    return Call("POST", "/v1/analyze", body, Analysis.from_json)
+
+
+def solution_space(positions: ArrayLike, motions: ArrayLike, samples: int) -> Call[SolutionSpace]:
+    x_s, u_s = points(positions, "positions"), points(motions, "motions")
+    dim = x_s.shape[1]
+    body = {"dim": dim, "positions": x_s.tolist(), "motions": u_s.tolist(), "samples": samples}
+    return Call("POST", "/v1/solution-space", body, lambda data: SolutionSpace.from_json(data, dim))
+
+
+def design(positions: ArrayLike, motions: ArrayLike, options: Mapping[str, Any]) -> Call[Design]:
+    """``motions`` is one k×d target motion or a stack of M of them (M×k×d)."""
+    x_s = points(positions, "positions")
+    u_s = np.asarray(motions, dtype=float)
+    if u_s.ndim == 2:
+        u_s = u_s[np.newaxis]
+    if u_s.ndim != 3:
+        raise ValueError(f"motions must be k×d or M×k×d, got shape {u_s.shape}.")
+    body = {
+        "dim": x_s.shape[1],
+        "positions": x_s.tolist(),
+        "motions": u_s.tolist(),
+        "options": jsonable(options),
+    }
+    return Call("POST", "/v1/design", body, Design.from_json)
+
+
+def capability(
+    path: str, fields: Mapping[str, Any], frame: Frame | Mapping[str, Any] | None = None
+) -> Call[Result]:
+    """A capability endpoint: ``{"frame": frame, **fields}`` is sent as the JSON object, unchanged."""
+    body = {"frame": as_frame(frame), **fields} if frame is not None else dict(fields)
+    return Call("POST", path, jsonable(body), lambda data: Result(path, data))

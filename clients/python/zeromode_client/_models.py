@@ -1,0 +1,221 @@
+"""Results as small frozen dataclasses holding read-only numpy arrays.
+
+Every result keeps the decoded JSON answer in ``raw``, so fields the service adds later are
+reachable before this client names them. Arrays compare by identity (``eq=False``): compare
+them with numpy, not with ``==`` on the dataclass.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+
+def readonly(values: Any, tail: tuple[int, ...] = (), dtype: type = np.float64) -> np.ndarray:
+    """``values`` as a read-only array of shape (n, *tail); an empty list becomes shape (0, *tail)."""
+    array = np.array(values, dtype=dtype)
+    if tail and array.size == 0:
+        array = array.reshape((0, *tail))
+    array.setflags(write=False)
+    return array
+
+
+@dataclass(frozen=True, eq=False)
+class Frame:
+    """A bar-and-joint frame: N nodes in d = 2 or 3 dimensions joined by N_B bars.
+
+    ``positions`` is N×d, ``edges`` N_B×2 (0-based node indices), ``specified`` the indices of
+    the specified nodes. Only shapes are checked here; the service validates the rest
+    (finiteness, index ranges, self-loops, duplicate edges, ...) and answers with a code.
+    """
+
+    positions: FloatArray
+    edges: IntArray
+    specified: tuple[int, ...]
+
+    def __init__(self, positions: ArrayLike, edges: ArrayLike = (), specified: Sequence[int] = ()):
+        x = readonly(positions)
+        if x.ndim != 2:
+            raise ValueError(f"positions must be an N×d array, got shape {x.shape}.")
+        e = np.asarray(edges)
+        if e.size and e.dtype.kind not in "iu":
+            raise ValueError("edges must hold integer node indices.")
+        e = readonly(e, (2,), np.int64)
+        if e.ndim != 2 or e.shape[1] != 2:
+            raise ValueError(f"edges must be an N_B×2 array, got shape {e.shape}.")
+        object.__setattr__(self, "positions", x)
+        object.__setattr__(self, "edges", e)
+        object.__setattr__(self, "specified", tuple(int(i) for i in specified))
+
+    @property
+    def dim(self) -> int:
+        return int(self.positions.shape[1])
+
+    def to_json(self) -> dict[str, Any]:
+        """The API's Frame object (plain lists, ready for ``json.dumps``)."""
+        return {
+            "dim": self.dim,
+            "positions": self.positions.tolist(),
+            "edges": self.edges.tolist(),
+            "specified": list(self.specified),
+        }
+
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any]) -> Frame:
+        """Read the API's Frame object (as decoded by ``json.loads``)."""
+        frame = cls(data["positions"], data.get("edges", ()), data.get("specified", ()))
+        if "dim" in data and data["dim"] != frame.dim:
+            raise ValueError(f"dim is {data['dim']} but the positions have {frame.dim} columns.")
+        return frame
+
+
+@dataclass(frozen=True)
+class Health:
+    status: str
+    version: str
+
+
+@dataclass(frozen=True)
+class RankGap:
+    """Singular values σ_r and σ_{r+1} of the scale-normalised compatibility matrix."""
+
+    last_nonzero: float
+    first_zero: float
+
+
+@dataclass(frozen=True, eq=False)
+class Analysis:
+    """POST /v1/analyze: counts of a frame's zero modes and self-stresses, and their bases.
+
+    ``modes`` has shape (nontrivial_zero_modes, N, d) and ``stresses`` (self_stresses, N_B)
+    when the service included the bases (``bases_included``); both are empty otherwise.
+    """
+
+    nodes: int
+    edges: int
+    dim: int
+    maxwell_count: int
+    rank: int
+    zero_modes: int
+    rigid_body_modes: int
+    nontrivial_zero_modes: int
+    self_stresses: int
+    rank_gap: RankGap
+    modes: FloatArray
+    stresses: FloatArray
+    bases_included: bool
+    raw: dict[str, Any] = field(repr=False)
+
+    @classmethod
+    def from_json(cls, data: dict[str, Any]) -> Analysis:
+        n, d = int(data["nodes"]), int(data["dim"])
+        return cls(
+            nodes=n,
+            edges=int(data["edges"]),
+            dim=d,
+            maxwell_count=int(data["maxwell_count"]),
+            rank=int(data["rank"]),
+            zero_modes=int(data["zero_modes"]),
+            rigid_body_modes=int(data["rigid_body_modes"]),
+            nontrivial_zero_modes=int(data["nontrivial_zero_modes"]),
+            self_stresses=int(data["self_stresses"]),
+            rank_gap=RankGap(**{k: float(v) for k, v in data["rank_gap"].items()}),
+            modes=readonly(data.get("modes", []), (n, d)),
+            stresses=readonly(data.get("stresses", []), (int(data["edges"]),)),
+            bases_included=bool(data.get("bases_included", True)),
+            raw=data,
+        )
+
+
+@dataclass(frozen=True, eq=False)
+class SolutionSpace:
+    """POST /v1/solution-space: the (x_U, u_U) of one unspecified node joined to all k specified nodes.
+
+    ``basis`` is W̃ ((2d+1)×(m+1), rows ordered x_U, u_U, c), ``quadric`` is Q ((m+1)×(m+1))
+    with α̃ᵀQα̃ = 0, and the real samples are split into ``sample_positions`` and
+    ``sample_motions`` (both n×d).
+    """
+
+    nullity: int
+    dimension: int
+    kind: str
+    basis: FloatArray
+    quadric: FloatArray
+    sample_positions: FloatArray
+    sample_motions: FloatArray
+    raw: dict[str, Any] = field(repr=False)
+
+    @classmethod
+    def from_json(cls, data: dict[str, Any], dim: int) -> SolutionSpace:
+        m = int(data["nullity"])
+        samples = data.get("samples", [])
+        return cls(
+            nullity=m,
+            dimension=int(data["dimension"]),
+            kind=str(data["kind"]),
+            basis=readonly(data["basis"], (m + 1,)),
+            quadric=readonly(data["quadric"], (m + 1,)),
+            sample_positions=readonly([s["position"] for s in samples], (dim,)),
+            sample_motions=readonly([s["motion"] for s in samples], (dim,)),
+            raw=data,
+        )
+
+
+@dataclass(frozen=True, eq=False)
+class Design:
+    """POST /v1/design: the designed frame, its M zero modes (M×N×d) and the service's report."""
+
+    frame: Frame
+    modes: FloatArray
+    report: dict[str, Any]
+    raw: dict[str, Any] = field(repr=False)
+
+    @classmethod
+    def from_json(cls, data: dict[str, Any]) -> Design:
+        frame = Frame.from_json(data["frame"])
+        return cls(
+            frame=frame,
+            modes=readonly(data["modes"], frame.positions.shape),
+            report=data.get("report", {}),
+            raw=data,
+        )
+
+
+@dataclass(frozen=True, eq=False)
+class Result:
+    """The answer of a capability endpoint (certify, motion, refine, design/auxetic, ...).
+
+    Their fields grow with the service, so the answer is kept whole: ``result["field"]`` or
+    ``result.raw``; ``result.array("field")`` gives a read-only float array, and ``frame`` /
+    ``modes`` are parsed when the answer carries them.
+    """
+
+    path: str
+    raw: dict[str, Any]
+
+    def __getitem__(self, key: str) -> Any:
+        return self.raw[key]
+
+    def __contains__(self, key: object) -> bool:
+        return key in self.raw
+
+    def array(self, key: str) -> FloatArray:
+        return readonly(self.raw[key])
+
+    @property
+    def frame(self) -> Frame | None:
+        return Frame.from_json(self.raw["frame"]) if "frame" in self.raw else None
+
+    @property
+    def modes(self) -> FloatArray | None:
+        if "modes" not in self.raw:
+            return None
+        frame = self.frame
+        return readonly(self.raw["modes"], frame.positions.shape if frame is not None else ())

@@ -1,0 +1,71 @@
+"""POST /v1/solution-space and POST /v1/design — the analytic quadric construction."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from fastapi import APIRouter
+
+from zeromode.service.schemas.common import ERROR_RESPONSES
+from zeromode.service.schemas.design import (
+    DesignRequest,
+    DesignResponse,
+    SolutionSpaceRequest,
+    SolutionSpaceResponse,
+)
+from zeromode.solver.design import design
+from zeromode.solver.solution_space import solution_space
+
+router = APIRouter(prefix="/v1", tags=["design"])
+
+
+@router.post("/solution-space", response_model=SolutionSpaceResponse, responses=ERROR_RESPONSES)
+def post_solution_space(request: SolutionSpaceRequest) -> dict:
+    """All (x_U, u_U) of one unspecified node joined to every specified node (Ã, W̃, Q)."""
+    space = solution_space(request.positions, request.motions, dim=request.dim)
+    x_u, u_u = space.sample(request.samples, np.random.default_rng(request.seed))
+    residual = np.abs(space.residuals(x_u, u_u)).max(initial=0.0) if len(x_u) else 0.0
+    return {
+        "nullity": space.nullity,
+        "dimension": space.dimension,
+        "kind": space.kind,
+        "basis": space.w_tilde.tolist(),
+        "quadric": space.quadric.tolist(),
+        "samples": [{"position": p.tolist(), "motion": m.tolist()} for p, m in zip(x_u, u_u)],
+        "max_constraint_residual": float(residual),
+    }
+
+
+def design_response(result, t0: float) -> dict:
+    """The contract's design body for a verified solver Design."""
+    return {
+        "frame": result.frame.to_dict(),
+        "modes": result.modes.tolist(),
+        "report": {
+            "analysis": result.analysis.counts(),
+            "target_zero_modes": result.target_zero_modes,
+            "unspecified_nodes": result.unspecified_nodes,
+            "bars": result.frame.n_edges,
+            "anchor_sets": [list(a) for a in result.anchor_sets],
+            "conditioning": result.conditioning,
+            "mode_residual": result.mode_residual,
+            "timings_ms": {"total": 1e3 * (time.perf_counter() - t0)},
+        },
+    }
+
+
+@router.post("/design", response_model=DesignResponse, responses=ERROR_RESPONSES)
+def post_design(request: DesignRequest) -> dict:
+    """Inverse design by judicious constraint placement: the requested motions become the only
+    non-rigid zero modes of the returned frame (verified before it is returned)."""
+    t0 = time.perf_counter()
+    opts = request.options
+    result = design(
+        request.positions,
+        request.motions,
+        dim=request.dim,
+        seed=opts.seed,
+        n_unspecified=opts.n_unspecified,
+    )
+    return design_response(result, t0)

@@ -1,0 +1,72 @@
+"""POST /v1/solution-space and POST /v1/design."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import BaseModel, Field
+
+from zeromode.service.schemas.common import AnalysisCounts, FrameModel, Points
+from zeromode.service.settings import SETTINGS
+
+
+class SolutionSpaceRequest(BaseModel):
+    dim: Literal[2, 3]
+    positions: Points = Field(min_length=1, max_length=SETTINGS.max_specified, description="x_S, k×d.")
+    motions: Points = Field(min_length=1, max_length=SETTINGS.max_specified, description="u_S, k×d.")
+    samples: int = Field(default=8, ge=0, le=SETTINGS.max_samples, description="How many real solutions to return.")
+    seed: int = Field(default=0, ge=0, description="Seed for the sampling lines.")
+
+
+class SolutionSample(BaseModel):
+    position: list[float] = Field(description="x_U")
+    motion: list[float] = Field(description="u_U")
+
+
+class SolutionSpaceResponse(BaseModel):
+    nullity: int = Field(description="m = dim N(Ã)")
+    dimension: int = Field(description="m − 1, the dimension of the solution set")
+    kind: Literal["points", "conic", "quadric_surface", "quadric_hypersurface"]
+    basis: list[list[float]] = Field(description="W̃ = [w_1 … w_m, ṽ*], (2d+1)×(m+1), rows (x_U, u_U, c).")
+    quadric: list[list[float]] = Field(description="Q, symmetric (m+1)×(m+1), α̃ᵀQα̃ = 0.")
+    samples: list[SolutionSample] = Field(description="Real solutions, each verified against all k bars.")
+    max_constraint_residual: float = Field(
+        description="Largest |(x_Si − x_U)·(u_Si − u_U)| over the samples, on the normalised problem."
+    )
+
+
+class DesignOptions(BaseModel):
+    seed: int = Field(default=0, ge=0, description="Seed for candidate sampling: same request, same answer.")
+    n_unspecified: int | None = Field(
+        default=None, ge=0, le=64, description="Use exactly this many unspecified nodes (default: as few as possible)."
+    )
+    certify: bool = Field(default=False, description="Embed SDP certificates in the report.")
+
+
+class DesignRequest(BaseModel):
+    dim: Literal[2, 3]
+    positions: Points = Field(min_length=1, max_length=SETTINGS.max_specified, description="x_S, k×d.")
+    motions: list[Points] = Field(
+        min_length=1, max_length=SETTINGS.max_motions, description="M target motions, each k×d."
+    )
+    options: DesignOptions = Field(default_factory=DesignOptions)
+
+
+class DesignReport(BaseModel):
+    analysis: AnalysisCounts
+    target_zero_modes: int = Field(description="d(d+1)/2 + M")
+    unspecified_nodes: int
+    bars: int
+    anchor_sets: list[list[int]] = Field(
+        description="For each unspecified node, the specified nodes it is joined to (its solution space)."
+    )
+    conditioning: float = Field(description="Smallest nonzero singular value of the scale-normalised C.")
+    mode_residual: float = Field(description="max_i ‖C u_i‖ / (‖C‖_F ‖u_i‖) on the normalised frame.")
+    timings_ms: dict[str, float]
+    certificate: dict | None = Field(default=None, description="SDP certificates when options.certify.")
+
+
+class DesignResponse(BaseModel):
+    frame: FrameModel
+    modes: list[Points] = Field(description="M full zero modes, N×d; rows 0..k−1 equal the requested motions.")
+    report: DesignReport

@@ -1,0 +1,106 @@
+"""Live zeromode services for the client tests: one in a thread, one keyed in a subprocess.
+
+Both listen on loopback ports the kernel chose (bind to port 0), so parallel runs never
+collide; both are shut down at the end of the session.
+"""
+
+from __future__ import annotations
+
+import os
+import socket
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Callable, Iterator
+
+import httpx
+import pytest
+import uvicorn
+
+from zeromode.service.app import create_app
+
+STARTUP_TIMEOUT_S = 60.0
+API_KEY = "test-key-3f9c"
+
+
+def loopback_socket() -> socket.socket:
+    sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    sock.bind(("127.0.0.1", 0))
+    return sock
+
+
+def wait_for_health(url: str, alive: Callable[[], bool], log: Callable[[], str] = str) -> None:
+    """Poll GET /health until it answers 200; fail early if the server died."""
+    deadline = time.monotonic() + STARTUP_TIMEOUT_S
+    while time.monotonic() < deadline:
+        if not alive():
+            pytest.fail(f"the service at {url} stopped while starting:\n{log()}")
+        try:
+            if httpx.get(f"{url}/health", timeout=2.0).status_code == 200:
+                return
+        except httpx.TransportError:
+            pass
+        time.sleep(0.05)
+    pytest.fail(f"the service at {url} did not answer /health within {STARTUP_TIMEOUT_S} s:\n{log()}")
+
+
+@pytest.fixture(scope="session")
+def service_url() -> Iterator[str]:
+    """The real app (default settings) served by uvicorn in a background thread."""
+    sock = loopback_socket()
+    url = "http://127.0.0.1:%d" % sock.getsockname()[1]
+    server = uvicorn.Server(uvicorn.Config(create_app(), log_level="warning", lifespan="off"))
+    thread = threading.Thread(target=server.run, kwargs={"sockets": [sock]}, daemon=True)
+    thread.start()
+    try:
+        wait_for_health(url, thread.is_alive)
+        yield url
+    finally:
+        server.should_exit = True
+        thread.join(timeout=10)
+        sock.close()
+
+
+@pytest.fixture(scope="session")
+def keyed_service_url(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
+    """The app started with ZEROMODE_API_KEY set: settings are read at import, hence a subprocess."""
+    with loopback_socket() as sock:
+        port = sock.getsockname()[1]
+    url = f"http://127.0.0.1:{port}"
+    log_path = tmp_path_factory.mktemp("keyed") / "uvicorn.log"
+    with open(log_path, "w") as log:
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "uvicorn", "zeromode.service.app:app",
+             "--host", "127.0.0.1", "--port", str(port), "--log-level", "warning"],
+            env={**os.environ, "ZEROMODE_API_KEY": API_KEY},
+            stdout=log,
+            stderr=subprocess.STDOUT,
+        )
+    try:
+        wait_for_health(url, lambda: proc.poll() is None, log_path.read_text)
+        yield url
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+
+
+@pytest.fixture(scope="session")
+def served_paths(service_url: str) -> frozenset[str]:
+    return frozenset(httpx.get(f"{service_url}/openapi.json").json()["paths"])
+
+
+@pytest.fixture
+def require(served_paths: frozenset[str]) -> Callable[[str], None]:
+    """Skip a test whose endpoint the live service does not serve yet."""
+
+    def check(path: str) -> None:
+        if path not in served_paths:
+            pytest.skip(f"{path} is not served yet (absent from /openapi.json)")
+
+    return check

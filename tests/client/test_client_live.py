@@ -1,0 +1,227 @@
+"""The client against the real service (uvicorn on loopback): health, analyze, errors, async.
+
+Counts are checked against the paper's examples and Maxwell counting; modes and stresses
+against a compatibility matrix and rigid motions built from scratch in client_reference.py.
+"""
+
+from __future__ import annotations
+
+import asyncio
+from importlib.metadata import version
+
+import numpy as np
+import pytest
+from client_reference import K4_PLANE, K4_SPACE, SQUARE, TRIANGLE, compatibility_matrix, rigid_motions
+
+from zeromode_client import Analysis, AsyncClient, Client, Frame, ZeromodeError
+
+
+@pytest.fixture
+def client(service_url: str):
+    with Client(service_url, timeout=30.0) as c:
+        yield c
+
+
+def test_health_reports_the_installed_version(client: Client) -> None:
+    health = client.health()
+    assert health.status == "ok"
+    assert health.version == version("zeromode")
+
+
+def test_triangle_is_rigid(client: Client) -> None:
+    """Paper Fig. 1d: d=2, N=3, N_B=3 → 3 zero modes, all rigid."""
+    a = client.analyze(TRIANGLE)
+    counts = (a.nodes, a.edges, a.dim, a.maxwell_count, a.rank, a.zero_modes)
+    assert counts == (3, 3, 2, 3, 3, 3)
+    assert (a.rigid_body_modes, a.nontrivial_zero_modes, a.self_stresses) == (3, 0, 0)
+    assert a.modes.shape == (0, 3, 2) and a.stresses.shape == (0, 3)
+    assert a.rank_gap.last_nonzero > 0 and a.rank_gap.first_zero == 0
+
+
+def test_planar_k4_has_one_self_stress(client: Client) -> None:
+    a = client.analyze(K4_PLANE)
+    assert (a.rank, a.zero_modes, a.nontrivial_zero_modes, a.self_stresses) == (5, 3, 0, 1)
+    assert a.modes.shape == (0, 4, 2) and a.stresses.shape == (1, 6)
+    c = compatibility_matrix(K4_PLANE.positions, K4_PLANE.edges)
+    stress = a.stresses[0]
+    assert np.linalg.norm(c.T @ stress) < 1e-9  # equilibrium: Cᵀs = 0
+    assert np.linalg.norm(stress) == pytest.approx(1.0)
+    assert np.all(np.abs(stress) > 0.1)  # every bar of K4 carries the stress
+
+
+def test_tetrahedron_is_rigid_in_space(client: Client) -> None:
+    a = client.analyze(K4_SPACE)
+    assert (a.dim, a.rank, a.zero_modes, a.rigid_body_modes, a.self_stresses) == (3, 6, 6, 6, 0)
+    assert a.modes.shape == (0, 4, 3) and a.stresses.shape == (0, 6)
+
+
+def check_square_mechanism(a: Analysis) -> None:
+    """The 4-cycle: one nontrivial zero mode, in N(C), unit norm, ⟂ the rigid motions."""
+    assert (a.rank, a.zero_modes, a.nontrivial_zero_modes, a.self_stresses) == (4, 4, 1, 0)
+    assert a.modes.shape == (1, 4, 2) and not a.modes.flags.writeable
+    mode = a.modes[0].ravel()
+    assert np.linalg.norm(compatibility_matrix(SQUARE.positions, SQUARE.edges) @ mode) < 1e-9
+    assert np.linalg.norm(mode) == pytest.approx(1.0)
+    assert np.abs(rigid_motions(SQUARE.positions).T @ mode).max() < 1e-9
+
+
+def test_square_has_one_mechanism(client: Client) -> None:
+    check_square_mechanism(client.analyze(SQUARE))
+
+
+def test_options_are_sent(client: Client) -> None:
+    a = client.analyze(SQUARE, method="dense", bases=False)
+    assert a.raw["method"] == "dense"
+    assert a.nontrivial_zero_modes == 1 and a.modes.shape == (0, 4, 2)
+
+
+def test_a_frame_given_as_json_is_accepted(client: Client) -> None:
+    assert client.analyze(SQUARE.to_json()).nontrivial_zero_modes == 1
+
+
+BAD_FRAMES = [
+    (Frame([[0, 0], [1, 0], [0, 1]], [[0, 1], [1, 1]]), "self_loop", "edge 1"),
+    (Frame([[0, 0], [1, 0], [0, 1]], [[0, 1], [1, 0]]), "duplicate_edge", "edges 0 and 1"),
+    (Frame([[0, 0], [1, 0], [0, 1]], [[0, 1], [1, 5]]), "edge_out_of_range", "edge 1"),
+    (Frame([[0, 0], [0, 0], [0, 1]], [[0, 1], [1, 2]]), "zero_length_bar", "edge 0"),
+    (Frame([[0, 0, 0, 0], [1, 0, 0, 0]], [[0, 1]]), "invalid_request", "dim"),
+]
+
+
+@pytest.mark.parametrize(("frame", "code", "named"), BAD_FRAMES, ids=[c for _, c, _ in BAD_FRAMES])
+def test_bad_frame_raises_with_the_services_code(client: Client, frame, code, named) -> None:
+    with pytest.raises(ZeromodeError) as info:
+        client.analyze(frame)
+    assert (info.value.status, info.value.code) == (422, code)
+    assert named in info.value.message
+    assert info.value.detail["code"] == code
+
+
+def test_non_finite_numbers_are_refused_before_sending(client: Client) -> None:
+    with pytest.raises(ValueError, match="finite"):
+        client.analyze(Frame([[0, 0], [np.nan, 0]], [[0, 1]]))
+
+
+def test_async_client_does_the_same(service_url: str) -> None:
+    async def scenario() -> None:
+        async with AsyncClient(service_url, timeout=30.0) as client:
+            health, square, triangle = await asyncio.gather(
+                client.health(), client.analyze(SQUARE), client.analyze(TRIANGLE)
+            )
+            assert health.status == "ok"
+            check_square_mechanism(square)
+            assert (triangle.zero_modes, triangle.modes.shape) == (3, (0, 3, 2))
+            with pytest.raises(ZeromodeError) as info:
+                await client.analyze(BAD_FRAMES[0][0])
+            assert (info.value.status, info.value.code) == (422, "self_loop")
+
+    asyncio.run(scenario())
+
+
+# --- endpoints other engineers are adding: skipped until the live service serves them ---
+
+
+def random_constrained_pair(rng: np.random.Generator, k: int, d: int):
+    """k specified (x_S, u_S) that admit the unspecified solution (x_U, u_U), and that solution.
+
+    Each u_Si is random, then projected so that (x_Si − x_U)·(u_Si − u_U) = 0 (Eq. 1).
+    """
+    x_u, u_u = rng.normal(size=d), rng.normal(size=d)
+    x_s, u_s = rng.normal(size=(k, d)), rng.normal(size=(k, d))
+    r = x_s - x_u
+    u_s -= (np.sum(r * (u_s - u_u), axis=1) / np.sum(r * r, axis=1))[:, None] * r
+    return x_s, u_s, x_u, u_u
+
+
+def test_solution_space_conic(client: Client, require) -> None:
+    """d=2, k=3 independent rows of Ã: m = 2d+1−k = 2, a conic (paper, Results §1)."""
+    require("/v1/solution-space")
+    x_s, u_s, x_u, u_u = random_constrained_pair(np.random.default_rng(7), k=3, d=2)
+    space = client.solution_space(x_s, u_s, samples=8)
+    assert (space.nullity, space.dimension, space.kind) == (2, 1, "conic")
+    assert space.basis.shape == (5, 3) and space.quadric.shape == (3, 3)
+    np.testing.assert_allclose(space.quadric, space.quadric.T, atol=1e-12)
+    assert 1 <= len(space.sample_positions) <= 8
+    assert space.sample_positions.shape == space.sample_motions.shape == (len(space.sample_positions), 2)
+    # The known solution lies on the quadric: v = (x_U, u_U, x_U·u_U) = W̃ α̃ with α̃_last = 1.
+    v = np.concatenate([x_u, u_u, [x_u @ u_u]])
+    alpha, *_ = np.linalg.lstsq(space.basis, v, rcond=None)
+    assert np.linalg.norm(space.basis @ alpha - v) < 1e-8 * np.linalg.norm(v)
+    assert alpha[-1] == pytest.approx(1.0)
+    assert abs(alpha @ space.quadric @ alpha) < 1e-8 * np.abs(space.quadric).max() * (alpha @ alpha)
+    for x, u in zip(space.sample_positions, space.sample_motions, strict=True):
+        residual = np.sum((x_s - x) * (u_s - u), axis=1)
+        assert np.abs(residual).max() < 1e-8 * (1 + np.abs(x_s - x).max() * np.abs(u_s - u).max())
+
+
+def test_solution_space_without_solution(client: Client, require) -> None:
+    """d=2, k=6 generic rows: Ã is 6×5, so b ∉ R(Ã) and there is no solution."""
+    require("/v1/solution-space")
+    rng = np.random.default_rng(3)
+    with pytest.raises(ZeromodeError) as info:
+        client.solution_space(rng.normal(size=(6, 2)), rng.normal(size=(6, 2)), samples=4)
+    assert (info.value.status, info.value.code) == (422, "no_solution")
+
+
+def test_design_outward_motion(client: Client, require) -> None:
+    """Four specified corners with u_S = (x, 2y): a conic of solutions, so a design exists."""
+    require("/v1/design")
+    x_s = np.array([[1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0], [1.0, -1.0]])
+    u_s = x_s * [1.0, 2.0]
+    design = client.design(x_s, u_s, seed=0)
+    frame, k = design.frame, len(x_s)
+    np.testing.assert_array_equal(frame.positions[:k], x_s)
+    assert frame.specified == tuple(range(k))
+    assert design.modes.shape == (1, *frame.positions.shape)
+    np.testing.assert_allclose(design.modes[0, :k], u_s, atol=1e-9)
+    c = compatibility_matrix(frame.positions, frame.edges)
+    assert np.linalg.norm(c @ design.modes[0].ravel()) < 1e-8 * np.linalg.norm(c) * np.linalg.norm(u_s)
+    # Exactly d(d+1)/2 + M zero modes and no self-stress, decided from scratch.
+    sigma = np.linalg.svd(c / np.abs(c).max(), compute_uv=False)
+    rank = int(np.sum(sigma > 1e-9 * sigma[0]))
+    assert (c.shape[1] - rank, c.shape[0] - rank) == (3 + 1, 0)
+    assert design.report["target_zero_modes"] == 4
+
+
+def test_certify_answers_for_a_frame(client: Client, require) -> None:
+    require("/v1/certify")
+    result = client.certify(K4_PLANE)
+    assert result.path == "/v1/certify" and isinstance(result.raw, dict) and result.raw
+
+
+@pytest.mark.parametrize("method", ["certify", "motion", "refine"])
+def test_frame_endpoints_reject_a_bad_frame(client: Client, require, method: str) -> None:
+    require(f"/v1/{method}")
+    with pytest.raises(ZeromodeError) as info:
+        getattr(client, method)(BAD_FRAMES[0][0])
+    assert info.value.status == 422 and info.value.code and info.value.message
+
+
+def test_motion_path_starts_at_the_frame(client: Client, require) -> None:
+    require("/v1/motion")
+    mode = client.analyze(SQUARE).modes[0]
+    result = client.motion(SQUARE, mode=mode, steps=8)
+    path = result.array("path")
+    assert path.ndim == 3 and path.shape[1:] == (4, 2)
+    np.testing.assert_allclose(path[0], SQUARE.positions, atol=1e-9)
+
+
+def test_auxetic_design_has_negative_poisson_ratio(client: Client, require) -> None:
+    require("/v1/design/auxetic")
+    result = client.design_auxetic()
+    assert result["poisson_ratio"] < 0
+    frame, modes = result.frame, result.modes
+    assert frame is not None and modes is not None and modes.shape[1:] == frame.positions.shape
+    c = compatibility_matrix(frame.positions, frame.edges)
+    for mode in modes:
+        assert np.linalg.norm(c @ mode.ravel()) < 1e-8 * np.linalg.norm(c) * np.linalg.norm(mode)
+
+
+def test_allosteric_design_carries_frame_and_modes(client: Client, require) -> None:
+    require("/v1/design/allosteric")
+    result = client.design_allosteric()
+    frame, modes = result.frame, result.modes
+    assert frame is not None and modes is not None and modes.shape[1:] == frame.positions.shape
+    c = compatibility_matrix(frame.positions, frame.edges)
+    for mode in modes:
+        assert np.linalg.norm(c @ mode.ravel()) < 1e-8 * np.linalg.norm(c) * np.linalg.norm(mode)
