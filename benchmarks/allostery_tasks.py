@@ -7,9 +7,10 @@ analytic designer takes: the source pair pulled apart along its axis by ε_S, th
 by η ε_S.
 
 Networks are "jammed-like": N soft disks relaxed inside a circular wall at packing fraction
-0.9 (above 2D jamming), Delaunay-triangulated, then diluted — long boundary bars first, the rest
-in seeded random order — keeping only removals that open no zero mode, down to an excess
-coordination ΔZ = Z − Z_iso above the isostatic count N_B = dN − d(d+1)/2.
+0.9 (above 2D jamming), Delaunay-triangulated, then diluted homogeneously — long wall bars
+first, then always a bar between the best-connected nodes — keeping only removals that open no
+zero mode, down to an excess coordination ΔZ = Z − Z_iso above the isostatic count
+N_B = dN − d(d+1)/2. Positions are normalised (centroid 0, RMS radius 1).
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from functools import lru_cache
 import numpy as np
 from scipy.spatial import Delaunay, cKDTree
 
-from benchmarks.pruning import FLOPPY_RTOL, PinnedStiffness, free_dofs, unit_compatibility
+from benchmarks.pruning import SpringNetwork
 from zeromode.solver import Frame
 
 DIM = 2
@@ -97,40 +98,43 @@ def random_network(
 
     Z = 2 N_B / N and Z_iso = 2(dN − 3)/N, so the dilution stops at
     N_B = dN − 3 + round(ΔZ · N / 2) bars, or earlier if no bar can go without opening a zero
-    mode. A bar b can go iff 1 − G_bb > FLOPPY_RTOL (unit stiffnesses; see benchmarks.pruning).
+    mode (D_b ≤ FLOPPY_RTOL, unit stiffnesses; see benchmarks.pruning). Each removal takes a
+    long wall bar if any is left, else a bar joining the two best-connected nodes (largest
+    z_i + z_j, seeded ties): this keeps Z uniform, so states of self-stress stay extended as
+    in a jammed packing rather than pooling in over-braced clusters.
     """
     rng = np.random.default_rng(seed)
     x, _ = relaxed_disks(n, rng)
+    x = x / np.sqrt(np.mean(np.sum((x - x.mean(axis=0)) ** 2, axis=1)))
     simplices = Delaunay(x).simplices
     tri_edges = np.concatenate([simplices[:, [0, 1]], simplices[:, [1, 2]], simplices[:, [0, 2]]])
     edges = np.unique(np.sort(tri_edges, axis=1), axis=0)
     lengths = np.linalg.norm(x[edges[:, 0]] - x[edges[:, 1]], axis=1)
+    long_bar = lengths > LONG_BAR * np.median(lengths)
     target = DIM * n - 3 + int(round(excess_coordination * n / 2))
+    tie = rng.permutation(len(edges))
 
-    q = unit_compatibility(x, edges)
-    k = np.ones(len(edges))
-    free = free_dofs(x / np.sqrt(np.mean(np.sum((x - x.mean(axis=0)) ** 2, axis=1))))
-    alive = np.ones(len(edges), dtype=bool)
-    order = rng.permutation(len(edges))
-    order = np.concatenate(
-        [order[lengths[order] > LONG_BAR * np.median(lengths)],
-         order[lengths[order] <= LONG_BAR * np.median(lengths)]]
-    )
-    green = PinnedStiffness(q, k, alive, free)
-    for b in order:
-        if alive.sum() <= target:
+    net = SpringNetwork(x, edges, np.ones(len(edges)))
+    while net.alive.sum() > target:
+        candidates = net.removable()
+        if candidates.size == 0:
             break
-        qb = q[b].toarray().ravel()
-        if 1.0 - qb @ green.solve(qb) > FLOPPY_RTOL:
-            alive[b] = False
-            green = PinnedStiffness(q, k, alive, free)
-    return Frame.build(x, edges[alive])
+        degree = np.bincount(edges[net.alive].ravel(), minlength=n)
+        priority = np.lexsort(
+            (tie[candidates], -degree[edges[candidates]].sum(axis=1), ~long_bar[candidates])
+        )
+        net.remove(int(candidates[priority[0]]))
+    return Frame.build(x, edges[net.alive])
 
 
-def _neighbour(frame: Frame, node: int, rng: np.random.Generator) -> int:
-    e = frame.edges
-    nbrs = np.concatenate([e[e[:, 0] == node, 1], e[e[:, 1] == node, 0]])
-    return int(rng.choice(np.sort(nbrs)))
+def unbonded_pairs(frame: Frame) -> np.ndarray:
+    """(P, 2) node pairs closer than two median bar lengths that no bar joins."""
+    x, e = frame.positions, frame.edges
+    reach = 2.0 * np.median(np.linalg.norm(x[e[:, 0]] - x[e[:, 1]], axis=1))
+    close = cKDTree(x).query_pairs(reach, output_type="ndarray")
+    close = np.sort(close, axis=1)
+    bars = set(map(tuple, np.sort(e, axis=1).tolist()))
+    return close[[tuple(p) not in bars for p in close.tolist()]]
 
 
 def make_task(
@@ -142,18 +146,20 @@ def make_task(
 ) -> AllosteryTask:
     """A seeded task on ``random_network(n, seed, ΔZ)``.
 
-    Source: a random node and a random bonded neighbour. Target: a random node at least 3/4 of
-    the largest distance from the source node, and a random bonded neighbour of it.
-    tol defaults to 1 % of max(|ratio|, 1) (Rocks et al. count 1 % as success).
+    Source: a random nearby pair of nodes that no bar joins (``unbonded_pairs``). Target: a
+    random such pair whose midpoint is at least 3/4 of the largest midpoint distance from the
+    source's. Unbonded, because a bar on the source or target pair lets the greedy unload it —
+    e.g. by pruning a target node down to two bars, which forces ε_T = 0 exactly — a dead end
+    it then cannot leave. tol defaults to 1 % of max(|ratio|, 1) (Rocks et al.'s 1 %).
     """
     net = random_network(n, seed, excess_coordination)
     rng = np.random.default_rng([seed, 1])
-    x = net.positions
-    s1 = int(rng.integers(n))
-    dist = np.linalg.norm(x - x[s1], axis=1)
-    far = np.flatnonzero(dist >= 0.75 * dist.max())
-    t1 = int(rng.choice(far))
-    s2, t2 = _neighbour(net, s1, rng), _neighbour(net, t1, rng)
+    pairs = unbonded_pairs(net)
+    mid = net.positions[pairs].mean(axis=1)
+    source = pairs[rng.integers(len(pairs))]
+    dist = np.linalg.norm(mid - net.positions[source].mean(axis=0), axis=1)
+    target = pairs[rng.choice(np.flatnonzero(dist >= 0.75 * dist.max()))]
+    s1, s2, t1, t2 = (int(i) for i in (*source, *target))
     frame = Frame.build(net.positions, net.edges, specified=(s1, s2, t1, t2))
     return AllosteryTask(
         frame=frame,
@@ -164,13 +170,3 @@ def make_task(
         seed=seed,
         excess_coordination=excess_coordination,
     )
-
-
-def task_sweep(sizes, seeds, ratios, excess_coordination=DEFAULT_EXCESS_COORDINATION):
-    """Every (N, seed, η) task of the sweep (networks are cached, so ratios share them)."""
-    return [
-        make_task(n, seed, ratio, excess_coordination=excess_coordination)
-        for n in sizes
-        for seed in seeds
-        for ratio in ratios
-    ]

@@ -96,32 +96,8 @@ def pair_row(positions: np.ndarray, pair: tuple[int, int]) -> tuple[np.ndarray, 
     return q, float(np.linalg.norm(positions[i] - positions[j]))
 
 
-class PinnedStiffness:
-    """K = Qᵀ diag(k) Q over the bars in ``alive``, factorised with the rigid motions pinned.
-
-    ``solve(f)`` (f of shape (dN,) or (dN, m), balanced) returns a u with K u = f whose pinned
-    entries are zero; it equals K⁺ f up to a rigid motion. Raises DomainError when K is
-    singular on the free degrees of freedom (a nontrivial zero mode).
-    """
-
-    def __init__(self, q: sp.csr_matrix, k: np.ndarray, alive: np.ndarray, free: np.ndarray):
-        qa = q[alive]
-        stiffness = (qa.T @ sp.diags(k[alive]) @ qa).tocsc()
-        self._free = free
-        self._ndof = q.shape[1]
-        try:
-            self._lu = spla.splu(stiffness[free][:, free].tocsc())
-        except RuntimeError as exc:  # "Factor is exactly singular"
-            raise DomainError("floppy_network", "the spring network has a zero mode.") from exc
-
-    def solve(self, f: np.ndarray) -> np.ndarray:
-        u = np.zeros((self._ndof,) + f.shape[1:])
-        u[self._free] = self._lu.solve(np.ascontiguousarray(f[self._free]))
-        return u
-
-
 def free_dofs(positions: np.ndarray) -> np.ndarray:
-    """Degrees of freedom left after pinning the d(d+1)/2 on which rigid motions are invertible.
+    """Mask (dN,) of the degrees of freedom left after pinning d(d+1)/2 that fix the rigid motions.
 
     The pinned set is chosen by column-pivoted QR of Rᵀ (R the dN×ρ rigid-motion basis), so the
     ρ×ρ block of R on the pinned dofs is as well conditioned as the frame allows; a balanced
@@ -134,14 +110,73 @@ def free_dofs(positions: np.ndarray) -> np.ndarray:
     return free
 
 
-def bond_green_diagonal(q: sp.csr_matrix, green: PinnedStiffness, rows: np.ndarray) -> np.ndarray:
-    """G_bb = q_bᵀ K⁺ q_b for the bars ``rows`` (indices into Q), solved in blocks of columns."""
-    out = np.empty(len(rows))
-    for start in range(0, len(rows), _BLOCK):
-        block = q[rows[start : start + _BLOCK]]
-        response = green.solve(block.T.toarray())  # (dN, m)
-        out[start : start + _BLOCK] = np.asarray(block.multiply(response.T).sum(axis=1)).ravel()
-    return out
+class SpringNetwork:
+    """A rigid central-force spring network whose bars can be removed one at a time.
+
+    positions (N, d), normalised; edges (N_B, 2); stiffness k (N_B,). Holds the sparse
+    factorisation of K = Qᵀ diag(k) Q over the surviving bars (``alive``), rigid motions pinned,
+    and the redundancy D_b = 1 − k_b G_bb of every bar, kept current by Sherman–Morrison.
+    Raises DomainError("floppy_network") if K is singular on the free degrees of freedom.
+    """
+
+    def __init__(self, positions: np.ndarray, edges: np.ndarray, stiffness: np.ndarray):
+        self.q = unit_compatibility(positions, edges)
+        self.k = np.asarray(stiffness, dtype=float)
+        self.alive = np.ones(len(edges), dtype=bool)
+        self._free = free_dofs(positions)
+        self._factorise()
+        self.redundancy = 1.0 - self.k * self._green_diagonal()
+
+    def _factorise(self) -> None:
+        qa = self.q[self.alive]
+        stiffness = (qa.T @ sp.diags(self.k[self.alive]) @ qa).tocsc()
+        try:
+            # K is symmetric positive definite on the free dofs: a symmetric fill-reducing
+            # ordering and diagonal pivots keep the factors about a third sparser than COLAMD's.
+            self._lu = spla.splu(
+                stiffness[self._free][:, self._free].tocsc(),
+                permc_spec="MMD_AT_PLUS_A",
+                diag_pivot_thresh=0.0,
+                options={"SymmetricMode": True},
+            )
+        except RuntimeError as exc:  # "Factor is exactly singular"
+            raise DomainError("floppy_network", "the spring network has a zero mode.") from exc
+
+    def solve(self, f: np.ndarray) -> np.ndarray:
+        """u with K u = f for a balanced load f of shape (dN,) or (dN, m); = K⁺f + rigid motion."""
+        u = np.zeros(f.shape)
+        u[self._free] = self._lu.solve(np.ascontiguousarray(f[self._free]))
+        return u
+
+    def _green_diagonal(self) -> np.ndarray:
+        """G_bb = q_bᵀ K⁺ q_b for every bar (N_B,), solved in blocks of columns."""
+        out = np.empty(self.q.shape[0])
+        for start in range(0, len(out), _BLOCK):
+            block = self.q[start : start + _BLOCK]
+            response = self.solve(block.T.toarray())  # (dN, m)
+            out[start : start + _BLOCK] = np.asarray(block.multiply(response.T).sum(axis=1)).ravel()
+        return out
+
+    def removable(self) -> np.ndarray:
+        """Indices of surviving bars whose removal opens no zero mode (D_b > FLOPPY_RTOL)."""
+        return np.flatnonzero(self.alive & (self.redundancy > FLOPPY_RTOL))
+
+    def remove(self, b: int) -> bool:
+        """Remove bar b unless a fresh solve finds D_b ≤ FLOPPY_RTOL; return whether it went.
+
+        The bar's column of the bond Green's function G_{·b} = Q K⁺ q_b, from the current
+        factorisation, both re-checks D_b from scratch and carries the update
+        D'_c = D_c − k_c k_b G_cb² / D_b of every other bar.
+        """
+        column = self.q @ self.solve(self.q[b].toarray().ravel())
+        d_b = 1.0 - self.k[b] * column[b]
+        if d_b <= FLOPPY_RTOL:
+            self.redundancy[b] = d_b  # the maintained value had drifted; drop it from candidates
+            return False
+        self.redundancy -= self.k * self.k[b] * column**2 / d_b
+        self.alive[b] = False
+        self._factorise()
+        return True
 
 
 def _check_pair(frame: Frame, pair, name: str) -> tuple[int, int]:
@@ -180,7 +215,8 @@ def prune_for_allostery(
     t_pair = _check_pair(frame, target_pair, "target_pair")
     if not (np.isfinite(ratio) and np.isfinite(tol) and tol > 0):
         raise InvalidInput("invalid_target", "ratio must be finite and tol finite and positive.")
-    if analyze(frame, bases=False).nontrivial_zero_modes:
+    # Counts only: the sparse route avoids a dense SVD that would dwarf the pruning itself.
+    if analyze(frame, method="sparse", bases=False).nontrivial_zero_modes:
         raise DomainError(
             "floppy_network",
             "the frame has nontrivial zero modes, so its strain response is not unique.",
@@ -188,22 +224,17 @@ def prune_for_allostery(
 
     x = frame.normalised_positions()  # η is scale-free; this keeps K well scaled
     edges = frame.edges
-    q = unit_compatibility(x, edges)
-    k = 1.0 / np.linalg.norm(x[edges[:, 0]] - x[edges[:, 1]], axis=1)
+    net = SpringNetwork(x, edges, 1.0 / np.linalg.norm(x[edges[:, 0]] - x[edges[:, 1]], axis=1))
+    q, k = net.q, net.k
     q_s, l_s = pair_row(x, s_pair)
     q_t, l_t = pair_row(x, t_pair)
-    free = free_dofs(x)
-    alive = np.ones(frame.n_edges, dtype=bool)
-    green = PinnedStiffness(q, k, alive, free)
-    redundancy = 1.0 - k * bond_green_diagonal(q, green, np.arange(frame.n_edges))  # D_b
     tie_rank = np.random.default_rng(seed).permutation(frame.n_edges)
 
     removed: list[int] = []
     iterations = 0
     initial = None
     while True:
-        u_s = green.solve(q_s)
-        u_t = green.solve(q_t)
+        u_s, u_t = net.solve(q_s), net.solve(q_t)
         g_s, g_t = q @ u_s, q @ u_t  # G_bS, G_bT for every bar
         g_ss, g_ts = float(q_s @ u_s), float(q_t @ u_s)
         eta = (l_s / l_t) * g_ts / g_ss
@@ -212,42 +243,31 @@ def prune_for_allostery(
         if error <= tol:
             stop = "converged"
             break
-        candidates = np.flatnonzero(alive & (redundancy > FLOPPY_RTOL))
+        candidates = net.removable()
         if candidates.size == 0:
             stop = "no_removable_bond"
             break
         iterations += 1
-        d = redundancy[candidates]
-        kb = k[candidates]
+        d, kb = net.redundancy[candidates], k[candidates]
         eta_b = (l_s / l_t) * (g_ts + kb * g_t[candidates] * g_s[candidates] / d) / (
             g_ss + kb * g_s[candidates] ** 2 / d
         )
         score = np.abs(eta_b - ratio)
-        best_score = score.min()
-        if not best_score < error:
+        if not score.min() < error:
             stop = "no_improving_bond"
             break
-        tied = candidates[score == best_score]
+        tied = candidates[score == score.min()]
         best = int(tied[np.argmin(tie_rank[tied])])
-        # The chosen bar's column of the bond Green's function, from the current factorisation:
-        # it re-checks D_best from scratch and carries the Sherman–Morrison update of every D_b.
-        column = q @ green.solve(q[best].toarray().ravel())
-        d_best = 1.0 - k[best] * column[best]
-        if d_best <= FLOPPY_RTOL:
-            redundancy[best] = d_best  # the maintained value had drifted; re-score without it
-            continue
-        redundancy -= k * k[best] * column**2 / d_best
-        alive[best] = False
-        removed.append(best)
-        green = PinnedStiffness(q, k, alive, free)
+        if net.remove(best):
+            removed.append(best)
 
-    pruned = Frame.build(frame.positions, edges[alive], frame.specified, frame.dim)
+    pruned = Frame.build(frame.positions, edges[net.alive], frame.specified, frame.dim)
     return PruningResult(
         frame=pruned,
         achieved_ratio=float(eta),
         error=float(error),
         bars_removed=len(removed),
-        bars_used=int(alive.sum()),
+        bars_used=int(net.alive.sum()),
         iterations=iterations,
         time_s=time.perf_counter() - started,
         converged=stop == "converged",

@@ -2,12 +2,20 @@
 
 from __future__ import annotations
 
-import argparse
-import json
-import sys
+import os
 
-from zeromode.solver.errors import DomainError
-from zeromode.solver.frame import Frame
+# zeromode's linear algebra is many small dense problems: a multi-threaded BLAS only contends
+# (measured 50× slower per SVD on a busy 2-core machine). Parallelism comes from workers.
+# Set before numpy is first imported; uvicorn workers inherit it.
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import argparse  # noqa: E402
+import json  # noqa: E402
+import sys  # noqa: E402
+
+from zeromode.solver.errors import DomainError  # noqa: E402
+from zeromode.solver.frame import Frame  # noqa: E402
 
 
 def _load_json(path: str) -> dict:
@@ -70,6 +78,49 @@ def cmd_example(args) -> int:
     return 0
 
 
+def cmd_plot(args) -> int:
+    import numpy as np
+
+    from zeromode.solver.plot import figure_svg
+
+    if not args.output.endswith((".svg", ".png")):
+        print("error: the output file must end in .svg or .png.", file=sys.stderr)
+        return 2
+    doc = _load_json(args.design)
+    if "frame" in doc:  # a /v1/design response (or a /v1/plot body)
+        frame, modes, targets = _frame_from_json(doc), doc.get("modes"), doc.get("targets")
+        if targets is None and modes and "report" in doc:
+            # A design response's modes equal the requested motions on the specified nodes.
+            targets = [np.asarray(m)[list(frame.specified)] for m in modes]
+    else:  # a /v1/design request: design first
+        from zeromode.solver.design import design
+
+        opts = doc.get("options", {})
+        result = design(
+            doc["positions"], doc["motions"], dim=doc.get("dim"),
+            seed=opts.get("seed", 0), n_unspecified=opts.get("n_unspecified"),
+        )
+        frame, modes, targets = result.frame, result.modes, doc["motions"]
+    has_motion = any(m is not None and len(m) for m in (modes, targets))
+    svg = figure_svg(
+        frame, modes=modes, targets=targets,
+        solution_space=has_motion and bool(frame.specified) and not args.no_solution_space,
+        configurations=doc.get("configurations"), labels=doc.get("labels"),
+        source=doc.get("source", []), target_nodes=doc.get("target_nodes", []), title=args.title,
+    )
+    if args.output.endswith(".svg"):
+        with open(args.output, "w") as fh:
+            fh.write(svg)
+        return 0
+    try:
+        import cairosvg
+    except ImportError:
+        print("error: PNG output needs cairosvg (pip install 'zeromode[plot]'); write a .svg file instead.", file=sys.stderr)
+        return 2
+    cairosvg.svg2png(bytestring=svg.encode(), write_to=args.output, scale=args.scale)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="zeromode", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -86,6 +137,15 @@ def build_parser() -> argparse.ArgumentParser:
     ex.add_argument("action", choices=["list", "show"])
     ex.add_argument("name", nargs="?")
     ex.set_defaults(func=cmd_example)
+    pl = sub.add_parser(
+        "plot", help="draw a /v1/design response or request (designed first) as SVG or PNG"
+    )
+    pl.add_argument("design", help="JSON file (or - for stdin)")
+    pl.add_argument("-o", "--output", required=True, help="out.svg or out.png (PNG needs cairosvg)")
+    pl.add_argument("--title", default=None)
+    pl.add_argument("--no-solution-space", action="store_true", help="do not draw the solution space")
+    pl.add_argument("--scale", type=float, default=1.5, help="PNG pixels per SVG unit (default 1.5)")
+    pl.set_defaults(func=cmd_plot)
     return parser
 
 

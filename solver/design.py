@@ -1,65 +1,41 @@
 """Zero-mode design by judicious constraint placement (paper, "Network Construction Through
-Judicious Constraint Placement", Eq. 7).
-
-Start from the k specified nodes (N_D = dk) and add unspecified nodes, each at a point of a
-solution space (so every requested motion stays a zero mode) and joined only by bars that raise
-rank C (so no self-stress appears), until
-
-    N_D = d·(k + N_U) − N_B = d(d+1)/2 + M.
-
-With no self-stress, N(C) is then exactly the rigid motions ⊕ the M requested modes.
-
-Placement is greedy and deterministic for a seed: each round scores every candidate point by the
-rank its bars would add — computed on the small matrix [A·N_old, B] (A: the new rows on the old
-columns, N_old: a basis of the current N(C), B: the new rows on the new node's columns), whose
-rank equals the rank gained — and keeps the candidate that removes the most degrees of freedom,
-breaking ties by conditioning (the smallest pivot of that matrix with unit rows).  A node must
-take at least d + 1 independent bars whose directions span R^d, so it never dangles.
+Judicious Constraint Placement", "Multi-Mode Construction" and "Combining Networks Through
+Judicious Constraint Placement"): validation, candidate levels, verification.
 
 Candidates come from the solution space of all k specified nodes when it has real points, and
-otherwise (or when geometry stalls the count, as for the coplanar 5-node case in 3D) from the
-solution spaces of subsets of them ("anchor sets"), largest subsets first.  Every design is
-verified by a full analysis before it is returned.
+otherwise (or when geometry stalls the count, as for the coplanar 5-node case in 3D, or when
+k > 2d leaves no single-layer solution) from the solution spaces of subsets of them — the
+"anchor sets", largest first.  Each anchor set is a module of the paper's partitioned
+construction: a primary module when it is disjoint from the others, a coupling module when it
+overlaps them.  The engine is in ``placement``; the multi-mode candidates in ``multimode``.
+Every design is verified by a full analysis before it is returned.
 """
 
 from __future__ import annotations
 
-import itertools
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
+from math import comb
 
 import numpy as np
-import scipy.linalg as sla
 from scipy.sparse.linalg import norm as sp_norm
 
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame
-from zeromode.solver.rank import RTOL, nullspace
+from zeromode.solver.multimode import multi_mode_levels
+from zeromode.solver.placement import (
+    CandidatePool,
+    Placement,
+    anchor_subsets,
+    coupling_subsets,
+    place_nodes,
+    target_zero_modes,
+)
 from zeromode.solver.rigidity import Analysis, analyze, compatibility_matrix, rigid_motions
 from zeromode.solver.solution_space import Normalisation, check_targets, solution_space
 
-# Candidates closer than this (normalised units) to an existing node are skipped: a bar there
-# would be nearly zero-length and the design ill-conditioned.
-MIN_SEPARATION = 0.08
-# Candidates farther than this from the centroid (normalised units) are skipped.
-MAX_RADIUS = 4.0
 # A placed design must satisfy ‖C u‖ ≤ MODE_RTOL·‖C‖‖u‖ on normalised coordinates.
 MODE_RTOL = 1e-10
-
-
-@dataclass(eq=False)
-class CandidatePool:
-    """Possible unspecified nodes that share one anchor set: positions (n, d), their motion in
-    each mode (n, M, d), and the existing nodes they may be joined to (whose bar constraints
-    hold at every one of these points)."""
-
-    positions: np.ndarray
-    motions: np.ndarray
-    anchors: tuple[int, ...]
-
-    def remove(self, i: int) -> None:
-        keep = np.arange(len(self.positions)) != i
-        self.positions, self.motions = self.positions[keep], self.motions[keep]
 
 
 @dataclass(frozen=True, eq=False)
@@ -78,11 +54,6 @@ class Design:
     @property
     def unspecified_nodes(self) -> int:
         return self.frame.n_nodes - len(self.frame.specified)
-
-
-def target_zero_modes(d: int, n_modes: int) -> int:
-    """d(d+1)/2 rigid motions plus one zero mode per requested motion (Eq. 7)."""
-    return d * (d + 1) // 2 + n_modes
 
 
 def check_motions_nonrigid(positions: np.ndarray, motions: np.ndarray) -> None:
@@ -129,137 +100,6 @@ def check_specified_distinct(positions: np.ndarray) -> None:
         )
 
 
-class _Placement:
-    """Mutable state of one greedy construction, in the normalised coordinates of x_S."""
-
-    def __init__(self, x_n: np.ndarray, u_n: np.ndarray, target: int):
-        self.d = x_n.shape[1]
-        self.positions = [p for p in x_n]
-        self.motions = [u_n[:, i, :] for i in range(x_n.shape[0])]  # each (M, d)
-        self.edges: list[tuple[int, int]] = []
-        self.anchor_sets: list[tuple[int, ...]] = []
-        self.target = target
-        self.rank = 0
-        self._null = np.eye(self.d * len(self.positions))
-
-    @property
-    def n_d(self) -> int:
-        return self.d * len(self.positions) - len(self.edges)
-
-    def best_in(self, pool: CandidatePool, budget: int) -> tuple[int, float, int, list[int]] | None:
-        """Best candidate of ``pool`` if joined to at most ``budget`` of its anchors:
-        (rank gained, conditioning, index in pool, anchors chosen), or None.
-
-        For each candidate the rows of the new bars, projected onto the current N(C) for the old
-        columns, form R = [A·N_old, B] (a × (z + d)); rank R is the rank gained, its take-th
-        singular value (unit rows) the conditioning. One batched SVD scores the whole pool.
-        """
-        d = self.d
-        x = np.asarray(self.positions)
-        p = pool.positions
-        if len(p) == 0:
-            return None
-        anchors = np.asarray(pool.anchors)
-        sep = np.min(np.linalg.norm(x[None] - p[:, None], axis=2), axis=1)
-        valid = (sep >= MIN_SEPARATION) & (np.linalg.norm(p, axis=1) <= MAX_RADIUS)
-        diff = x[anchors][None] - p[:, None]  # (n, a, d) bar directions
-        null_blocks = self._null.reshape(len(x), d, -1)[anchors]  # (a, d, z)
-        rows = np.concatenate([np.einsum("nad,adz->naz", diff, null_blocks), -diff], axis=2)
-        rows /= np.maximum(np.linalg.norm(rows, axis=2, keepdims=True), 1e-300)
-        s = np.linalg.svd(rows, compute_uv=False)  # (n, min(a, z+d))
-        gained = np.count_nonzero(s > 1e-7 * np.maximum(s[:, :1], 1e-300), axis=1)
-        take = np.minimum(gained, budget)
-        # The node must be pinned: its bars' directions must span R^d.
-        spans = np.linalg.matrix_rank(diff, tol=1e-7) >= d
-        ok = valid & spans & (take > d)
-        if not np.any(ok):
-            return None
-        cond = np.where(ok, s[np.arange(len(p)), np.maximum(take, 1) - 1], -1.0)
-        for i in np.lexsort((-cond, -np.where(ok, take, -1))):
-            if not ok[i]:
-                break
-            chosen = self._choose_anchors(rows[i], anchors, int(take[i]))
-            if np.linalg.matrix_rank(x[chosen] - p[i], tol=1e-7) >= d:
-                return int(take[i]), float(cond[i]), int(i), chosen
-        return None
-
-    @staticmethod
-    def _choose_anchors(rows: np.ndarray, anchors: np.ndarray, take: int) -> list[int]:
-        """The ``take`` most independent bars (pivoted QR), or all of them when all are needed."""
-        if take == len(anchors):
-            return [int(a) for a in anchors]
-        _, _, piv = sla.qr(rows.T, mode="economic", pivoting=True)
-        return sorted(int(anchors[i]) for i in piv[:take])
-
-    def add(self, position: np.ndarray, motions: np.ndarray, anchors: list[int]) -> None:
-        index = len(self.positions)
-        self.positions.append(position)
-        self.motions.append(motions)
-        self.edges.extend((a, index) for a in anchors)
-        self.anchor_sets.append(tuple(anchors))
-        c = compatibility_matrix(np.asarray(self.positions), np.asarray(self.edges), dense=True)
-        self._null, self.rank, _ = nullspace(c, RTOL)
-
-
-def _budget(state: _Placement, nodes_left: int | None) -> int:
-    """The most bars the next node may take without overshooting the target count."""
-    excess = state.n_d - state.target
-    if nodes_left is None:
-        return excess + state.d
-    # Spread the remaining reduction evenly when the user fixed the number of nodes.
-    return state.d + -(-excess // nodes_left)
-
-
-def place_nodes(
-    x_n: np.ndarray,
-    u_n: np.ndarray,
-    candidate_levels: Iterator[list[CandidatePool]],
-    n_unspecified: int | None = None,
-) -> _Placement:
-    """Greedy judicious placement (normalised coordinates).
-
-    x_n (k, d); u_n (M, k, d). ``candidate_levels`` yields lists of pools in order of
-    preference (e.g. the full specified set first, then subsets); a later level is consulted
-    only when no earlier candidate can remove a degree of freedom.
-    """
-    k, d = x_n.shape
-    state = _Placement(x_n, u_n, target_zero_modes(d, u_n.shape[0]))
-    levels: list[list[CandidatePool]] = []
-    level_iter = iter(candidate_levels)
-    while state.n_d > state.target:
-        nodes_left = None if n_unspecified is None else n_unspecified - len(state.anchor_sets)
-        if nodes_left is not None and nodes_left <= 0:
-            raise DomainError(
-                "no_solution",
-                f"{n_unspecified} unspecified nodes cannot remove the {state.n_d - state.target} "
-                "remaining degrees of freedom; allow more nodes.",
-            )
-        budget = _budget(state, nodes_left)
-        best = None
-        level = 0
-        while best is None:
-            if level == len(levels):
-                nxt = next(level_iter, None)
-                if nxt is None:
-                    break
-                levels.append(nxt)
-            for pool in levels[level]:
-                found = state.best_in(pool, budget)
-                if found and (best is None or found[:2] > best[0][:2]):
-                    best = (found, pool)
-            level += 1
-        if best is None:
-            raise DomainError(
-                "no_solution",
-                f"no real placement removes the remaining {state.n_d - state.target} degrees of "
-                "freedom without creating a self-stress.",
-            )
-        (_, _, i, chosen), pool = best
-        state.add(pool.positions[i], pool.motions[i], chosen)
-        pool.remove(i)
-    return state
-
-
 def single_mode_levels(
     x_n: np.ndarray, u_n: np.ndarray, rng: np.random.Generator, samples: int = 16
 ) -> Iterator[list[CandidatePool]]:
@@ -268,8 +108,12 @@ def single_mode_levels(
     k, d = x_n.shape
     u = u_n[0]
     yield [p for p in [_pool(x_n, u, tuple(range(k)), rng, samples)] if p is not None]
-    for size in range(min(k - 1, 2 * d + 1), d, -1):
-        pools = [_pool(x_n, u, sub, rng, samples) for sub in itertools.combinations(range(k), size)]
+    sizes = range(min(k - 1, 2 * d + 1), d, -1)
+    for size in sizes:
+        pools = [_pool(x_n, u, sub, rng, samples) for sub in anchor_subsets(x_n, size)]
+        yield [p for p in pools if p is not None]
+    if comb(k, d + 1) > 64:
+        pools = [_pool(x_n, u, sub, rng, samples) for sub in coupling_subsets(k, sizes, rng, 2 * k)]
         yield [p for p in pools if p is not None]
 
 
@@ -315,14 +159,12 @@ def design(
     x_n = norm.positions_in(x)
     u_n = np.stack([norm.motions_in(u) for u in u_all])
     rng = np.random.default_rng(seed)
-    make_levels = levels or single_mode_levels
-    if len(u_all) > 1 and levels is None:
-        raise DomainError("no_solution", "several motions need the multi-mode construction.")
+    make_levels = levels or (single_mode_levels if len(u_all) == 1 else multi_mode_levels)
     state = place_nodes(x_n, u_n, make_levels(x_n, u_n, rng), n_unspecified)
     return _finish(x, u_all, norm, state)
 
 
-def _finish(x: np.ndarray, u_all: np.ndarray, norm: Normalisation, state: _Placement) -> Design:
+def _finish(x: np.ndarray, u_all: np.ndarray, norm: Normalisation, state: Placement) -> Design:
     """Map back to the caller's coordinates, keep the specified rows exact, and verify."""
     k, d = x.shape
     xs = np.asarray(state.positions)

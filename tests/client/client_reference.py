@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import numpy as np
-
 from zeromode_client import Frame
+
+API_KEY = "test-key-3f9c"
 
 TRIANGLE = Frame([[0, 0], [1, 0], [0, 1]], [[0, 1], [1, 2], [0, 2]])
 SQUARE = Frame([[0, 0], [1, 0], [1, 1], [0, 1]], [[0, 1], [1, 2], [2, 3], [3, 0]])

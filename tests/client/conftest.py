@@ -17,11 +17,10 @@ from collections.abc import Callable, Iterator
 import httpx
 import pytest
 import uvicorn
-
+from client_reference import API_KEY
 from zeromode.service.app import create_app
 
 STARTUP_TIMEOUT_S = 60.0
-API_KEY = "test-key-3f9c"
 
 
 def loopback_socket() -> socket.socket:
@@ -43,14 +42,16 @@ def wait_for_health(url: str, alive: Callable[[], bool], log: Callable[[], str] 
         except httpx.TransportError:
             pass
         time.sleep(0.05)
-    pytest.fail(f"the service at {url} did not answer /health within {STARTUP_TIMEOUT_S} s:\n{log()}")
+    pytest.fail(
+        f"the service at {url} did not answer /health within {STARTUP_TIMEOUT_S} s:\n{log()}"
+    )
 
 
 @pytest.fixture(scope="session")
 def service_url() -> Iterator[str]:
     """The real app (default settings) served by uvicorn in a background thread."""
     sock = loopback_socket()
-    url = "http://127.0.0.1:%d" % sock.getsockname()[1]
+    url = f"http://127.0.0.1:{sock.getsockname()[1]}"
     server = uvicorn.Server(uvicorn.Config(create_app(), log_level="warning", lifespan="off"))
     thread = threading.Thread(target=server.run, kwargs={"sockets": [sock]}, daemon=True)
     thread.start()
@@ -72,8 +73,18 @@ def keyed_service_url(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]
     log_path = tmp_path_factory.mktemp("keyed") / "uvicorn.log"
     with open(log_path, "w") as log:
         proc = subprocess.Popen(
-            [sys.executable, "-m", "uvicorn", "zeromode.service.app:app",
-             "--host", "127.0.0.1", "--port", str(port), "--log-level", "warning"],
+            [
+                sys.executable,
+                "-m",
+                "uvicorn",
+                "zeromode.service.app:app",
+                "--host",
+                "127.0.0.1",
+                "--port",
+                str(port),
+                "--log-level",
+                "warning",
+            ],
             env={**os.environ, "ZEROMODE_API_KEY": API_KEY},
             stdout=log,
             stderr=subprocess.STDOUT,

@@ -3,9 +3,7 @@
 from __future__ import annotations
 
 import pytest
-from client_reference import SQUARE
-from conftest import API_KEY
-
+from client_reference import API_KEY, SQUARE
 from zeromode_client import Client, ZeromodeError
 
 

@@ -11,8 +11,14 @@ from importlib.metadata import version
 
 import numpy as np
 import pytest
-from client_reference import K4_PLANE, K4_SPACE, SQUARE, TRIANGLE, compatibility_matrix, rigid_motions
-
+from client_reference import (
+    K4_PLANE,
+    K4_SPACE,
+    SQUARE,
+    TRIANGLE,
+    compatibility_matrix,
+    rigid_motions,
+)
 from zeromode_client import Analysis, AsyncClient, Client, Frame, ZeromodeError
 
 
@@ -142,7 +148,11 @@ def test_solution_space_conic(client: Client, require) -> None:
     assert space.basis.shape == (5, 3) and space.quadric.shape == (3, 3)
     np.testing.assert_allclose(space.quadric, space.quadric.T, atol=1e-12)
     assert 1 <= len(space.sample_positions) <= 8
-    assert space.sample_positions.shape == space.sample_motions.shape == (len(space.sample_positions), 2)
+    assert (
+        space.sample_positions.shape
+        == space.sample_motions.shape
+        == (len(space.sample_positions), 2)
+    )
     # The known solution lies on the quadric: v = (x_U, u_U, x_U·u_U) = W̃ α̃ with α̃_last = 1.
     v = np.concatenate([x_u, u_u, [x_u @ u_u]])
     alpha, *_ = np.linalg.lstsq(space.basis, v, rcond=None)
@@ -175,7 +185,9 @@ def test_design_outward_motion(client: Client, require) -> None:
     assert design.modes.shape == (1, *frame.positions.shape)
     np.testing.assert_allclose(design.modes[0, :k], u_s, atol=1e-9)
     c = compatibility_matrix(frame.positions, frame.edges)
-    assert np.linalg.norm(c @ design.modes[0].ravel()) < 1e-8 * np.linalg.norm(c) * np.linalg.norm(u_s)
+    assert np.linalg.norm(c @ design.modes[0].ravel()) < 1e-8 * np.linalg.norm(c) * np.linalg.norm(
+        u_s
+    )
     # Exactly d(d+1)/2 + M zero modes and no self-stress, decided from scratch.
     sigma = np.linalg.svd(c / np.abs(c).max(), compute_uv=False)
     rank = int(np.sum(sigma > 1e-9 * sigma[0]))

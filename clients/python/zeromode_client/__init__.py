@@ -1,10 +1,12 @@
 """zeromode_client — a typed Python client (sync and async) for the zeromode REST service.
 
+Example:
+
     from zeromode_client import Client, Frame
 
     with Client("http://127.0.0.1:8000") as client:
         triangle = Frame([[0, 0], [1, 0], [0, 1]], [[0, 1], [1, 2], [0, 2]])
-        print(client.analyze(triangle).zero_modes)   # 3: the rigid motions of the plane
+        print(client.analyze(triangle).zero_modes)  # 3: the rigid motions of the plane
 """
 
 from zeromode_client._client import AsyncClient, Client

@@ -75,7 +75,12 @@ class Client(_BaseClient):
         transport: httpx.BaseTransport | None = None,
     ) -> None:
         super().__init__(
-            base_url, api_key=api_key, timeout=timeout, retries=retries, backoff=backoff, headers=headers
+            base_url,
+            api_key=api_key,
+            timeout=timeout,
+            retries=retries,
+            backoff=backoff,
+            headers=headers,
         )
         self._http = httpx.Client(**self._options, transport=transport)
 
@@ -83,7 +88,10 @@ class Client(_BaseClient):
         return self
 
     def __exit__(
-        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
     ) -> None:
         self.close()
 
@@ -116,9 +124,11 @@ class Client(_BaseClient):
         """POST /v1/analyze: rank, zero modes, rigid motions and self-stresses of ``frame``."""
         return self._send(ep.analyze(frame, _given(rtol=rtol, method=method, bases=bases)))
 
-    def solution_space(self, positions: ArrayLike, motions: ArrayLike, samples: int = 16) -> SolutionSpace:
-        """POST /v1/solution-space for specified positions x_S and motions u_S (both k×d)."""
-        return self._send(ep.solution_space(positions, motions, samples))
+    def solution_space(
+        self, positions: ArrayLike, motions: ArrayLike, samples: int = 8, **fields: Any
+    ) -> SolutionSpace:
+        """POST /v1/solution-space for x_S and u_S (both k×d); ``fields`` such as ``seed`` are sent too."""
+        return self._send(ep.solution_space(positions, motions, samples, fields))
 
     def design(self, positions: ArrayLike, motions: ArrayLike, **options: Any) -> Design:
         """POST /v1/design: ``motions`` is k×d or M×k×d; ``options`` go to the request's options."""
@@ -160,7 +170,12 @@ class AsyncClient(_BaseClient):
         transport: httpx.AsyncBaseTransport | None = None,
     ) -> None:
         super().__init__(
-            base_url, api_key=api_key, timeout=timeout, retries=retries, backoff=backoff, headers=headers
+            base_url,
+            api_key=api_key,
+            timeout=timeout,
+            retries=retries,
+            backoff=backoff,
+            headers=headers,
         )
         self._http = httpx.AsyncClient(**self._options, transport=transport)
 
@@ -168,7 +183,10 @@ class AsyncClient(_BaseClient):
         return self
 
     async def __aexit__(
-        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
     ) -> None:
         await self.aclose()
 
@@ -200,9 +218,9 @@ class AsyncClient(_BaseClient):
         return await self._send(ep.analyze(frame, _given(rtol=rtol, method=method, bases=bases)))
 
     async def solution_space(
-        self, positions: ArrayLike, motions: ArrayLike, samples: int = 16
+        self, positions: ArrayLike, motions: ArrayLike, samples: int = 8, **fields: Any
     ) -> SolutionSpace:
-        return await self._send(ep.solution_space(positions, motions, samples))
+        return await self._send(ep.solution_space(positions, motions, samples, fields))
 
     async def design(self, positions: ArrayLike, motions: ArrayLike, **options: Any) -> Design:
         return await self._send(ep.design(positions, motions, options))

@@ -79,14 +79,13 @@ def parse(call: Call[T], response: httpx.Response) -> T:
     if response.status_code >= 400:
         raise error_from_response(response)
     try:
-        data = response.json()
-    except ValueError as exc:
+        return call.parse(response.json())
+    except (ValueError, KeyError, TypeError) as exc:  # not JSON, or not the contract's shape
         raise ZeromodeError(
-            f"{call.path} answered with a body that is not JSON.",
+            f"{call.path} answered with a body this client cannot read ({type(exc).__name__}: {exc}).",
             code="invalid_response",
             status=response.status_code,
         ) from exc
-    return call.parse(data)
 
 
 @dataclass(frozen=True)
@@ -108,7 +107,7 @@ class Retry:
     def delay_after(self, exc: httpx.TransportError, request: httpx.Request, attempt: int) -> float:
         """Seconds to wait before attempt ``attempt + 1``; raises ZeromodeError when giving up."""
         if isinstance(exc, httpx.ConnectError | httpx.ConnectTimeout) and attempt <= self.retries:
-            return min(self.backoff * 2 ** (attempt - 1), self.max_backoff)
+            return float(min(self.backoff * 2 ** (attempt - 1), self.max_backoff))
         if isinstance(exc, httpx.TimeoutException) and not isinstance(exc, httpx.ConnectTimeout):
             raise ZeromodeTimeoutError(
                 f"{request.method} {request.url} timed out ({type(exc).__name__})."

@@ -25,7 +25,9 @@ def points(values: ArrayLike, name: str) -> np.ndarray:
 
 
 def health() -> Call[Health]:
-    return Call("GET", "/health", None, lambda data: Health(str(data["status"]), str(data["version"])))
+    return Call(
+        "GET", "/health", None, lambda data: Health(str(data["status"]), str(data["version"]))
+    )
 
 
 def analyze(frame: Frame | Mapping[str, Any], options: Mapping[str, Any]) -> Call[Analysis]:
@@ -35,10 +37,19 @@ def analyze(frame: Frame | Mapping[str, Any], options: Mapping[str, Any]) -> Cal
     return Call("POST", "/v1/analyze", body, Analysis.from_json)
 
 
-def solution_space(positions: ArrayLike, motions: ArrayLike, samples: int) -> Call[SolutionSpace]:
+def solution_space(
+    positions: ArrayLike, motions: ArrayLike, samples: int, fields: Mapping[str, Any]
+) -> Call[SolutionSpace]:
+    """``fields`` (e.g. ``seed``) are sent beside dim, positions, motions and samples."""
     x_s, u_s = points(positions, "positions"), points(motions, "motions")
     dim = x_s.shape[1]
-    body = {"dim": dim, "positions": x_s.tolist(), "motions": u_s.tolist(), "samples": samples}
+    body = {
+        "dim": dim,
+        "positions": x_s.tolist(),
+        "motions": u_s.tolist(),
+        "samples": samples,
+        **jsonable(fields),
+    }
     return Call("POST", "/v1/solution-space", body, lambda data: SolutionSpace.from_json(data, dim))
 
 

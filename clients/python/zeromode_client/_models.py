@@ -20,7 +20,7 @@ IntArray = NDArray[np.int64]
 
 def readonly(values: Any, tail: tuple[int, ...] = (), dtype: type = np.float64) -> np.ndarray:
     """``values`` as a read-only array of shape (n, *tail); an empty list becomes shape (0, *tail)."""
-    array = np.array(values, dtype=dtype)
+    array: np.ndarray = np.array(values, dtype=dtype)
     if tail and array.size == 0:
         array = array.reshape((0, *tail))
     array.setflags(write=False)

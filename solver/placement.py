@@ -1,0 +1,240 @@
+"""The greedy engine of judicious constraint placement (paper, Eq. 7).
+
+Start from the k specified nodes (N_D = dk) and add unspecified nodes, each taken from a pool
+of candidate points on a solution space (so every requested motion stays a zero mode) and
+joined only by bars that raise rank C (so no self-stress appears), until
+
+    N_D = d·(k + N_U) − N_B = d(d+1)/2 + M.
+
+Each round scores every candidate by the rank its bars would add — the rank of the small matrix
+[A·N_old, B] (A: the new rows on the old columns, N_old: a basis of the current N(C), B: the new
+rows on the new node's columns) — and keeps the candidate that removes the most degrees of
+freedom, ties broken by conditioning (the take-th singular value of that matrix with unit
+rows).  A node must take at least d + 1 independent bars whose directions span R^d, so it never
+dangles.  All coordinates here are the normalised ones of the specified set.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Iterator
+from math import comb
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as sla
+
+from zeromode.solver.errors import DomainError
+from zeromode.solver.rank import RTOL, nullspace
+
+# Candidates closer than this (normalised units) to an existing node are skipped: a bar there
+# would be nearly zero-length and the design ill-conditioned.
+MIN_SEPARATION = 0.08
+# Candidates farther than this from the centroid (normalised units) are skipped.
+MAX_RADIUS = 4.0
+@dataclass(eq=False)
+class CandidatePool:
+    """Possible unspecified nodes that share one anchor set: positions (n, d), their motion in
+    each mode (n, M, d), and the existing nodes they may be joined to (whose bar constraints
+    hold at every one of these points)."""
+
+    positions: np.ndarray
+    motions: np.ndarray
+    anchors: tuple[int, ...]
+
+    def remove(self, i: int) -> None:
+        self.keep(np.arange(len(self.positions)) != i)
+
+    def keep(self, mask: np.ndarray) -> None:
+        self.positions, self.motions = self.positions[mask], self.motions[mask]
+
+
+def target_zero_modes(d: int, n_modes: int) -> int:
+    """d(d+1)/2 rigid motions plus one zero mode per requested motion (Eq. 7)."""
+    return d * (d + 1) // 2 + n_modes
+
+
+class Placement:
+    """Mutable state of one greedy construction, in the normalised coordinates of x_S."""
+
+    def __init__(self, x_n: np.ndarray, u_n: np.ndarray, target: int):
+        self.d = x_n.shape[1]
+        self.positions = [p for p in x_n]
+        self.motions = [u_n[:, i, :] for i in range(x_n.shape[0])]  # each (M, d)
+        self.edges: list[tuple[int, int]] = []
+        self.anchor_sets: list[tuple[int, ...]] = []
+        self.target = target
+        self.rank = 0
+        self._null = np.eye(self.d * len(self.positions))
+
+    @property
+    def n_d(self) -> int:
+        return self.d * len(self.positions) - len(self.edges)
+
+    def best_in(self, pool: CandidatePool, budget: int) -> tuple[int, float, int, list[int]] | None:
+        """Best candidate of ``pool`` if joined to at most ``budget`` of its anchors:
+        (rank gained, conditioning, index in pool, anchors chosen), or None.
+
+        For each candidate the rows of the new bars, projected onto the current N(C) for the old
+        columns, form R = [A·N_old, B] (a × (z + d)); rank R is the rank gained, its take-th
+        singular value (unit rows) the conditioning. One batched SVD scores the whole pool.
+        """
+        d = self.d
+        x = np.asarray(self.positions)
+        p = pool.positions
+        if len(p) == 0:
+            return None
+        anchors = np.asarray(pool.anchors)
+        sep = np.min(np.linalg.norm(x[None] - p[:, None], axis=2), axis=1)
+        valid = (sep >= MIN_SEPARATION) & (np.linalg.norm(p, axis=1) <= MAX_RADIUS)
+        diff = x[anchors][None] - p[:, None]  # (n, a, d) bar directions
+        null_blocks = self._null.reshape(len(x), d, -1)[anchors]  # (a, d, z)
+        rows = np.concatenate([np.einsum("nad,adz->naz", diff, null_blocks), -diff], axis=2)
+        rows /= np.maximum(np.linalg.norm(rows, axis=2, keepdims=True), 1e-300)
+        s = np.linalg.svd(rows, compute_uv=False)  # (n, min(a, z+d))
+        gained = np.count_nonzero(s > 1e-7 * np.maximum(s[:, :1], 1e-300), axis=1)
+        take = np.minimum(gained, budget)
+        # The node must be pinned: its bars' directions must span R^d.
+        spans = np.linalg.matrix_rank(diff, tol=1e-7) >= d
+        ok = valid & spans & (take > d)
+        # Rank gain only falls as bars are added and separation only shrinks, so a candidate
+        # that cannot remove a degree of freedom now never will: drop it for good.
+        viable = valid & spans & (gained > d)
+        if not np.all(viable):
+            pool.keep(viable)
+            rows, s, take, ok, p = rows[viable], s[viable], take[viable], ok[viable], p[viable]
+        if not np.any(ok):
+            return None
+        cond = np.where(ok, s[np.arange(len(p)), np.maximum(take, 1) - 1], -1.0)
+        for i in np.lexsort((-cond, -np.where(ok, take, -1))):
+            if not ok[i]:
+                break
+            chosen = self._choose_anchors(rows[i], anchors, int(take[i]))
+            if np.linalg.matrix_rank(x[chosen] - p[i], tol=1e-7) >= d:
+                return int(take[i]), float(cond[i]), int(i), chosen
+        return None
+
+    @staticmethod
+    def _choose_anchors(rows: np.ndarray, anchors: np.ndarray, take: int) -> list[int]:
+        """The ``take`` most independent bars (pivoted QR), or all of them when all are needed."""
+        if take == len(anchors):
+            return [int(a) for a in anchors]
+        _, _, piv = sla.qr(rows.T, mode="economic", pivoting=True)
+        return sorted(int(anchors[i]) for i in piv[:take])
+
+    def add(self, position: np.ndarray, motions: np.ndarray, anchors: list[int]) -> None:
+        """Join a node at ``position`` to ``anchors`` and update N(C) incrementally.
+
+        A null vector of the grown C is (N_old c, w) with A·N_old c + B w = 0, so
+        N_new = blockdiag(N_old, I_d) · N([A·N_old, B]) — orthonormal, from a tiny SVD.
+        """
+        d = self.d
+        x = np.asarray(self.positions)
+        idx = np.asarray(anchors)
+        diff = x[idx] - position
+        null_blocks = self._null.reshape(len(x), d, -1)[idx]
+        rows = np.hstack([np.einsum("ad,adz->az", diff, null_blocks), -diff])
+        rows /= np.linalg.norm(rows, axis=1, keepdims=True)
+        kernel, gained, _ = nullspace(rows, RTOL)
+        z = self._null.shape[1]
+        grown = np.zeros((self._null.shape[0] + d, z + d))
+        grown[: self._null.shape[0], :z] = self._null
+        grown[self._null.shape[0] :, z:] = np.eye(d)
+        self._null = grown @ kernel
+        self.rank += gained
+        self.positions.append(position)
+        self.motions.append(motions)
+        self.edges.extend((a, len(x)) for a in anchors)
+        self.anchor_sets.append(tuple(anchors))
+
+
+def anchor_subsets(x: np.ndarray, size: int, cap: int = 64) -> list[tuple[int, ...]]:
+    """Anchor sets of ``size`` specified nodes: all of them while there are at most ``cap``,
+    otherwise the spatially local ones (each node with its size − 1 nearest neighbours), which
+    keeps the search linear in k for large targets (the paper's primary modules are local)."""
+    k = len(x)
+    if comb(k, size) <= cap:
+        return list(itertools.combinations(range(k), size))
+    dist = np.linalg.norm(x[:, None] - x[None], axis=2)
+    subsets = {tuple(sorted(np.argsort(dist[i], kind="stable")[:size].tolist())) for i in range(k)}
+    return sorted(subsets)
+
+
+def coupling_subsets(
+    k: int, sizes: range, rng: np.random.Generator, count: int
+) -> list[tuple[int, ...]]:
+    """Seeded random anchor sets: the paper's coupling modules, which tie together modules that
+    local anchor sets leave free to move relative to each other."""
+    subsets = set()
+    for size in sizes:
+        if size > k:
+            continue
+        for _ in range(count):
+            subsets.add(tuple(sorted(rng.choice(k, size=size, replace=False).tolist())))
+    return sorted(subsets)
+
+
+def _budget(state: Placement, nodes_left: int | None) -> int:
+    """The most bars the next node may take without overshooting the target count."""
+    excess = state.n_d - state.target
+    if nodes_left is None:
+        return excess + state.d
+    # Spread the remaining reduction evenly when the user fixed the number of nodes.
+    return state.d + -(-excess // nodes_left)
+
+
+def place_nodes(
+    x_n: np.ndarray,
+    u_n: np.ndarray,
+    candidate_levels: Iterator[list[CandidatePool]],
+    n_unspecified: int | None = None,
+) -> Placement:
+    """Greedy judicious placement (normalised coordinates).
+
+    x_n (k, d); u_n (M, k, d). ``candidate_levels`` yields lists of pools in order of
+    preference (e.g. the full specified set first, then subsets); a later level is consulted
+    only when no earlier candidate can remove a degree of freedom.
+    """
+    k, d = x_n.shape
+    state = Placement(x_n, u_n, target_zero_modes(d, u_n.shape[0]))
+    levels: list[list[CandidatePool]] = []
+    level_iter = iter(candidate_levels)
+    while state.n_d > state.target:
+        nodes_left = None if n_unspecified is None else n_unspecified - len(state.anchor_sets)
+        if nodes_left is not None and nodes_left <= 0:
+            raise DomainError(
+                "no_solution",
+                f"{n_unspecified} unspecified nodes cannot remove the {state.n_d - state.target} "
+                "remaining degrees of freedom; allow more nodes.",
+            )
+        budget = _budget(state, nodes_left)
+        best = None
+        level = 0
+        while best is None:
+            if level == len(levels):
+                nxt = next(level_iter, None)
+                if nxt is None:
+                    break
+                levels.append(nxt)
+            for pool in levels[level]:
+                found = state.best_in(pool, budget)
+                if found and (best is None or found[:2] > best[0][:2]):
+                    best = (found, pool)
+            level += 1
+        if best is None:
+            why = (
+                "the solution spaces have no real point for any anchor set"
+                if not any(len(p.positions) for level in levels for p in level) and not state.anchor_sets
+                else "every remaining candidate would create a self-stress or leave a node unpinned"
+            )
+            raise DomainError(
+                "no_solution",
+                f"no real placement removes the remaining {state.n_d - state.target} degrees of "
+                f"freedom: {why}.",
+            )
+        (_, _, i, chosen), pool = best
+        state.add(pool.positions[i], pool.motions[i], chosen)
+        pool.remove(i)
+    return state
+
+

@@ -1,0 +1,332 @@
+"""Nonlinear refinement of unspecified node positions for finite-motion fidelity (casadi + IPOPT).
+
+The quadric construction places the unspecified nodes so that u_S is an exact *infinitesimal*
+zero mode; along a finite motion the specified nodes drift (finite_motion.fidelity measures
+by how much).  Refinement moves the unspecified nodes so that the mechanism carries the
+specified nodes to x_S + Δ_S along a continuous path, Δ_S = a·u_S.
+
+Nonlinear program (normalised coordinates: frame centred and divided by its RMS radius r):
+    unknowns   x_U                 reference positions of the unspecified nodes (N_U × d);
+               X_1 … X_{K−1}        intermediate configurations (N × d each);
+               X_{K,U}             the unspecified nodes of the final configuration
+               (X_0 = (x_S, x_U) and X_{K,S} = x_S + Δ_S are constants, which fixes the
+               rigid-motion gauge at both ends);
+    equalities |X_{j,i} − X_{j,k}|² = |X_{0,i} − X_{0,k}|²  for every bar (i, k), j = 1 … K
+               (every configuration has the reference bar lengths);
+    objective  (1/(K·N)) Σ_j ‖X_j − ((1 − j/K)·X_0 + (j/K)·X_K)‖²  +  μ‖x_U − x_U⁰‖²/N_U
+               — departure from the straight path (for the specified nodes that is the
+               straight route x_S + (j/K)·Δ_S); it also fixes the gauge of the intermediate
+               configurations.  The small μ picks, among equally straight solutions, the
+               one nearest the design.
+    option     stay_on_solution_space: also keep u_S an exact zero mode at the reference, i.e.
+               C(X_0)·(u_S, u_U) = 0 with u_U (N_U × d) extra unknowns — every x_U stays on
+               the solution space of the paper's quadric (Eq. 5) for u_S.
+casadi builds the problem symbolically, so IPOPT gets the exact gradient, Jacobian and Hessian
+of the Lagrangian.  IPOPT starts from the linear motion X_j = X_0 + (j/K)·α·u (u the frame's
+nontrivial mode, α fitted to Δ_S).
+
+After IPOPT the result is re-verified through independent routes: the rigidity analysis at the
+refined reference X_0 and at X_K (no new self-stress, exactly one nontrivial zero mode at both)
+and ε after refinement measured by continuation (finite_motion.motion_fidelity) from the
+refined reference — not from IPOPT's own configurations.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from zeromode.solver.errors import DomainError, InvalidInput
+from zeromode.solver.finite_motion import (
+    bar_lengths,
+    motion_fidelity,
+    relative_bar_error,
+)
+from zeromode.solver.frame import Frame, check_positions, rms_radius
+from zeromode.solver.rigidity import Analysis, analyze
+
+# Weight of ‖x_U − x_U⁰‖² relative to the straight-path term (see the module docstring).
+DESIGN_WEIGHT = 1e-3
+# IPOPT unknowns are capped so one refinement stays within a request's time budget.
+MAX_UNKNOWNS = 20_000
+IPOPT_SUCCESS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+
+
+@dataclass(frozen=True, eq=False)
+class Refinement:
+    """The result of refine().
+
+    frame: the refined frame (or, after a failure, the best frame found: the refined one if its
+    ε is smaller than the original's, else the original).  path: (K+1, N, d) IPOPT's
+    configurations X_0 … X_K in the frame's coordinates.  displacement: Δ_S (k × d).
+    """
+
+    frame: Frame
+    displacement: np.ndarray
+    amplitude: float
+    epsilon_before: float
+    epsilon_after: float
+    ipopt_status: str
+    iterations: int
+    time_ms: float
+    ipopt_time_ms: float
+    path: np.ndarray
+    max_relative_bar_error: float
+    analysis_reference: Analysis | None
+    analysis_end: Analysis | None
+    ok: bool
+    message: str
+
+    def to_dict(self) -> dict:
+        return {
+            "frame": self.frame.to_dict(),
+            "displacement": self.displacement.tolist(),
+            "amplitude": self.amplitude,
+            "epsilon_before": self.epsilon_before,
+            "epsilon_after": self.epsilon_after,
+            "ipopt_status": self.ipopt_status,
+            "iterations": self.iterations,
+            "time_ms": self.time_ms,
+            "ipopt_time_ms": self.ipopt_time_ms,
+            "path": self.path.tolist(),
+            "max_relative_bar_error": self.max_relative_bar_error,
+            "analysis_reference": None if self.analysis_reference is None else self.analysis_reference.counts(),
+            "analysis_end": None if self.analysis_end is None else self.analysis_end.counts(),
+            "status": "ok" if self.ok else "refinement_failed",
+            "message": self.message,
+        }
+
+
+class RefinementFailed(DomainError):
+    """IPOPT did not converge, or its result failed re-verification; ``best`` holds the best
+    result found (see Refinement.frame)."""
+
+    def __init__(self, best: Refinement):
+        super().__init__("refinement_failed", best.message)
+        self.best = best
+
+
+def target_displacement(frame: Frame, motion_s=None, amplitude=None, targets=None):
+    """Δ_S (k × d) and the relative amplitude a.
+
+    With ``motion_s`` (u_S, k × d) and ``amplitude`` a: Δ_S = a·(r_S/ρ_u)·u_S, where r_S is the
+    RMS radius of the specified positions and ρ_u = √(mean_i |u_Si|²): a is the RMS displacement
+    of the specified nodes relative to their RMS size (a = 0.2 moves them by 20 % of it).
+    With ``targets`` (final positions, k × d): Δ_S = targets − x_S and a = ρ_Δ/r_S.
+    """
+    spec = list(frame.specified)
+    if len(spec) < 2:
+        raise InvalidInput(
+            "too_few_specified",
+            "refinement needs at least 2 specified nodes (a rigid motion reaches any target of one).",
+        )
+    x_s = frame.positions[spec]
+    r_s = rms_radius(x_s)
+    k = len(spec)
+    if (motion_s is None) == (targets is None):
+        raise InvalidInput("invalid_request", "give exactly one of `motion` (with `amplitude`) or `targets`.")
+    if targets is not None:
+        y = check_positions(targets, frame.dim, name="targets")
+        if y.shape[0] != k:
+            raise InvalidInput("invalid_shape", f"targets must have one row per specified node ({k}).")
+        delta = y - x_s
+        rho = float(np.sqrt(np.mean(np.sum(delta**2, axis=1))))
+        if rho == 0:
+            raise InvalidInput("invalid_motion", "targets equal the specified positions: nothing to reach.")
+        return delta, rho / r_s
+    u = check_positions(motion_s, frame.dim, name="motion")
+    if u.shape[0] != k:
+        raise InvalidInput("invalid_shape", f"motion must have one row per specified node ({k}).")
+    rho = float(np.sqrt(np.mean(np.sum(u**2, axis=1))))
+    if rho == 0:
+        raise InvalidInput("invalid_motion", "motion is zero.")
+    if amplitude is None or not np.isfinite(amplitude) or amplitude <= 0:
+        raise InvalidInput("invalid_amplitude", "amplitude must be a positive number.")
+    return float(amplitude) * (r_s / rho) * u, float(amplitude)
+
+
+def _single_mode(analysis: Analysis) -> bool:
+    return analysis.nontrivial_zero_modes == 1
+
+
+def refine(
+    frame: Frame,
+    motion_s=None,
+    amplitude: float | None = 0.1,
+    targets=None,
+    K: int = 8,
+    tol: float = 1e-8,
+    max_iter: int = 500,
+    max_time_s: float = 5.0,
+    stay_on_solution_space: bool = False,
+) -> Refinement:
+    """Move the unspecified nodes so that the finite motion carries x_S to x_S + Δ_S.
+
+    frame: a frame with specified nodes and exactly one nontrivial zero mode (a linear design).
+    motion_s/amplitude or targets: the target, see target_displacement().
+    K: number of configurations after the reference (≥ 1); tol, max_iter, max_time_s: IPOPT's
+    tol, max_iter and max_cpu_time.  Returns a Refinement with ``ok`` True; raises
+    RefinementFailed (code ``refinement_failed``, with the best result) otherwise.
+    """
+    t_start = time.perf_counter()
+    delta, a = target_displacement(frame, motion_s, amplitude, targets)
+    spec = np.asarray(frame.specified, dtype=int)
+    unspec = np.setdiff1d(np.arange(frame.n_nodes), spec)
+    n, d, k = frame.n_nodes, frame.dim, len(spec)
+    if len(unspec) == 0:
+        raise InvalidInput("nothing_to_refine", "the frame has no unspecified node to move.")
+    if K < 1:
+        raise InvalidInput("invalid_option", "K must be at least 1.")
+    unknowns = (K - 1) * n * d + (2 + int(stay_on_solution_space)) * len(unspec) * d
+    if unknowns > MAX_UNKNOWNS:
+        raise DomainError(
+            "too_expensive",
+            f"the refinement would have {unknowns} unknowns (limit {MAX_UNKNOWNS}); lower K or use a smaller frame.",
+        )
+    before = analyze(frame)
+    if not _single_mode(before):
+        raise DomainError(
+            "not_single_mode",
+            f"refinement follows one nontrivial zero mode; the frame has {before.nontrivial_zero_modes}.",
+        )
+    fid_before, _ = motion_fidelity(frame, delta)
+
+    centre = frame.positions.mean(axis=0)
+    radius = rms_radius(frame.positions) or 1.0
+    x0 = (frame.positions - centre) / radius
+    target = x0[spec] + delta / radius
+    nlp, x_init, unpack = _build_nlp(
+        x0, frame.edges, spec, unspec, target, K, before.modes[0], stay_on_solution_space
+    )
+    solver = ca.nlpsol(
+        "refine",
+        "ipopt",
+        nlp,
+        {
+            "print_time": False,
+            "error_on_fail": False,
+            "ipopt.print_level": 0,
+            "ipopt.sb": "yes",
+            "ipopt.tol": tol,
+            "ipopt.max_iter": int(max_iter),
+            "ipopt.max_cpu_time": float(max_time_s),
+            "ipopt.max_wall_time": float(max_time_s),
+        },
+    )
+    t_ipopt = time.perf_counter()
+    sol = solver(x0=x_init, lbg=0.0, ubg=0.0)
+    ipopt_ms = 1e3 * (time.perf_counter() - t_ipopt)
+    stats = solver.stats()
+    status = str(stats.get("return_status", "unknown"))
+    iterations = int(stats.get("iter_count", -1))
+    configs = unpack(np.asarray(sol["x"]).ravel())  # (K+1, N, d) normalised
+    path = centre + radius * configs
+    lengths = bar_lengths(path[0], frame.edges)
+    bar_error = max(relative_bar_error(p, frame.edges, lengths) for p in path[1:])
+
+    refined = Frame.build(path[0], frame.edges, frame.specified, dim=d)
+    problems = []
+    if status not in IPOPT_SUCCESS:
+        problems.append(f"IPOPT stopped with status {status} after {iterations} iterations")
+    an_ref = an_end = None
+    eps_after = np.inf
+    try:
+        an_ref = analyze(refined)
+        an_end = analyze(Frame.build(path[-1], frame.edges, frame.specified, dim=d))
+    except DomainError as exc:  # e.g. two joined nodes collapsed onto each other
+        problems.append(f"the refined frame is invalid ({exc.message})")
+    if an_ref is not None and an_end is not None:
+        for name, an in (("reference", an_ref), ("final configuration", an_end)):
+            if an.self_stresses > before.self_stresses:
+                problems.append(f"the refined {name} has {an.self_stresses} self-stress(es)")
+            if not _single_mode(an):
+                problems.append(f"the refined {name} has {an.nontrivial_zero_modes} nontrivial zero modes")
+        if _single_mode(an_ref):
+            eps_after = motion_fidelity(refined, delta)[0].epsilon
+    ok = not problems and eps_after <= fid_before.epsilon
+    if not problems and not ok:
+        problems.append(f"ε after ({eps_after:.3g}) is not below ε before ({fid_before.epsilon:.3g})")
+    keep_refined = eps_after <= fid_before.epsilon
+    result = Refinement(
+        frame=refined if keep_refined else frame,
+        displacement=delta,
+        amplitude=a,
+        epsilon_before=fid_before.epsilon,
+        epsilon_after=float(eps_after) if keep_refined else fid_before.epsilon,
+        ipopt_status=status,
+        iterations=iterations,
+        time_ms=1e3 * (time.perf_counter() - t_start),
+        ipopt_time_ms=ipopt_ms,
+        path=path,
+        max_relative_bar_error=bar_error,
+        analysis_reference=an_ref if keep_refined else before,
+        analysis_end=an_end,
+        ok=ok,
+        message="refinement succeeded." if ok else "refinement failed: " + "; ".join(problems) + ".",
+    )
+    if not ok:
+        raise RefinementFailed(result)
+    return result
+
+
+def _build_nlp(x0, edges, spec, unspec, target, K, mode, stay_on_solution_space):
+    """The NLP of the module docstring, over flat unknowns w = (x_U, X_1 … X_{K−1}, X_{K,U}
+    [, u_U]); ``mode`` (N × d) is the frame's nontrivial zero mode, which gives the initial
+    guess.  Returns (nlp dict, initial w, unpack: w ↦ (K+1, N, d) configurations)."""
+    n, d = x0.shape
+    nu = len(unspec)
+    w_xu = ca.SX.sym("x_U", nu, d)
+    w_mid = [ca.SX.sym(f"X_{j}", n, d) for j in range(1, K)]
+    w_end = ca.SX.sym("X_K_U", nu, d)
+
+    def assemble(fixed_rows, rows_u):
+        m = ca.SX.zeros(n, d)
+        for row, i in enumerate(spec):
+            m[int(i), :] = fixed_rows[row, :]
+        for row, i in enumerate(unspec):
+            m[int(i), :] = rows_u[row, :]
+        return m
+
+    x_ref = assemble(ca.DM(x0[spec]), w_xu)
+    x_end = assemble(ca.DM(target), w_end)
+    configs = [x_ref, *w_mid, x_end]
+    e0, e1 = [int(i) for i in edges[:, 0]], [int(i) for i in edges[:, 1]]
+
+    def squared_lengths(m):
+        diff = m[e0, :] - m[e1, :]
+        return ca.sum2(diff * diff)
+
+    ref_len = squared_lengths(x_ref)
+    g = [squared_lengths(m) - ref_len for m in configs[1:]]
+    objective = 0
+    for j in range(1, K):
+        s = j / K
+        dev = configs[j] - ((1 - s) * x_ref + s * x_end)
+        objective += ca.sumsqr(dev)
+    objective = objective / (K * n) + DESIGN_WEIGHT * ca.sumsqr(w_xu - ca.DM(x0[unspec])) / nu
+    variables = [ca.vec(w_xu), *[ca.vec(m) for m in w_mid], ca.vec(w_end)]
+    # Linear initial guess: the mode scaled so that its specified rows fit Δ_S (least squares).
+    delta = target - x0[spec]
+    linear_motion = float(np.sum(mode[spec] * delta) / np.sum(mode[spec] ** 2)) * mode
+    init = [x0[unspec].ravel(order="F")]
+    for j in range(1, K):
+        init.append((x0 + (j / K) * linear_motion).ravel(order="F"))
+    init.append((x0 + linear_motion)[unspec].ravel(order="F"))
+    if stay_on_solution_space:
+        # u_S = Δ_S up to scale (the zero-mode condition is homogeneous), u_U from the mode.
+        w_uu = ca.SX.sym("u_U", nu, d)
+        u_all = assemble(ca.DM(delta), w_uu)
+        g.append(ca.sum2((x_ref[e0, :] - x_ref[e1, :]) * (u_all[e0, :] - u_all[e1, :])))
+        variables.append(ca.vec(w_uu))
+        init.append(linear_motion[unspec].ravel(order="F"))
+    nlp = {"x": ca.vertcat(*variables), "f": objective, "g": ca.vertcat(*g)}
+    flat_configs = ca.Function("configs", [nlp["x"]], [ca.vertcat(*[ca.vec(m) for m in configs])])
+
+    def unpack(w: np.ndarray) -> np.ndarray:
+        flat = np.asarray(flat_configs(w)).ravel()
+        return flat.reshape(K + 1, d, n).transpose(0, 2, 1)
+
+    return nlp, np.concatenate(init), unpack

@@ -1,0 +1,203 @@
+"""Frames whose counts, modes and self-stresses are derived by hand.
+
+Each count below is worked out from the geometry (stated in the comment), not from the code;
+every basis the solver returns is then checked against a compatibility matrix and rigid
+motions built independently in ``rigidity_reference``.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+
+from rigidity_reference import (
+    as_columns,
+    compatibility_matrix,
+    normalised,
+    projector,
+    relative_residual,
+    rigid_generators,
+    singular_values,
+    span,
+)
+from zeromode.solver import Frame, analyze
+
+TOL = 1e-10
+
+
+@dataclass
+class Known:
+    positions: list
+    edges: list
+    rank: int
+    rigid_body_modes: int
+    self_stresses: int
+
+    @property
+    def dim(self):
+        return len(self.positions[0])
+
+    @property
+    def zero_modes(self):
+        return self.dim * len(self.positions) - self.rank
+
+
+SQUARE = [[0, 0], [1, 0], [1, 1], [0, 1]]
+SQUARE_SIDES = [[0, 1], [1, 2], [2, 3], [3, 0]]
+TETRAHEDRON = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]]
+
+KNOWN = {
+    # 3 independent bars, 3 rigid motions: rigid, no stress (paper, Fig. 1d).
+    "triangle": Known([[0, 0], [1, 0], [0, 1]], [[0, 1], [1, 2], [0, 2]], 3, 3, 0),
+    # 4 bars on 8 coordinates: rank 4, so 4 zero modes = 3 rigid + the shear.
+    "square": Known(SQUARE, SQUARE_SIDES, 4, 3, 0),
+    # The diagonal kills the shear: 5 independent bars, rigid (isostatic).
+    "square+diagonal": Known(SQUARE, SQUARE_SIDES + [[0, 2]], 5, 3, 0),
+    # K4 in the plane: 6 bars but rank 2N − 3 = 5, so exactly one self-stress.
+    "K4": Known(SQUARE, SQUARE_SIDES + [[0, 2], [1, 3]], 5, 3, 1),
+    # Collinear chain in 2D: 2 bars, and the middle node can move across the line.
+    "chain2d": Known([[0, 0], [1, 0], [2, 0]], [[0, 1], [1, 2]], 2, 3, 0),
+    # Collinear triangle in 2D: three bars on one line have rank 2 and one self-stress.
+    "flat-triangle": Known([[0, 0], [1, 0], [2, 0]], [[0, 1], [1, 2], [0, 2]], 2, 3, 1),
+    # Collinear chain in 3D: rotation about the line moves nothing, so 5 rigid motions;
+    # the middle node has 2 transverse flexes.
+    "chain3d": Known([[0, 0, 0], [1, 0, 0], [2, 0, 0]], [[0, 1], [1, 2]], 2, 5, 0),
+    # One bar in 3D: 6 coordinates − 1 = 5 zero modes, all rigid (collinear: 5).
+    "bar3d": Known([[0, 0, 0], [0, 0, 2]], [[0, 1]], 1, 5, 0),
+    # One node: only translations are rigid motions.
+    "node2d": Known([[0.3, -0.2]], [], 0, 2, 0),
+    "node3d": Known([[0.3, -0.2, 5.0]], [], 0, 3, 0),
+    # Tetrahedron: 6 independent bars = 3·4 − 6, rigid in 3D.
+    "tetrahedron": Known(TETRAHEDRON, [[i, j] for i in range(4) for j in range(i + 1, 4)], 6, 6, 0),
+    # No bars: every coordinate is a zero mode.
+    "no-edges2d": Known([[0, 0], [2, 0], [0, 1]], [], 0, 3, 0),
+    "no-edges3d": Known(TETRAHEDRON, [], 0, 6, 0),
+    # Two separate triangles: each rigid (3 + 3 bars), 6 zero modes = 3 rigid + 3 relative.
+    "two-triangles": Known(
+        [[0, 0], [1, 0], [0, 1], [5, 5], [6, 5], [5, 7]],
+        [[0, 1], [1, 2], [0, 2], [3, 4], [4, 5], [3, 5]],
+        6,
+        3,
+        0,
+    ),
+}
+
+
+@pytest.fixture(scope="module", params=sorted(KNOWN))
+def case(request):
+    return request.param, KNOWN[request.param]
+
+
+@pytest.mark.parametrize("method", ["dense", "sparse"])
+def test_counts(case, method):
+    _, k = case
+    a = analyze(Frame.build(k.positions, k.edges), method=method)
+    n, nb = len(k.positions), len(k.edges)
+    assert a.counts() | {"rank_gap": None} == {
+        "nodes": n,
+        "edges": nb,
+        "dim": k.dim,
+        "maxwell_count": k.dim * n - nb,
+        "rank": k.rank,
+        "zero_modes": k.zero_modes,
+        "rigid_body_modes": k.rigid_body_modes,
+        "nontrivial_zero_modes": k.zero_modes - k.rigid_body_modes,
+        "self_stresses": k.self_stresses,
+        "rank_gap": None,
+    }
+    assert a.modes.shape == (k.zero_modes - k.rigid_body_modes, n, k.dim)
+    assert a.stresses.shape == (k.self_stresses, nb)
+
+
+def test_bases(case):
+    _, k = case
+    a = analyze(Frame.build(k.positions, k.edges))
+    c = compatibility_matrix(k.positions, k.edges)
+    modes = as_columns(a.modes)  # dN × z
+    stresses = a.stresses.T  # N_B × s
+    assert relative_residual(c, modes) < TOL
+    assert relative_residual(c.T, stresses) < TOL
+    np.testing.assert_allclose(modes.T @ modes, np.eye(modes.shape[1]), atol=TOL)
+    np.testing.assert_allclose(stresses.T @ stresses, np.eye(stresses.shape[1]), atol=TOL)
+    rigid = rigid_generators(k.positions)
+    assert np.max(np.abs(modes.T @ rigid), initial=0.0) < TOL * np.linalg.norm(rigid)
+    # Rigid motions and nontrivial modes together fill the whole null space of C.
+    null_dim = modes.shape[1] + span(rigid).shape[1]
+    assert null_dim == k.zero_modes
+    assert np.linalg.matrix_rank(np.column_stack([modes, rigid])) == null_dim
+
+
+def test_rank_gap_is_sigma_r_of_the_normalised_matrix(case):
+    _, k = case
+    a = analyze(Frame.build(k.positions, k.edges))
+    s = singular_values(compatibility_matrix(normalised(k.positions), k.edges))
+    if k.rank == 0:
+        assert a.rank_gap.last_nonzero == 0.0
+        return
+    assert a.rank_gap.last_nonzero == pytest.approx(s[k.rank - 1], rel=1e-9)
+    assert a.rank_gap.last_nonzero > 1e-3 * s[0]
+    if k.rank < len(s):
+        assert a.rank_gap.first_zero < 1e-12 * s[0]
+    else:
+        assert a.rank_gap.first_zero == 0.0
+
+
+def unit(v):
+    v = np.asarray(v, dtype=float).ravel()
+    return v / np.linalg.norm(v)
+
+
+def perpendicular_to_rigid(u, positions):
+    """u minus its projection on the rigid motions (the representative the API returns)."""
+    u = np.asarray(u, dtype=float).ravel()
+    q = span(rigid_generators(positions))
+    return u - q @ (q.T @ u)
+
+
+def test_k4_self_stress_is_sides_against_diagonals():
+    # Node 0 of the unit square: ω_s(1,0) + ω_s(0,1) + ω_d(1,1) = 0, so ω_d = −ω_s.
+    k = KNOWN["K4"]
+    a = analyze(Frame.build(k.positions, k.edges))
+    (stress,) = a.stresses
+    assert abs(stress @ unit([1, 1, 1, 1, -1, -1])) == pytest.approx(1.0, abs=1e-12)
+
+
+def test_flat_triangle_self_stress():
+    # Node 1 balances ω01 = ω12; node 0: ω01·1 + ω02·2 = 0, so ω02 = −ω01/2.
+    k = KNOWN["flat-triangle"]
+    (stress,) = analyze(Frame.build(k.positions, k.edges)).stresses
+    assert abs(stress @ unit([1, 1, -0.5])) == pytest.approx(1.0, abs=1e-12)
+
+
+def test_square_mode_is_the_shear():
+    # Moving the top side sideways keeps every side's length to first order.
+    k = KNOWN["square"]
+    (mode,) = analyze(Frame.build(k.positions, k.edges)).modes
+    shear = unit(perpendicular_to_rigid([[0, 0], [0, 0], [1, 0], [1, 0]], k.positions))
+    assert abs(mode.ravel() @ shear) == pytest.approx(1.0, abs=1e-12)
+
+
+def test_chain_modes_are_transverse_flexes_of_the_middle_node():
+    for name, directions in (("chain2d", [[0, 1]]), ("chain3d", [[0, 1, 0], [0, 0, 1]])):
+        k = KNOWN[name]
+        modes = analyze(Frame.build(k.positions, k.edges)).modes
+        expected = []
+        for direction in directions:
+            u = np.zeros((3, k.dim))
+            u[1] = direction
+            expected.append(perpendicular_to_rigid(u, k.positions))
+        got = as_columns(modes)
+        np.testing.assert_allclose(projector(got), projector(span(np.column_stack(expected))), atol=1e-12)
+
+
+def test_disconnected_triangles_move_rigidly_relative_to_each_other():
+    k = KNOWN["two-triangles"]
+    a = analyze(Frame.build(k.positions, k.edges))
+    x = np.asarray(k.positions, dtype=float)
+    # Any rigid motion of the second triangle alone is a zero mode; all together they span
+    # the nontrivial modes plus the global rigid motions.
+    second = np.zeros((12, 3))
+    second[6:] = rigid_generators(x[3:])
+    whole = np.column_stack([as_columns(a.modes), rigid_generators(x)])
+    expected = np.column_stack([rigid_generators(x), second])
+    np.testing.assert_allclose(projector(span(whole)), projector(span(expected)), atol=1e-12)
