@@ -20,9 +20,9 @@ from functools import lru_cache
 
 import numpy as np
 from scipy.spatial import Delaunay, cKDTree
+from zeromode.solver import Frame
 
 from benchmarks.pruning import SpringNetwork
-from zeromode.solver import Frame
 
 DIM = 2
 PACKING_FRACTION = 0.9
@@ -64,8 +64,8 @@ class AllosteryTask:
         )
 
 
-def relaxed_disks(n: int, rng: np.random.Generator) -> tuple[np.ndarray, float]:
-    """(N, 2) centres of N soft disks relaxed in the unit circle, and their diameter σ.
+def relaxed_disks(n: int, rng: np.random.Generator) -> np.ndarray:
+    """(N, 2) centres of N soft disks of diameter σ relaxed in the unit circle.
 
     Gradient descent on the harmonic overlap energy Σ (σ − r_ij)² (plus the wall), from uniform
     random centres; σ fixes the packing fraction N π σ²/4 = PACKING_FRACTION · π.
@@ -87,7 +87,7 @@ def relaxed_disks(n: int, rng: np.random.Generator) -> tuple[np.ndarray, float]:
         outside = np.maximum(radius + 0.5 * sigma - 1.0, 0.0)
         step -= 0.5 * outside * x / np.maximum(radius, 1e-12)
         x = x + step
-    return x, sigma
+    return x
 
 
 @lru_cache(maxsize=64)
@@ -104,14 +104,14 @@ def random_network(
     in a jammed packing rather than pooling in over-braced clusters.
     """
     rng = np.random.default_rng(seed)
-    x, _ = relaxed_disks(n, rng)
+    x = relaxed_disks(n, rng)
     x = x / np.sqrt(np.mean(np.sum((x - x.mean(axis=0)) ** 2, axis=1)))
     simplices = Delaunay(x).simplices
     tri_edges = np.concatenate([simplices[:, [0, 1]], simplices[:, [1, 2]], simplices[:, [0, 2]]])
     edges = np.unique(np.sort(tri_edges, axis=1), axis=0)
     lengths = np.linalg.norm(x[edges[:, 0]] - x[edges[:, 1]], axis=1)
     long_bar = lengths > LONG_BAR * np.median(lengths)
-    target = DIM * n - 3 + int(round(excess_coordination * n / 2))
+    target = DIM * n - 3 + round(excess_coordination * n / 2)
     tie = rng.permutation(len(edges))
 
     net = SpringNetwork(x, edges, np.ones(len(edges)))

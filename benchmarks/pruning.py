@@ -25,9 +25,9 @@ Removing bond b is the rank-one update K' = K − k_b q_b q_bᵀ; by Sherman–M
 
     G'_pq = G_pq + k_b G_pb G_bq / (1 − k_b G_bb).
 
-1 − k_b G_bb ∈ [0, 1] is the share of bond b's stiffness that the rest of the network would
-replace: it is 0 exactly when b carries no self-stress, i.e. when removing it opens a zero
-mode and the response becomes undefined. Such removals are refused, so the network stays
+D_b = 1 − k_b G_bb ∈ [0, 1] is the share of a force dipole on bond b's ends that the rest of the
+network carries (bond b itself takes k_b G_bb): it is 0 exactly when b carries no self-stress,
+i.e. when removing b opens a zero mode and the response becomes undefined. Such removals are refused, so the network stays
 free of nontrivial zero modes throughout. Every greedy step therefore costs one sparse
 factorisation of the current K and three solves (source, target, chosen bond), plus an
 O(N_B) scoring of all candidates from the maintained diagonal k_b G_bb — not one
@@ -43,9 +43,14 @@ import numpy as np
 import scipy.linalg
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
-
-from zeromode.solver import DomainError, Frame, InvalidInput, analyze, compatibility_matrix
-from zeromode.solver import rigid_motions
+from zeromode.solver import (
+    DomainError,
+    Frame,
+    InvalidInput,
+    analyze,
+    compatibility_matrix,
+    rigid_motions,
+)
 
 # A removal is refused when 1 − k_b G_bb falls to this: the new softest mode would be softer
 # than 1e-8 of the removed bond's own stiffness (singular value ≳ 1e-4 of the bond's), which
@@ -181,9 +186,12 @@ class SpringNetwork:
 
 def _check_pair(frame: Frame, pair, name: str) -> tuple[int, int]:
     try:
-        i, j = (int(v) for v in pair)
+        raw = np.asarray(pair, dtype=float)
     except (TypeError, ValueError):
-        raise InvalidInput("invalid_pair", f"{name} must be two node indices.")
+        raw = np.zeros(0)
+    if raw.shape != (2,) or not np.all(raw == np.round(raw)):
+        raise InvalidInput("invalid_pair", f"{name} must be two integer node indices.")
+    i, j = (int(v) for v in raw)
     n = frame.n_nodes
     if not (0 <= i < n and 0 <= j < n):
         raise InvalidInput("invalid_pair", f"{name} {[i, j]} names a node outside 0..{n - 1}.")
@@ -249,8 +257,10 @@ def prune_for_allostery(
             break
         iterations += 1
         d, kb = net.redundancy[candidates], k[candidates]
-        eta_b = (l_s / l_t) * (g_ts + kb * g_t[candidates] * g_s[candidates] / d) / (
-            g_ss + kb * g_s[candidates] ** 2 / d
+        eta_b = (
+            (l_s / l_t)
+            * (g_ts + kb * g_t[candidates] * g_s[candidates] / d)
+            / (g_ss + kb * g_s[candidates] ** 2 / d)
         )
         score = np.abs(eta_b - ratio)
         if not score.min() < error:

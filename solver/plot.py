@@ -4,11 +4,13 @@ The colours follow the paper's figures (Figs. 1f, 2, 3, 5): specified nodes V_S 
 nodes V_U blue, bars grey, requested motions u_S as hollow green arrows, designed zero modes as
 solid green arrows (light to dark green for several modes), and the solution space of an
 unspecified node joined to every specified node (Eqs. 4–6) in light blue — a curve for a conic
-(m = dim N(Ã) = 2), a point cloud for a quadric surface (m ≥ 3), dots for isolated points
-(m ≤ 1).
+(m = dim N(Ã) = 2), a wireframe for a quadric surface in 3D (m = 3), a point cloud for position
+sets that fill a region, dots for isolated points (m ≤ 1).  With several motions the solution
+spaces go from light to dark blue, as in the paper's Fig. 5.
 
-3D frames are drawn in a fixed orthographic view (a slightly rotated isometric view) with depth
-cues: farther nodes, bars and arrows are lighter and thinner.  Arrows share one length scale,
+3D frames are drawn in a fixed orthographic view — azimuth −60°, elevation 25°: the isometric
+view from the (1, −1, 1) octant turned by 15° and lowered by 10° — with depth cues: farther
+nodes, bars and arrows are lighter and smaller.  Arrows share one length scale,
 so a designed mode and the motion it was asked to realise coincide on the specified nodes; the
 longest arrow is 20 % of the frame's size (capped at 1.2 bar lengths so lattices stay legible).
 
@@ -19,6 +21,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import lru_cache
 from xml.sax.saxutils import escape
 
 import numpy as np
@@ -66,7 +69,7 @@ class Window:
         axes = np.eye(x.shape[1]) if axes is None else axes
         y = x @ axes.T
         lo, hi = y.min(axis=0), y.max(axis=0)
-        side = max(float(np.max((hi - lo)[:2])), float(np.max(np.abs(y))), 1e-300)
+        side = max(float(np.max((hi - lo)[:2])), float(np.max(np.abs(y)))) or 1.0
         grow = np.full(x.shape[1], WINDOW_GROWTH * side)
         grow[2:] = DEPTH_GROWTH * side
         return cls(axes, lo - grow, hi + grow)
@@ -212,25 +215,24 @@ def _trace_conic(space: SolutionSpace, conic: np.ndarray, to_alpha, window: Wind
 def _stitch(pieces: list[np.ndarray], tol: float) -> tuple[np.ndarray, ...]:
     """Join polylines whose ends meet (arcs of one branch split at a tangency or a sweep seam)."""
     pieces = list(pieces)
-    merged = True
-    while merged:
-        merged = False
-        for i in range(len(pieces)):
-            for j in range(len(pieces)):
-                if i == j:
-                    continue
-                a, b = pieces[i], pieces[j]
-                for a2, b2 in ((a, b), (a, b[::-1]), (a[::-1], b), (a[::-1], b[::-1])):
-                    if np.linalg.norm(a2[-1] - b2[0]) <= tol:
-                        pieces[i] = np.vstack([a2, b2])
-                        del pieces[j]
-                        merged = True
-                        break
-                if merged:
-                    break
-            if merged:
+    i = 0
+    while i < len(pieces):
+        for j in range(i + 1, len(pieces)):
+            joined = _join(pieces[i], pieces[j], tol)
+            if joined is not None:
+                pieces[i] = joined
+                del pieces[j]
                 break
+        else:
+            i += 1
     return tuple(pieces)
+
+
+def _join(a: np.ndarray, b: np.ndarray, tol: float) -> np.ndarray | None:
+    for a2, b2 in ((a, b), (a, b[::-1]), (a[::-1], b), (a[::-1], b[::-1])):
+        if np.linalg.norm(a2[-1] - b2[0]) <= tol:
+            return np.vstack([a2, b2])
+    return None
 
 
 # --------------------------------------------------------------------------------------------
@@ -253,8 +255,14 @@ def _project(x: np.ndarray, basis: np.ndarray | None) -> tuple[np.ndarray, np.nd
 
 
 def _mix_white(colour: str, f: float) -> str:
+    """colour mixed with a fraction f ∈ [0, 1] of white (in steps of 1/128: a few distinct strings)."""
+    return _mixed(colour, int(round(128 * min(max(float(f), 0.0), 1.0))))
+
+
+@lru_cache(maxsize=4096)
+def _mixed(colour: str, step: int) -> str:
     rgb = [int(colour[i : i + 2], 16) for i in (1, 3, 5)]
-    return "#" + "".join(f"{round(c + (255 - c) * min(max(f, 0.0), 1.0)):02x}" for c in rgb)
+    return "#" + "".join(f"{round(c + (255 - c) * step / 128):02x}" for c in rgb)
 
 
 def _ramp(light: str, dark: str, n: int, single: str) -> list[str]:
@@ -267,7 +275,7 @@ def _ramp(light: str, dark: str, n: int, single: str) -> list[str]:
 
 
 def _f(v: float) -> str:
-    return f"{v:.1f}".rstrip("0").rstrip(".") if abs(v) < 1e6 else f"{v:.0f}"
+    return f"{v:.1f}"
 
 
 def _points_attr(p: np.ndarray) -> str:
@@ -317,7 +325,8 @@ def render_svg(
 
     Elements carry classes for machines: ``node specified|unspecified`` (circle), ``bar``
     (line), ``arrow mode|target`` (polygon), ``solution`` (polyline or circle), ``marker
-    source|target`` (polygon), ``legend`` (anything in the legend).
+    source|target`` (polygon), ``legend`` (anything in the legend); nodes, arrows and markers
+    name their node in ``data-node``, bars their index in ``data-edge``.
     """
     x = np.asarray(positions, dtype=float)
     n_nodes, d = x.shape
@@ -332,15 +341,18 @@ def render_svg(
     # One map from data to screen for every panel: unit-scaled first so that no coordinate can
     # overflow, then projected; arrows share one length scale.
     panels = [x] + [np.asarray(c, dtype=float) for c in configurations]
-    unit = max(max(float(np.max(np.abs(p))) for p in panels), 1e-300)
+    unit = max(float(np.max(np.abs(p))) for p in panels) or 1.0
     screen = [_project(p / unit, basis) for p in panels]
-    size = max(max(float(np.max(np.ptp(s, axis=0))) for s, _ in screen), 1e-12)
-    bar_len = np.median(np.linalg.norm(screen[0][0][e[:, 0]] - screen[0][0][e[:, 1]], axis=1)) if len(e) else size
-    arrows_3d = np.concatenate([modes.reshape(-1, d), targets.reshape(-1, d)]) / unit
-    longest = float(np.max(np.linalg.norm(arrows_3d, axis=1), initial=0.0))
-    arrow_scale = min(ARROW_FRACTION * size, ARROW_BARS * bar_len) / longest if longest > 0 else 0.0
-    mode_vec = [_project(m / unit * arrow_scale, basis)[0] for m in modes]
-    target_vec = [_project(t / unit * arrow_scale, basis)[0] for t in targets]
+    # Unit-scaled coordinates are O(1): a smaller size means a single point (or one spot).
+    size = max(float(np.max(np.ptp(s, axis=0))) for s, _ in screen)
+    size = size if size > 1e-9 else 1.0
+    bar_len = float(np.median(np.linalg.norm(x[e[:, 0]] / unit - x[e[:, 1]] / unit, axis=1))) if len(e) else size
+    arrows = np.concatenate([modes.reshape(-1, d), targets.reshape(-1, d)])
+    amax = float(np.max(np.abs(arrows), initial=0.0)) or 1.0  # arrows have their own units
+    longest = float(np.max(np.linalg.norm(arrows / amax, axis=1), initial=0.0))
+    arrow_scale = min(ARROW_FRACTION * size, ARROW_BARS * bar_len) / longest / amax if longest > 0 else 0.0
+    mode_vec = [_project(m * arrow_scale, basis)[0] for m in modes]
+    target_vec = [_project(t * arrow_scale, basis)[0] for t in targets]
     depth_all = np.concatenate([dp for _, dp in screen])
     d_lo, d_span = float(depth_all.min()), float(np.ptp(depth_all)) or 1.0
 
@@ -350,9 +362,13 @@ def render_svg(
         pts = [s] + ([s + v for v in mode_vec] + [s[spec] + v for v in target_vec] if k == 0 else [])
         allp = np.concatenate(pts)
         boxes.append((allp.min(axis=0), allp.max(axis=0)))
-    extent = max(max(float(np.max(hi - lo)) for lo, hi in boxes), 1e-12)
+    extent = max(max(float(np.max(hi - lo)) for lo, hi in boxes), 0.3 * size)
+    # A flat frame (collinear nodes, a single node) still gets a panel of sensible proportions.
+    boxes = [(np.minimum(lo, 0.5 * (lo + hi) - 0.15 * extent), np.maximum(hi, 0.5 * (lo + hi) + 0.15 * extent))
+             for lo, hi in boxes]
     px = PANEL_PX / extent  # pixels per unit
-    radius = float(np.clip(0.11 * bar_len * px, 1.6, 6.5)) if len(e) else float(np.clip(PANEL_PX / (3 * np.sqrt(n_nodes)), 1.6, 6.5))
+    spacing = bar_len * px if len(e) else PANEL_PX / (3 * np.sqrt(n_nodes))
+    radius = float(np.clip(0.11 * spacing if len(e) else spacing, 1.6, 6.5))
     bar_w = float(np.clip(0.42 * radius, 0.6, 2.4))
     shaft = max(0.9, 0.3 * radius)
     head_w, head_l = max(3.6, 0.95 * radius), max(8.0, 2.0 * radius)
@@ -369,14 +385,16 @@ def render_svg(
     target_colours = _ramp(GREEN_LIGHT, GREEN_DARK, max(len(targets), 1), GREEN)
     space_colours = _ramp(BLUE_LIGHT, BLUE_DARK, max(len(solution), 1), BLUE_LIGHT)
     legend, legend_h = _legend(
-        is_spec, modes, targets, solution, mode_colours, target_colours, space_colours,
+        is_spec, len(e) > 0, modes, targets, solution, mode_colours, target_colours, space_colours,
         bool(len(source)), bool(len(target_nodes)), width, top + panel_h + 6.0,
     )
     height = top + panel_h + legend_h + 8.0
 
     out = [
-        f'<svg xmlns="http://www.w3.org/2000/svg" width="{_f(width)}" height="{_f(height)}" '
-        f'viewBox="0 0 {_f(width)} {_f(height)}" font-family="Helvetica, Arial, sans-serif">',
+        (
+            f'<svg xmlns="http://www.w3.org/2000/svg" width="{_f(width)}" height="{_f(height)}" '
+            f'viewBox="0 0 {_f(width)} {_f(height)}" font-family="Helvetica, Arial, sans-serif">'
+        ),
         f'<rect width="{_f(width)}" height="{_f(height)}" fill="#ffffff"/>',
     ]
     if title:
@@ -387,8 +405,10 @@ def render_svg(
         w, h = widths[k], heights[k]
         y0 = top + (panel_h - h) / 2
         # Data (screen units, y up) → pixels (y down) inside this panel.
-        to_px = lambda p, lo=lo, hi=hi, left=left, y0=y0: np.column_stack(  # noqa: E731
-            [left + PAD_PX + (p[:, 0] - lo[0]) * px, y0 + PAD_PX + (hi[1] - p[:, 1]) * px]
+        # Clipped far outside the picture so that every coordinate written is a plain number.
+        to_px = lambda p, lo=lo, hi=hi, left=left, y0=y0: np.clip(
+            np.column_stack([left + PAD_PX + (p[:, 0] - lo[0]) * px, y0 + PAD_PX + (hi[1] - p[:, 1]) * px]),
+            -1e5, 1e5,
         )
         fade = np.clip((depth - d_lo) / d_span, 0, 1) if basis is not None else np.zeros(n_nodes)
         clip_lo = left - GAP_PX / 2 if k else 0.0
@@ -411,9 +431,9 @@ def render_svg(
         if k == 0:
             for t, colour in zip(target_vec, target_colours):
                 out += _arrow_layer(p[spec], t * np.array([px, -px]), fade[spec], colour,
-                                    shaft + 2.2, head_w + 3.0, head_l + 3.5, hollow=True)
+                                    shaft + 2.2, head_w + 3.0, head_l + 3.5, True, spec)
             for m, colour in zip(mode_vec, mode_colours):
-                out += _arrow_layer(p, m * np.array([px, -px]), fade, colour, shaft, head_w, head_l, hollow=False)
+                out += _arrow_layer(p, m * np.array([px, -px]), fade, colour, shaft, head_w, head_l, False, range(n_nodes))
         out += _node_layer(p, is_spec, fade, radius)
         out += _marker_layer(p, source, target_nodes, fade, radius)
         out.append("</g>")
@@ -466,7 +486,7 @@ def _solution_layer(solution, colours, unit, basis, to_px, d_lo, d_span, radius,
 def _bar_layer(p, e, fade, width) -> list[str]:
     bar_fade = 0.5 * (fade[e[:, 0]] + fade[e[:, 1]]) if len(e) else np.zeros(0)
     return [
-        f'<line class="bar" x1="{_f(p[i, 0])}" y1="{_f(p[i, 1])}" x2="{_f(p[j, 0])}" y2="{_f(p[j, 1])}" '
+        f'<line class="bar" data-edge="{b}" x1="{_f(p[i, 0])}" y1="{_f(p[i, 1])}" x2="{_f(p[j, 0])}" y2="{_f(p[j, 1])}" '
         f'stroke="{_mix_white(BAR, DEPTH_FADE * bar_fade[b])}" stroke-width="{_f(width * (1 - DEPTH_SHRINK * bar_fade[b]))}" '
         f'stroke-linecap="round"/>'
         for b in _order(bar_fade)
@@ -474,7 +494,7 @@ def _bar_layer(p, e, fade, width) -> list[str]:
     ]
 
 
-def _arrow_layer(p, vec, fade, colour, shaft, head_w, head_l, hollow: bool) -> list[str]:
+def _arrow_layer(p, vec, fade, colour, shaft, head_w, head_l, hollow: bool, node_ids) -> list[str]:
     out = []
     for i in _order(fade):
         if np.hypot(*vec[i]) < 2.0:  # shorter than a pixel or two: nothing to see
@@ -490,7 +510,7 @@ def _arrow_layer(p, vec, fade, colour, shaft, head_w, head_l, hollow: bool) -> l
             poly = _arrow_polygon(p[i], vec[i], shaft * shrink, head_w * shrink, head_l * shrink)
             style = f'fill="{c}"'
             kind = "mode"
-        out.append(f'<polygon class="arrow {kind}" points="{_points_attr(poly)}" {style}/>')
+        out.append(f'<polygon class="arrow {kind}" data-node="{node_ids[i]}" points="{_points_attr(poly)}" {style}/>')
     return out
 
 
@@ -500,7 +520,7 @@ def _node_layer(p, is_spec, fade, radius) -> list[str]:
         fill, line = SPECIFIED if is_spec[i] else UNSPECIFIED
         f = DEPTH_FADE * fade[i]
         out.append(
-            f'<circle class="node {"specified" if is_spec[i] else "unspecified"}" cx="{_f(p[i, 0])}" '
+            f'<circle class="node {"specified" if is_spec[i] else "unspecified"}" data-node="{i}" cx="{_f(p[i, 0])}" '
             f'cy="{_f(p[i, 1])}" r="{_f(radius * (1 - DEPTH_SHRINK * fade[i]))}" fill="{_mix_white(fill, f)}" '
             f'stroke="{_mix_white(line, f)}" stroke-width="{_f(max(0.6, 0.18 * radius))}"/>'
         )
@@ -519,13 +539,13 @@ def _marker_layer(p, source, target_nodes, fade, radius) -> list[str]:
         for i in nodes:
             poly = _marker_shape(p[i], 1.75 * radius * (1 - DEPTH_SHRINK * fade[i]), kind)
             out.append(
-                f'<polygon class="marker {kind}" points="{_points_attr(poly)}" fill="none" '
+                f'<polygon class="marker {kind}" data-node="{i}" points="{_points_attr(poly)}" fill="none" '
                 f'stroke="{colour}" stroke-width="{_f(max(1.2, 0.3 * radius))}"/>'
             )
     return out
 
 
-def _legend(is_spec, modes, targets, solution, mode_colours, target_colours, space_colours,
+def _legend(is_spec, has_bars, modes, targets, solution, mode_colours, target_colours, space_colours,
             has_source, has_target, width, y0) -> tuple[list[str], float]:
     """Legend items present in the picture, wrapped into rows: (SVG lines, height)."""
     items: list[tuple[str, str]] = []  # (marker SVG at origin, text)
@@ -533,7 +553,8 @@ def _legend(is_spec, modes, targets, solution, mode_colours, target_colours, spa
         items.append((f'<circle r="5" fill="{SPECIFIED[0]}" stroke="{SPECIFIED[1]}"/>', "specified node"))
     if (~is_spec).any():
         items.append((f'<circle r="5" fill="{UNSPECIFIED[0]}" stroke="{UNSPECIFIED[1]}"/>', "unspecified node"))
-    items.append((f'<line x1="-9" x2="9" stroke="{BAR}" stroke-width="2"/>', "bar"))
+    if has_bars:
+        items.append((f'<line x1="-9" x2="9" stroke="{BAR}" stroke-width="2"/>', "bar"))
     many = len(targets) > 1 or len(modes) > 1
     for i, c in enumerate(target_colours[: len(targets)]):
         poly = _arrow_polygon(np.array([-9.0, 0.0]), np.array([19.0, 0.0]), 3.1, 6.6, 10.0)
@@ -547,6 +568,8 @@ def _legend(is_spec, modes, targets, solution, mode_colours, target_colours, spa
         marker = (f'<line x1="-9" x2="9" stroke="{c}" stroke-width="2.6"/>' if drawing.curves
                   else f'<g fill="{c}"><circle cx="-6" r="2"/><circle r="2"/><circle cx="6" r="2"/></g>')
         name = "solution space" + (f" {i + 1}" if len(solution) > 1 else "")
+        if not drawing.curves and not len(drawing.points):
+            name += " (empty)"
         items.append((marker, name))
     if has_source:
         items.append((f'<polygon points="{_points_attr(_marker_shape(np.zeros(2), 6.0, "source"))}" fill="none" stroke="{SOURCE}" stroke-width="1.6"/>', "source"))
@@ -605,6 +628,8 @@ def figure_svg(
     target_arr = _stack(targets, k, d, "targets", "the specified nodes")
     configs = _stack(configurations, n, d, "configurations", "the frame's nodes")
     for name, nodes in (("source", source), ("target_nodes", target_nodes)):
+        if not all(isinstance(i, (int, np.integer)) and not isinstance(i, bool) for i in nodes):
+            raise InvalidInput("invalid_nodes", f"{name} must be a list of integer node indices.")
         bad = [i for i in nodes if not 0 <= i < n]
         if bad:
             raise InvalidInput("invalid_nodes", f"{name} names node {bad[0]}, outside 0..{n - 1}.")
@@ -645,7 +670,7 @@ def _stack(arrays, rows: int, d: int, name: str, what: str) -> np.ndarray:
         return np.zeros((0, rows, d))
     out = []
     for i, a in enumerate(arrays):
-        a = check_positions(a, d, f"{name}[{i}]") if len(a) else np.zeros((0, d))
+        a = check_positions(a, d, f"{name}[{i}]")
         if len(a) != rows:
             raise InvalidInput("invalid_shape", f"{name}[{i}] has {len(a)} rows; it needs one per node of {what} ({rows}).")
         out.append(a)

@@ -224,19 +224,23 @@ def refine(
     iterations = int(stats.get("iter_count", -1))
     configs = unpack(np.asarray(sol["x"]).ravel())  # (K+1, N, d) normalised
     path = centre + radius * configs
+    # The ends' specified rows are constants of the NLP: restore them without round-off.
+    path[0, spec] = frame.positions[spec]
+    path[-1, spec] = frame.positions[spec] + delta
     lengths = bar_lengths(path[0], frame.edges)
     bar_error = max(relative_bar_error(p, frame.edges, lengths) for p in path[1:])
 
-    refined = Frame.build(path[0], frame.edges, frame.specified, dim=d)
     problems = []
     if status not in IPOPT_SUCCESS:
         problems.append(f"IPOPT stopped with status {status} after {iterations} iterations")
+    refined = frame
     an_ref = an_end = None
     eps_after = np.inf
     try:
+        refined = Frame.build(path[0], frame.edges, frame.specified, dim=d)
         an_ref = analyze(refined)
         an_end = analyze(Frame.build(path[-1], frame.edges, frame.specified, dim=d))
-    except DomainError as exc:  # e.g. two joined nodes collapsed onto each other
+    except DomainError as exc:  # a diverged iterate, or two joined nodes collapsed onto each other
         problems.append(f"the refined frame is invalid ({exc.message})")
     if an_ref is not None and an_end is not None:
         for name, an in (("reference", an_ref), ("final configuration", an_end)):
@@ -249,7 +253,7 @@ def refine(
     ok = not problems and eps_after <= fid_before.epsilon
     if not problems and not ok:
         problems.append(f"ε after ({eps_after:.3g}) is not below ε before ({fid_before.epsilon:.3g})")
-    keep_refined = eps_after <= fid_before.epsilon
+    keep_refined = eps_after < fid_before.epsilon
     result = Refinement(
         frame=refined if keep_refined else frame,
         displacement=delta,

@@ -82,6 +82,14 @@ def rigid_motions(positions: np.ndarray, rtol: float = RTOL) -> np.ndarray:
     return orthonormal_range(np.column_stack(generators), rtol)
 
 
+def zero_mode_residual(frame: Frame, mode: np.ndarray) -> float:
+    """‖C u‖ / (‖C‖_F ‖u‖) with C of the normalised frame: 0 for an exact zero mode u (N, d)."""
+    c = compatibility_matrix(frame.normalised_positions(), frame.edges)
+    if c.shape[0] == 0:
+        return 0.0
+    return float(np.linalg.norm(c @ mode.ravel()) / (spla.norm(c) * max(np.linalg.norm(mode), 1e-300)))
+
+
 @dataclass(frozen=True, eq=False)
 class Analysis:
     """The counts and bases of /v1/analyze for one frame.

@@ -28,7 +28,7 @@ from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import check_positions, rms_radius
 from zeromode.solver.rank import RTOL, decide_rank
 
-KINDS = {1: "points", 2: "conic", 3: "quadric_surface"}
+KINDS = {0: "points", 1: "points", 2: "conic", 3: "quadric_surface"}
 # A sample (x_U, u_U) is a solution when every normalised bar constraint is below this.
 CONSTRAINT_ATOL = 1e-9
 
@@ -103,7 +103,8 @@ class SolutionSpace:
 
     @property
     def dimension(self) -> int:
-        return self.nullity - 1
+        """m − 1; a consistent m = 0 system is the single point ṽ* (dimension 0)."""
+        return max(self.nullity - 1, 0)
 
     @property
     def kind(self) -> str:
@@ -194,7 +195,7 @@ def solution_space(positions, motions, dim: int | None = None, rtol: float = RTO
     v_n = vt[:rank].T @ ((uu[:, :rank].T @ b_n) / s[:rank])
     w_tilde_n = np.column_stack([w_n, v_n])
     w_tilde = _original_basis(x, u, rank)
-    return SolutionSpace(
+    space = SolutionSpace(
         dim=d,
         positions=x,
         motions=u,
@@ -205,6 +206,13 @@ def solution_space(positions, motions, dim: int | None = None, rtol: float = RTO
         quadric_n=quadric_matrix(w_tilde_n, d),
         norm=norm,
     )
+    if space.nullity == 0 and not len(space.sample(1, np.random.default_rng(0))[0]):
+        raise DomainError(
+            "no_solution",
+            "no unspecified node can join all specified nodes: Ã ṽ = b has the single solution "
+            "ṽ* = Ã⁺b, and it violates c = x_U·u_U.",
+        )
+    return space
 
 
 def _original_basis(x: np.ndarray, u: np.ndarray, rank: int) -> np.ndarray:

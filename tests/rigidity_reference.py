@@ -61,7 +61,7 @@ def span(matrix: np.ndarray, rtol: float = REFERENCE_RTOL) -> np.ndarray:
     """Orthonormal basis (columns) of the column space."""
     if matrix.size == 0:
         return np.zeros((matrix.shape[0], 0))
-    u, s, _ = np.linalg.svd(matrix, full_matrices=False)
+    u, _, _ = np.linalg.svd(matrix, full_matrices=False)
     return u[:, : numerical_rank(matrix, rtol)]
 
 
@@ -108,11 +108,12 @@ def relative_residual(matrix: np.ndarray, vectors: np.ndarray) -> float:
 def random_frame(rng: np.random.Generator, dim: int, n: int, n_edges: int, lattice: bool = False):
     """Positions (n × dim) and n_edges distinct edges drawn uniformly among all pairs.
 
-    lattice=True puts the nodes on distinct points of a small integer grid, which produces
+    lattice=True puts the nodes on distinct points of a small integer grid (side ≥ 4), which produces
     exact degeneracies (collinear and coplanar subsets) on purpose.
     """
     if lattice:
-        grid = np.array(list(itertools.product(range(4), repeat=dim)), dtype=float)
+        side = max(4, int(np.ceil(n ** (1 / dim))) + 1)
+        grid = np.array(list(itertools.product(range(side), repeat=dim)), dtype=float)
         positions = grid[rng.choice(len(grid), size=n, replace=False)]
     else:
         positions = rng.standard_normal((n, dim))

@@ -9,7 +9,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import pytest
-
 from rigidity_reference import (
     as_columns,
     compatibility_matrix,
@@ -187,7 +186,9 @@ def test_chain_modes_are_transverse_flexes_of_the_middle_node():
             u[1] = direction
             expected.append(perpendicular_to_rigid(u, k.positions))
         got = as_columns(modes)
-        np.testing.assert_allclose(projector(got), projector(span(np.column_stack(expected))), atol=1e-12)
+        np.testing.assert_allclose(
+            projector(got), projector(span(np.column_stack(expected))), atol=1e-12
+        )
 
 
 def test_disconnected_triangles_move_rigidly_relative_to_each_other():

@@ -14,7 +14,6 @@ import pytest
 from fastapi.testclient import TestClient
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-
 from rigidity_reference import as_columns, compatibility_matrix, relative_residual, rigid_generators
 from zeromode.service.app import create_app
 from zeromode.service.settings import SETTINGS, Settings
@@ -162,7 +161,12 @@ def test_options_choose_the_route(client):
 def test_optional_fields_default(client):
     # edges and specified are optional; no edges means every coordinate is a zero mode.
     body = ok(analyze(client, {"dim": 3, "positions": [[0, 0, 0], [1, 2, 3]]}))
-    assert (body["edges"], body["rank"], body["zero_modes"], body["rigid_body_modes"]) == (0, 0, 6, 5)
+    assert (body["edges"], body["rank"], body["zero_modes"], body["rigid_body_modes"]) == (
+        0,
+        0,
+        6,
+        5,
+    )
     assert body["rank_gap"] == {"last_nonzero": 0.0, "first_zero": 0.0}
 
 
@@ -252,7 +256,9 @@ def test_bad_request_bodies(client, body):
 
 @pytest.mark.parametrize("token", ["NaN", "Infinity", "-Infinity", "1e400"])
 def test_raw_json_non_finite_numbers(client, token):
-    raw = '{"frame": {"dim": 2, "positions": [[0, 0], [1, %s], [0, 1]], "edges": [[0, 1]]}}' % token
+    raw = (
+        f'{{"frame": {{"dim": 2, "positions": [[0, 0], [1, {token}], [0, 1]], "edges": [[0, 1]]}}}}'
+    )
     response = client.post("/v1/analyze", content=raw, headers={"content-type": "application/json"})
     detail = refused(response, 422, "invalid_request")
     assert "frame.positions.1.1" in detail["message"] and "finite" in detail["message"]
@@ -273,7 +279,9 @@ def test_body_too_large():
         # The same body sent in chunks has no Content-Length, so it cannot slip past the limit.
         body = json.dumps({"frame": frame}).encode()
         chunks = (body[k : k + 500] for k in range(0, len(body), 500))
-        response = c.post("/v1/analyze", content=chunks, headers={"content-type": "application/json"})
+        response = c.post(
+            "/v1/analyze", content=chunks, headers={"content-type": "application/json"}
+        )
         assert 400 <= response.status_code < 500
         refused(response, response.status_code)
         assert ok(c.post("/v1/analyze", json={"frame": TRIANGLE}))["rank"] == 3
@@ -309,24 +317,35 @@ JSON_SCALARS = (
     | st.text(max_size=3)
 )
 JSON_VALUES = st.recursive(
-    JSON_SCALARS, lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=3), inner, max_size=3), max_leaves=12
+    JSON_SCALARS,
+    lambda inner: (
+        st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=3), inner, max_size=3)
+    ),
+    max_leaves=12,
 )
 SMALL_INTS = st.integers(-2, 6)
 FRAMES = st.fixed_dictionaries(
     {
         "dim": st.sampled_from([2, 3]) | JSON_SCALARS,
         "positions": st.lists(
-            st.lists(st.sampled_from([0.0, 1.0, -1.0, 2.5, 1e-300, 1e300]) | JSON_SCALARS, min_size=1, max_size=4),
+            st.lists(
+                st.sampled_from([0.0, 1.0, -1.0, 2.5, 1e-300, 1e300]) | JSON_SCALARS,
+                min_size=1,
+                max_size=4,
+            ),
             max_size=6,
         )
         | JSON_VALUES,
-        "edges": st.lists(st.lists(SMALL_INTS | JSON_SCALARS, min_size=0, max_size=3), max_size=8) | JSON_VALUES,
+        "edges": st.lists(st.lists(SMALL_INTS | JSON_SCALARS, min_size=0, max_size=3), max_size=8)
+        | JSON_VALUES,
     },
     optional={"specified": st.lists(SMALL_INTS, max_size=4) | JSON_VALUES},
 )
 
 
-@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(
+    max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
 @given(st.one_of(FRAMES.map(lambda f: {"frame": f}), JSON_VALUES))
 def test_no_request_gives_a_5xx(client, body):
     response = client.post("/v1/analyze", json=body)

@@ -4,7 +4,6 @@ import math
 
 import numpy as np
 import pytest
-
 from zeromode.solver.errors import InvalidInput
 from zeromode.solver.frame import Frame
 

@@ -13,6 +13,8 @@ import sys
 import threading
 import time
 from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from pathlib import Path
 
 import httpx
 import pytest
@@ -64,34 +66,34 @@ def service_url() -> Iterator[str]:
         sock.close()
 
 
-@pytest.fixture(scope="session")
-def keyed_service_url(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
-    """The app started with ZEROMODE_API_KEY set: settings are read at import, hence a subprocess."""
+@dataclass(frozen=True)
+class KeyedService:
+    url: str
+    proc: subprocess.Popen[bytes]
+    log_path: Path
+
+
+@pytest.fixture(scope="session", autouse=True)
+def keyed_service(tmp_path_factory: pytest.TempPathFactory) -> Iterator[KeyedService]:
+    """The app started with ZEROMODE_API_KEY set: settings are read at import, hence a subprocess.
+
+    Started as soon as the session starts, without waiting: its import (numpy, scipy, cvxpy,
+    casadi) then overlaps the other tests instead of adding to the folder's run time.
+    """
     with loopback_socket() as sock:
         port = sock.getsockname()[1]
-    url = f"http://127.0.0.1:{port}"
     log_path = tmp_path_factory.mktemp("keyed") / "uvicorn.log"
+    command = [sys.executable, "-m", "uvicorn", "zeromode.service.app:app"]
+    options = ["--host", "127.0.0.1", "--port", str(port), "--log-level", "warning"]
     with open(log_path, "w") as log:
         proc = subprocess.Popen(
-            [
-                sys.executable,
-                "-m",
-                "uvicorn",
-                "zeromode.service.app:app",
-                "--host",
-                "127.0.0.1",
-                "--port",
-                str(port),
-                "--log-level",
-                "warning",
-            ],
+            command + options,
             env={**os.environ, "ZEROMODE_API_KEY": API_KEY},
             stdout=log,
             stderr=subprocess.STDOUT,
         )
     try:
-        wait_for_health(url, lambda: proc.poll() is None, log_path.read_text)
-        yield url
+        yield KeyedService(f"http://127.0.0.1:{port}", proc, log_path)
     finally:
         proc.terminate()
         try:
@@ -99,6 +101,16 @@ def keyed_service_url(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]
         except subprocess.TimeoutExpired:
             proc.kill()
             proc.wait()
+
+
+@pytest.fixture(scope="session")
+def keyed_service_url(keyed_service: KeyedService) -> str:
+    wait_for_health(
+        keyed_service.url,
+        lambda: keyed_service.proc.poll() is None,
+        keyed_service.log_path.read_text,
+    )
+    return keyed_service.url
 
 
 @pytest.fixture(scope="session")

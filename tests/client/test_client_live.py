@@ -209,13 +209,41 @@ def test_frame_endpoints_reject_a_bad_frame(client: Client, require, method: str
     assert info.value.status == 422 and info.value.code and info.value.message
 
 
-def test_motion_path_starts_at_the_frame(client: Client, require) -> None:
+def bar_lengths(positions: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    return np.linalg.norm(positions[edges[:, 0]] - positions[edges[:, 1]], axis=1)
+
+
+def max_relative_bar_change(path: np.ndarray, frame: Frame) -> float:
+    lengths = bar_lengths(frame.positions, frame.edges)
+    return max(float(np.max(np.abs(bar_lengths(x, frame.edges) - lengths) / lengths)) for x in path)
+
+
+def test_motion_follows_the_square_mechanism(client: Client, require) -> None:
+    """The 4-bar square moves as a rhombus: every bar keeps its length along the whole path."""
     require("/v1/motion")
     mode = client.analyze(SQUARE).modes[0]
-    result = client.motion(SQUARE, mode=mode, steps=8)
-    path = result.array("path")
-    assert path.ndim == 3 and path.shape[1:] == (4, 2)
-    np.testing.assert_allclose(path[0], SQUARE.positions, atol=1e-9)
+    result = client.motion(SQUARE, mode=mode, amplitude=0.2)
+    path, ref = result.array("path"), result["reference_index"]
+    assert path.ndim == 3 and path.shape[1:] == (4, 2) and len(path) >= 3
+    np.testing.assert_allclose(path[ref], SQUARE.positions, atol=1e-12)
+    assert result["parameter"][ref] == 0
+    assert np.abs(path - SQUARE.positions).max() > 0.05  # it really moved
+    assert max_relative_bar_change(path, SQUARE) < 1e-8
+    assert result["max_relative_bar_error"] < 1e-8
+
+
+def test_refine_keeps_the_specified_nodes_and_improves_fidelity(client: Client, require) -> None:
+    require("/v1/refine")
+    x_s = np.array([[1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0], [1.0, -1.0]])
+    u_s = x_s * [1.0, 2.0]
+    designed = client.design(x_s, u_s, seed=0).frame
+    result = client.refine(designed, motion=u_s, amplitude=0.1, options={"K": 4})
+    refined = result.frame
+    assert refined is not None
+    np.testing.assert_array_equal(refined.positions[:4], x_s)
+    np.testing.assert_array_equal(refined.edges, designed.edges)
+    assert result["epsilon_after"] < result["epsilon_before"]
+    assert max_relative_bar_change(result.array("path"), refined) < 1e-6
 
 
 def test_auxetic_design_has_negative_poisson_ratio(client: Client, require) -> None:

@@ -1,0 +1,102 @@
+"""POST /v1/motion — finite motion along a zero mode; POST /v1/refine — IPOPT refinement."""
+
+from __future__ import annotations
+
+import math
+import time
+
+from fastapi import APIRouter
+from fastapi.responses import JSONResponse
+
+from zeromode.service.convert import frame_from_model
+from zeromode.service.errors import error_body
+from zeromode.service.schemas.common import ERROR_RESPONSES
+from zeromode.service.schemas.motion import (
+    MotionErrorResponse,
+    MotionRequest,
+    MotionResponse,
+    RefineRequest,
+    RefineResponse,
+)
+from zeromode.solver.finite_motion import SingularPath, trace_motion
+from zeromode.solver.refine import RefinementFailed, refine
+
+router = APIRouter(prefix="/v1", tags=["finite motion"])
+
+RESPONSES = {
+    **ERROR_RESPONSES,
+    422: {
+        "model": MotionErrorResponse,
+        "description": (
+            "Invalid request or domain failure; `singular_path` and `refinement_failed` carry the "
+            "best result found in detail.best."
+        ),
+    },
+}
+
+
+def _json_safe(value):
+    """Non-finite numbers (an IPOPT iterate that diverged) become null: JSON has no NaN."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: _json_safe(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_json_safe(v) for v in value]
+    return value
+
+
+@router.post("/motion", response_model=MotionResponse, responses=RESPONSES)
+def post_motion(request: MotionRequest):
+    """Follow the finite motion of a frame along a zero mode by predictor–corrector continuation.
+
+    Every configuration keeps every bar length (max_relative_bar_error ≤ 1e-9). Singular points
+    (extra zero modes: a branch point, or the frame locks) end the path in their direction and
+    are reported; by default they answer 422 `singular_path` with the path up to them.
+    """
+    t0 = time.perf_counter()
+    frame = frame_from_model(request.frame)
+    path = trace_motion(
+        frame,
+        mode=request.mode,
+        amplitude=request.amplitude,
+        max_step=request.max_step,
+        direction=request.direction,
+        max_steps=request.max_steps,
+    )
+    body = {**path.to_dict(), "timings_ms": {"total": 1e3 * (time.perf_counter() - t0)}}
+    if path.singularities and request.on_singularity == "error":
+        exc = SingularPath(path)
+        return JSONResponse(status_code=422, content=error_body(exc.code, exc.message, best=body))
+    return body
+
+
+@router.post("/refine", response_model=RefineResponse, responses=RESPONSES)
+def post_refine(request: RefineRequest):
+    """Move the unspecified nodes (casadi + IPOPT, exact derivatives) so that the finite motion
+    carries the specified nodes to x_S + Δ_S along a continuous path.
+
+    Reports ε before and after (finite-motion fidelity, measured by continuation), IPOPT's
+    status, iterations and time. The refined frame is re-verified: no new self-stress and one
+    nontrivial zero mode at both ends. Failure answers 422 `refinement_failed` with the best
+    result in detail.best.
+    """
+    frame = frame_from_model(request.frame)
+    opts = request.options
+    try:
+        result = refine(
+            frame,
+            motion_s=request.motion,
+            amplitude=request.amplitude,
+            targets=request.targets,
+            K=opts.K,
+            tol=opts.tol,
+            max_iter=opts.max_iter,
+            max_time_s=opts.max_time_s,
+            stay_on_solution_space=opts.stay_on_solution_space,
+        )
+    except RefinementFailed as exc:
+        return JSONResponse(
+            status_code=422, content=error_body(exc.code, exc.message, best=_json_safe(exc.best.to_dict()))
+        )
+    return result.to_dict()

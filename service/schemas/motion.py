@@ -1,0 +1,153 @@
+"""POST /v1/motion (finite motion along a zero mode) and POST /v1/refine (IPOPT refinement)."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import BaseModel, Field, model_validator
+
+from zeromode.service.schemas.common import AnalysisCounts, ErrorDetail, FrameModel, Points
+from zeromode.service.settings import SETTINGS
+
+FIDELITY = (
+    "Finite-motion fidelity ε(a) = min over path points X(τ) and proper rigid motions R of "
+    "‖R·X_S(τ) − (x_S + Δ_S)‖ / ‖Δ_S‖ (Kabsch alignment), Δ_S the target displacement."
+)
+
+
+class MotionRequest(BaseModel):
+    frame: FrameModel
+    mode: Points | None = Field(
+        default=None,
+        description=(
+            "N×d zero mode to follow (any scale; its rigid part is ignored). Default: the frame's "
+            "single nontrivial zero mode, with its largest entry positive; 422 `ambiguous_mode` if "
+            "the frame has several, `no_motion` if none."
+        ),
+    )
+    amplitude: float = Field(
+        default=0.2,
+        gt=0,
+        le=10,
+        description=(
+            "How far to follow the motion in each direction: pseudo-arclength in units of RMS node "
+            "displacement over the frame's RMS radius (to first order the nodes move by "
+            "amplitude·r·û, û the mode scaled to unit RMS node displacement)."
+        ),
+    )
+    max_step: float = Field(
+        default=0.02, gt=0, le=1, description="Largest continuation step, in the units of `amplitude`."
+    )
+    max_steps: int = Field(
+        default=5000, ge=1, le=20000, description="Step budget per direction (422 `step_limit` past it)."
+    )
+    direction: Literal["both", "forward", "backward"] = Field(
+        default="both", description="Follow +mode, −mode, or both."
+    )
+    on_singularity: Literal["error", "report"] = Field(
+        default="error",
+        description=(
+            "What to do when a singular point (extra zero modes: a branch point, or the frame "
+            "locks) stops the path before the amplitude: 'error' answers 422 `singular_path` with "
+            "the path up to it in detail.best; 'report' answers 200 with status 'singular_path'."
+        ),
+    )
+
+
+class SingularityModel(BaseModel):
+    step: int = Field(description="Index in `path` of the singular configuration.")
+    parameter: float = Field(description="Its path parameter.")
+    extra_zero_modes: int = Field(description="Zero modes of C there beyond those along the path.")
+    sigma: float = Field(description="σ/σ_max of the singular value that vanished (the evidence).")
+    kind: Literal["rank_drop", "stalled"] = Field(
+        description="'rank_drop': located where C loses rank; 'stalled': the corrector failed at the smallest step."
+    )
+
+
+class MotionResponse(BaseModel):
+    path: list[Points] = Field(description="Configurations (N×d each) ordered by `parameter`.")
+    parameter: list[float] = Field(description="Path parameter of each configuration (0 at the input frame).")
+    reference_index: int = Field(description="Index of the input configuration in `path`.")
+    max_relative_bar_error: float = Field(
+        description="max over the path and the bars of | |x_i − x_j| − l | / l (≤ 1e-9)."
+    )
+    singularities: list[SingularityModel] = Field(description="Singular points met (at most one per direction).")
+    status: Literal["ok", "singular_path"]
+    steps: int = Field(description="Number of continuation steps taken (len(path) − 1).")
+    timings_ms: dict[str, float]
+
+
+class RefineOptions(BaseModel):
+    K: int = Field(default=8, ge=1, le=64, description="Configurations after the reference along the path.")
+    tol: float = Field(default=1e-8, gt=0, lt=1, description="IPOPT tol.")
+    max_iter: int = Field(default=500, ge=1, le=10000, description="IPOPT max_iter.")
+    max_time_s: float = Field(
+        default=5.0, gt=0, le=SETTINGS.time_budget_s, description="IPOPT max_cpu_time and max_wall_time."
+    )
+    stay_on_solution_space: bool = Field(
+        default=False,
+        description=(
+            "Also keep u_S an exact infinitesimal zero mode of the refined reference frame (every "
+            "unspecified node stays on the solution-space quadric for u_S)."
+        ),
+    )
+
+
+class RefineRequest(BaseModel):
+    frame: FrameModel = Field(description="A frame with specified nodes and one nontrivial zero mode.")
+    motion: Points | None = Field(
+        default=None,
+        description="u_S (k×d, rows in the order of frame.specified): the direction of the target motion.",
+    )
+    targets: Points | None = Field(
+        default=None,
+        description="Final positions of the specified nodes (k×d), instead of motion + amplitude.",
+    )
+    amplitude: float = Field(
+        default=0.1,
+        gt=0,
+        le=10,
+        description=(
+            "a: with `motion`, the specified nodes are displaced by Δ_S = a·(r_S/ρ_u)·u_S — an RMS "
+            "displacement of a times the RMS radius r_S of the specified positions (ρ_u is the RMS "
+            "of u_S). Ignored with `targets`."
+        ),
+    )
+    options: RefineOptions = Field(default_factory=RefineOptions)
+
+    @model_validator(mode="after")
+    def one_target(self):
+        if (self.motion is None) == (self.targets is None):
+            raise ValueError("give exactly one of `motion` (with `amplitude`) or `targets`")
+        return self
+
+
+class RefineResponse(BaseModel):
+    frame: FrameModel = Field(description="The refined frame (specified nodes unchanged).")
+    displacement: Points = Field(description="Δ_S, the target displacement of the specified nodes (k×d).")
+    amplitude: float = Field(description="a (RMS of Δ_S over the RMS radius of x_S).")
+    epsilon_before: float = Field(description="ε of the input frame. " + FIDELITY)
+    epsilon_after: float = Field(
+        description="ε of the refined frame, measured by continuation from it (independently of IPOPT)."
+    )
+    ipopt_status: str = Field(description="IPOPT's return status.")
+    iterations: int = Field(description="IPOPT iterations.")
+    time_ms: float = Field(description="Whole refinement, including both ε measurements and the re-verification.")
+    ipopt_time_ms: float = Field(description="IPOPT alone.")
+    path: list[Points] = Field(description="IPOPT's K+1 configurations, the refined reference first.")
+    max_relative_bar_error: float = Field(description="Largest relative bar-length error along `path`.")
+    analysis_reference: AnalysisCounts | None = Field(description="Rigidity analysis of the refined frame.")
+    analysis_end: AnalysisCounts | None = Field(description="Rigidity analysis of the final configuration.")
+    status: Literal["ok", "refinement_failed"]
+    message: str
+
+
+class MotionErrorDetail(ErrorDetail):
+    best: MotionResponse | RefineResponse | None = Field(
+        default=None,
+        description="For `singular_path` and `refinement_failed`: the best result found.",
+    )
+
+
+class MotionErrorResponse(BaseModel):
+    detail: MotionErrorDetail

@@ -1,0 +1,158 @@
+"""POST /v1/motion and POST /v1/refine through the real FastAPI app."""
+
+import numpy as np
+import pytest
+from fastapi.testclient import TestClient
+from mechanisms import four_bar, outward_square, parallelogram
+from zeromode.service.app import create_app
+
+
+@pytest.fixture(scope="module")
+def client():
+    return TestClient(create_app())
+
+
+def frame_json(frame):
+    return {
+        "dim": frame.dim,
+        "positions": frame.positions.tolist(),
+        "edges": frame.edges.tolist(),
+        "specified": list(frame.specified),
+    }
+
+
+def relative_bar_error(path, edges, reference):
+    path, edges, reference = np.asarray(path), np.asarray(edges), np.asarray(reference)
+    ref = np.linalg.norm(reference[edges[:, 0]] - reference[edges[:, 1]], axis=1)
+    lengths = np.linalg.norm(path[:, edges[:, 0]] - path[:, edges[:, 1]], axis=2)
+    return float(np.max(np.abs(lengths - ref) / ref))
+
+
+def test_motion_of_a_four_bar(client):
+    frame = four_bar()
+    r = client.post("/v1/motion", json={"frame": frame_json(frame), "amplitude": 0.3, "max_step": 0.05})
+    assert r.status_code == 200
+    body = r.json()
+    assert body["status"] == "ok" and body["singularities"] == []
+    assert len(body["path"]) == len(body["parameter"]) == body["steps"] + 1
+    assert body["parameter"][body["reference_index"]] == 0.0
+    assert body["path"][body["reference_index"]] == frame.positions.tolist()
+    assert body["parameter"][0] == pytest.approx(-0.3) and body["parameter"][-1] == pytest.approx(0.3)
+    assert body["max_relative_bar_error"] <= 1e-9
+    assert relative_bar_error(body["path"], frame.edges, frame.positions) <= 1e-9
+
+
+def test_singular_path_is_a_422_with_the_path_up_to_it(client):
+    request = {"frame": frame_json(parallelogram()), "amplitude": 3.0, "max_step": 0.05}
+    r = client.post("/v1/motion", json=request)
+    assert r.status_code == 422
+    detail = r.json()["detail"]
+    assert detail["code"] == "singular_path"
+    assert "singular point" in detail["message"]
+    best = detail["best"]
+    assert best["status"] == "singular_path"
+    assert [s["extra_zero_modes"] for s in best["singularities"]] == [1, 1]
+    assert {s["step"] for s in best["singularities"]} == {0, len(best["path"]) - 1}
+    assert relative_bar_error(best["path"], parallelogram().edges, parallelogram().positions) <= 1e-9
+    # on_singularity="report": the same answer as a 200.
+    r = client.post("/v1/motion", json={**request, "on_singularity": "report"})
+    assert r.status_code == 200
+    assert r.json()["status"] == "singular_path"
+    assert r.json()["singularities"] == best["singularities"]
+
+
+@pytest.mark.parametrize(
+    "change, code",
+    [
+        ({"mode": [[1.0, 0.0]] * 4}, "rigid_mode"),
+        ({"mode": [[1.0, 0.0]] * 3}, "invalid_shape"),
+        ({"amplitude": 0}, "invalid_request"),
+        ({"amplitude": "NaN"}, "invalid_request"),
+        ({"direction": "sideways"}, "invalid_request"),
+    ],
+)
+def test_motion_rejects_bad_requests(client, change, code):
+    r = client.post("/v1/motion", json={"frame": frame_json(four_bar()), **change})
+    assert r.status_code == 422
+    assert r.json()["detail"]["code"] == code
+
+
+def test_motion_of_an_ambiguous_or_rigid_frame(client):
+    square = {"dim": 2, "positions": [[0, 0], [1, 0], [1, 1], [0, 1], [2, 0.5]],
+              "edges": [[0, 1], [1, 2], [2, 3], [3, 0], [1, 4]]}
+    r = client.post("/v1/motion", json={"frame": square})
+    assert r.status_code == 422 and r.json()["detail"]["code"] == "ambiguous_mode"
+    triangle = {"dim": 2, "positions": [[0, 0], [1, 0], [0, 1]], "edges": [[0, 1], [1, 2], [0, 2]]}
+    r = client.post("/v1/motion", json={"frame": triangle})
+    assert r.status_code == 422 and r.json()["detail"]["code"] == "no_motion"
+
+
+def test_refine_outward_square(client):
+    frame = outward_square()
+    r = client.post(
+        "/v1/refine", json={"frame": frame_json(frame), "motion": frame.positions[:4].tolist(), "amplitude": 0.2}
+    )
+    assert r.status_code == 200
+    body = r.json()
+    assert body["status"] == "ok" and body["ipopt_status"] == "Solve_Succeeded"
+    assert body["epsilon_after"] <= 1e-6 < 0.05 < body["epsilon_before"]
+    assert body["iterations"] > 0 and body["time_ms"] > 0
+    assert len(body["path"]) == 9
+    assert body["frame"]["positions"][:4] == frame.positions[:4].tolist()
+    assert body["frame"]["edges"] == frame.edges.tolist() and body["frame"]["specified"] == [0, 1, 2, 3]
+    assert np.allclose(body["path"][-1][:4], 1.2 * frame.positions[:4])
+    assert relative_bar_error(body["path"], frame.edges, body["path"][0]) <= 1e-6
+    assert body["analysis_reference"]["nontrivial_zero_modes"] == 1
+    assert body["analysis_end"]["self_stresses"] == 0
+
+
+def test_refinement_failure_is_a_422_with_the_best_result(client):
+    frame = outward_square()
+    r = client.post(
+        "/v1/refine",
+        json={
+            "frame": frame_json(frame),
+            "motion": frame.positions[:4].tolist(),
+            "amplitude": 0.2,
+            "options": {"stay_on_solution_space": True},
+        },
+    )
+    assert r.status_code == 422
+    detail = r.json()["detail"]
+    assert detail["code"] == "refinement_failed"
+    best = detail["best"]
+    assert best["status"] == "refinement_failed"
+    assert best["epsilon_after"] <= best["epsilon_before"]
+    assert len(best["frame"]["positions"]) == 6
+
+
+@pytest.mark.parametrize(
+    "change, code",
+    [
+        ({}, "invalid_request"),  # neither motion nor targets
+        ({"motion": [[1, 1]] * 4, "targets": [[1, 1]] * 4}, "invalid_request"),
+        ({"motion": [[1, 1]] * 3}, "invalid_shape"),
+        ({"motion": [[1, 1]] * 4, "options": {"K": 0}}, "invalid_request"),
+        ({"motion": [[1, 1]] * 4, "options": {"max_time_s": 1e9}}, "invalid_request"),
+    ],
+)
+def test_refine_rejects_bad_requests(client, change, code):
+    r = client.post("/v1/refine", json={"frame": frame_json(outward_square()), **change})
+    assert r.status_code == 422
+    assert r.json()["detail"]["code"] == code
+
+
+def test_refine_needs_specified_nodes(client):
+    frame = frame_json(four_bar())
+    r = client.post("/v1/refine", json={"frame": frame, "motion": []})
+    assert r.status_code == 422 and r.json()["detail"]["code"] == "too_few_specified"
+
+
+def test_openapi_documents_both_endpoints(client):
+    spec = client.get("/openapi.json").json()
+    for path in ("/v1/motion", "/v1/refine"):
+        assert path in spec["paths"]
+        assert "422" in spec["paths"][path]["post"]["responses"]
+    props = spec["components"]["schemas"]["MotionRequest"]["properties"]
+    assert {"frame", "mode", "amplitude", "max_step", "direction"} <= set(props)
+    assert "description" in props["amplitude"]

@@ -1,0 +1,343 @@
+"""Pictures (solver/plot.py, POST /v1/plot, `zeromode plot`).
+
+The SVG is read back with xml.etree and checked against the frame from scratch: one circle per
+node and one line per bar, the paper's colours per node class, a similarity (2D) or orthographic
+(3D) map from positions to the page, arrows parallel to the modes at 15–25 % of the frame's size,
+and solution-space points that satisfy every bar constraint by an independent least-squares
+solve for u_U.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import pytest
+from fastapi.testclient import TestClient
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from zeromode.service.app import create_app
+from zeromode.service.cli import main
+from zeromode.solver.design import design
+from zeromode.solver.examples import example_request
+from zeromode.solver.plot import Window, figure_svg, solution_drawing
+
+SVG = "{http://www.w3.org/2000/svg}"
+RED, BLUE, GREY = "#d7301f", "#2c7fb8", "#a3a3a3"
+
+
+def designed(name: str):
+    r = example_request(name)
+    opts = r.get("options", {})
+    return r, design(r["positions"], r["motions"], dim=r["dim"], seed=0, n_unspecified=opts.get("n_unspecified"))
+
+
+def parse(svg: str) -> ET.Element:
+    root = ET.fromstring(svg)
+    assert root.tag == SVG + "svg"
+    return root
+
+
+def with_class(root: ET.Element, tag: str, *classes: str) -> list[ET.Element]:
+    return [e for e in root.iter(SVG + tag) if set(classes) <= set(e.get("class", "").split())]
+
+
+def centres(nodes: list[ET.Element]) -> np.ndarray:
+    return np.array([[float(n.get("cx")), float(n.get("cy"))] for n in nodes])
+
+
+def polygon(e: ET.Element) -> np.ndarray:
+    return np.array([[float(v) for v in p.split(",")] for p in e.get("points").split()])
+
+
+def rgb(colour: str) -> np.ndarray:
+    return np.array([int(colour[i : i + 2], 16) for i in (1, 3, 5)], dtype=float)
+
+
+def least_squares_motion_residual(x_s: np.ndarray, u_s: np.ndarray, x_u: np.ndarray) -> float:
+    """min over u_U of max_i |(x_Si − x_U)·(u_Si − u_U)|, relative to the problem's scale."""
+    a = x_s - x_u
+    u_u, *_ = np.linalg.lstsq(a, np.einsum("ij,ij->i", a, u_s), rcond=None)
+    scale = np.max(np.linalg.norm(a, axis=1)) * max(np.max(np.linalg.norm(u_s, axis=1)), np.linalg.norm(u_u))
+    return float(np.max(np.abs(np.einsum("ij,ij->i", a, u_s - u_u))) / scale)
+
+
+def by_node(elements: list[ET.Element]) -> dict[int, ET.Element]:
+    return {int(e.get("data-node")): e for e in elements}
+
+
+def node_page(root: ET.Element, n: int) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """Page centres (n, 2), radii (n,) and fills of the node circles, in node order."""
+    nodes = by_node(with_class(root, "circle", "node"))
+    assert sorted(nodes) == list(range(n))
+    ordered = [nodes[i] for i in range(n)]
+    return centres(ordered), np.array([float(e.get("r")) for e in ordered]), [e.get("fill") for e in ordered]
+
+
+def arrow_vectors(arrows: list[ET.Element]) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+    """node → (base, tip − base) of each arrow polygon (corners 0 and 6 flank the base, 3 is the tip)."""
+    out = {}
+    for a in arrows:
+        p = polygon(a)
+        base = 0.5 * (p[0] + p[6])
+        out[int(a.get("data-node"))] = (base, p[3] - base)
+    return out
+
+
+@pytest.mark.parametrize("name", ["outward_2d", "outward_2d_four_nodes"])
+def test_2d_design_picture(name):
+    r, d = designed(name)
+    frame, k = d.frame, len(r["positions"])
+    root = parse(figure_svg(frame, modes=d.modes, targets=r["motions"], solution_space=True))
+    assert len(with_class(root, "circle", "node")) == frame.n_nodes
+    bars = with_class(root, "line", "bar")
+    assert len(bars) == frame.n_edges and {b.get("stroke") for b in bars} == {GREY}
+    page, _, fills = node_page(root, frame.n_nodes)
+    assert fills == [RED] * k + [BLUE] * (frame.n_nodes - k)
+    spec = with_class(root, "circle", "node", "specified")
+    assert sorted(int(e.get("data-node")) for e in spec) == list(frame.specified)
+
+    # The page is a similarity image of the positions with y flipped (aspect ratio preserved).
+    x = frame.positions
+    fit = np.column_stack([np.ones(len(x)), x[:, 0], -x[:, 1]])
+    (cx0, sx, _), *_ = np.linalg.lstsq(fit, page[:, 0], rcond=None)
+    (cy0, _, sy), *_ = np.linalg.lstsq(fit, page[:, 1], rcond=None)
+    assert sx > 0 and abs(sx - sy) < 1e-3 * sx
+    assert np.allclose(page, np.column_stack([cx0 + sx * x[:, 0], cy0 - sy * x[:, 1]]), atol=0.08)
+    # Bars join the right circles.
+    for b in bars:
+        i, j = frame.edges[int(b.get("data-edge"))]
+        ends = np.array([[float(b.get("x1")), float(b.get("y1"))], [float(b.get("x2")), float(b.get("y2"))]])
+        assert np.allclose(ends, page[[i, j]], atol=0.06)
+
+    # One hollow arrow per specified node, one solid arrow per node, each starting at its node
+    # and parallel to the mode (y flipped); the longest is 15–25 % of the frame's size, and a
+    # requested motion and the designed mode have the same direction on a specified node.
+    hollow = arrow_vectors(with_class(root, "polygon", "arrow", "target"))
+    solid = arrow_vectors(with_class(root, "polygon", "arrow", "mode"))
+    assert sorted(hollow) == list(frame.specified) and sorted(solid) == list(range(frame.n_nodes))
+    assert {h.get("fill") for h in with_class(root, "polygon", "arrow", "target")} == {"#ffffff"}
+    size = np.max(np.ptp(page, axis=0))
+    for i, (base, vec) in solid.items():
+        mode = d.modes[0][i] * [1, -1]
+        assert np.allclose(base, page[i], atol=0.1)
+        assert vec @ mode / (np.linalg.norm(vec) * np.linalg.norm(mode)) > 0.9999
+    for i, (base, vec) in hollow.items():
+        assert vec @ solid[i][1] / (np.linalg.norm(vec) * np.linalg.norm(solid[i][1])) > 0.9999
+    longest = max(np.linalg.norm(v) for _, v in solid.values())
+    assert 0.15 <= longest / size <= 0.25
+
+    # The solution space: smooth polylines (the conic) under the frame.
+    curves = with_class(root, "polyline", "solution")
+    assert curves and sum(len(polygon(c)) for c in curves) > 100
+
+
+def test_outward_square_solution_space_is_the_circle_through_the_corners():
+    r = example_request("outward_2d")
+    x_s, u_s = np.array(r["positions"]), np.array(r["motions"][0])
+    drawing = solution_drawing(x_s, u_s)
+    assert drawing.kind == "conic" and len(drawing.curves) == 1
+    curve = drawing.curves[0]
+    assert np.allclose(np.linalg.norm(curve, axis=1), np.sqrt(2), atol=1e-9)
+    assert max(least_squares_motion_residual(x_s, u_s, p) for p in curve[::7]) < 1e-9
+    # Closed and dense: consecutive points near, the angles leave no gap.
+    steps = np.linalg.norm(np.diff(curve, axis=0), axis=1)
+    assert np.linalg.norm(curve[0] - curve[-1]) < 0.05 and steps.max() < 0.05
+    angles = np.sort(np.arctan2(curve[:, 1], curve[:, 0]))
+    assert np.max(np.diff(np.r_[angles, angles[0] + 2 * np.pi])) < 0.05
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_conic_tracing_is_correct_and_complete(seed):
+    """Build 3 specified nodes around a known solution (x_U, u_U) in 2D (m = 2, a conic): the
+    traced curve passes through x_U and every traced point admits a u_U."""
+    rng = np.random.default_rng(seed)
+    x_u, u_u = rng.uniform(-1, 1, 2), rng.normal(size=2)
+    x_s = rng.uniform(-2, 2, (3, 2))
+    a = x_s - x_u
+    u_s = rng.normal(size=(3, 2))
+    u_s -= (np.einsum("ij,ij->i", a, u_s - u_u) / np.einsum("ij,ij->i", a, a))[:, None] * a
+    window = Window.around(np.vstack([x_s, x_u]))
+    drawing = solution_drawing(x_s, u_s, window)
+    assert drawing.kind == "conic"
+    points = np.vstack(drawing.curves)
+    size = np.max(np.ptp(np.vstack([x_s, x_u]), axis=0))
+    assert np.min(np.linalg.norm(points - x_u, axis=1)) < 0.01 * size
+    assert max(least_squares_motion_residual(x_s, u_s, p) for p in points[::11]) < 1e-7
+    for curve in drawing.curves:
+        assert np.max(np.linalg.norm(np.diff(curve, axis=0), axis=1)) < 0.05 * window.screen_size
+
+
+def test_cube_solution_space_is_a_sphere_drawn_as_a_wireframe():
+    r = example_request("cube_outward_3d")
+    x_s, u_s = np.array(r["positions"]), np.array(r["motions"][0])
+    drawing = solution_drawing(x_s, u_s)
+    assert drawing.kind == "quadric_surface" and len(drawing.curves) >= 10
+    points = np.vstack(drawing.curves)
+    # The paper's Fig. 3d: a sphere.  |x|² = 2c·x + (ρ² − |c|²) fitted by least squares.
+    sol, *_ = np.linalg.lstsq(np.column_stack([2 * points, np.ones(len(points))]), (points**2).sum(axis=1), rcond=None)
+    radii = np.linalg.norm(points - sol[:3], axis=1)
+    assert np.ptp(radii) < 1e-9 * radii.mean() and np.allclose(sol[:3], 0, atol=1e-9)
+    # Parallels and meridians reach all round it: points in every octant.
+    assert len({tuple(v) for v in (points - sol[:3] > 0)}) == 8
+    assert max(least_squares_motion_residual(x_s, u_s, p) for p in points[::37]) < 1e-9
+
+
+def test_3d_picture_is_orthographic_with_depth_cues():
+    r, d = designed("cube_outward_3d")
+    frame, k = d.frame, len(r["positions"])
+    root = parse(figure_svg(frame, modes=d.modes, targets=r["motions"], solution_space=True))
+    assert len(with_class(root, "line", "bar")) == frame.n_edges
+    page, radius, fills = node_page(root, frame.n_nodes)
+    x = frame.positions
+    fit = np.column_stack([np.ones(len(x)), x])
+    coef = np.linalg.lstsq(fit, np.column_stack([page * [1, -1], radius]), rcond=None)[0]
+    assert np.allclose(fit @ coef[:, :2], page * [1, -1], atol=0.1)
+    # Orthographic: the page is an affine image of x whose two rows are orthogonal, equally long.
+    screen = coef[1:, :2].T
+    g = screen @ screen.T
+    assert abs(g[0, 1]) < 1e-3 * g[0, 0] and abs(g[0, 0] - g[1, 1]) < 1e-3 * g[0, 0]
+    # Depth cue: the radius is affine in x along the one direction the page cannot see.
+    assert np.allclose(fit @ coef[:, 2], radius, atol=0.06)
+    depth = coef[1:, 2] / np.linalg.norm(coef[1:, 2])
+    assert np.all(np.abs(screen @ depth) < 3e-2 * np.sqrt(g[0, 0]))  # radii are rounded to 0.1 px
+    assert np.ptp(radius) > 0.2 * radius.max()
+    # Farther (smaller) nodes are lighter; colours keep their class.
+    light = np.array([rgb(f).sum() for f in fills])
+    for nodes in (np.arange(k), np.arange(k, frame.n_nodes)):
+        order = nodes[np.argsort(radius[nodes])]
+        assert np.all(np.diff(light[order]) <= 3)
+    assert all(rgb(f)[0] > rgb(f)[2] for f in fills[:k]) and all(rgb(f)[2] > rgb(f)[0] for f in fills[k:])
+    # Wireframe of the sphere drawn under the frame.
+    assert len(with_class(root, "polyline", "solution")) > 50
+
+
+def test_empty_solution_space_is_said_not_invented():
+    # Six generic specified nodes in 2D: b ∉ R(Ã), no unspecified node can join them all.
+    rng = np.random.default_rng(3)
+    x_s, u_s = rng.normal(size=(6, 2)), rng.normal(size=(6, 2))
+    from zeromode.solver.frame import Frame
+
+    frame = Frame.build(x_s, [], list(range(6)))
+    root = parse(figure_svg(frame, targets=[u_s], solution_space=True))
+    assert not with_class(root, "polyline", "solution") and not with_class(root, "circle", "solution")
+    assert any("solution space (empty)" == (t.text or "") for t in root.iter(SVG + "text"))
+
+
+@pytest.fixture(scope="module")
+def client():
+    return TestClient(create_app())
+
+
+def test_api_returns_svg_for_a_design(client):
+    r, d = designed("outward_2d")
+    body = {"frame": d.frame.to_dict(), "modes": d.modes.tolist(), "targets": r["motions"],
+            "solution_space": True, "title": "x < y & z"}
+    resp = client.post("/v1/plot", json=body)
+    assert resp.status_code == 200
+    assert resp.headers["content-type"].startswith("image/svg+xml")
+    root = parse(resp.text)
+    assert len(with_class(root, "circle", "node")) == d.frame.n_nodes
+    assert len(with_class(root, "line", "bar")) == d.frame.n_edges
+    assert any(t.text == "x < y & z" for t in root.iter(SVG + "text"))
+    paths = client.get("/openapi.json").json()["paths"]
+    assert "image/svg+xml" in paths["/v1/plot"]["post"]["responses"]["200"]["content"]
+
+
+def test_api_configurations_side_by_side_with_allosteric_markers(client):
+    x = np.array([[0, 0], [1, 0], [0.5, 0.8], [1.5, 0.8], [2, 0]], float)
+    edges = [[0, 1], [0, 2], [1, 2], [1, 3], [2, 3], [3, 4], [1, 4]]
+    expanded, contracted = 1.2 * x, 0.7 * x
+    body = {"frame": {"dim": 2, "positions": x.tolist(), "edges": edges, "specified": [0, 4]},
+            "configurations": [expanded.tolist(), contracted.tolist()],
+            "labels": ["frame", "expanded", "contracted"], "source": [0], "target_nodes": [4]}
+    resp = client.post("/v1/plot", json=body)
+    assert resp.status_code == 200, resp.text
+    root = parse(resp.text)
+    panels = [g for g in root.iter(SVG + "g") if g.get("class") == "panel"]
+    assert len(panels) == 3
+    scales = []
+    for panel, pos in zip(panels, (x, expanded, contracted)):
+        page, _, _ = node_page(panel, len(x))
+        assert len(with_class(panel, "line", "bar")) == len(edges)
+        # Each panel is the same similarity image (one scale for all: contraction stays visible).
+        d_page = np.linalg.norm(page[1:] - page[0], axis=1)
+        d_pos = np.linalg.norm(pos[1:] - pos[0], axis=1)
+        assert np.allclose(d_page / d_pos, (d_page / d_pos).mean(), rtol=2e-3)
+        scales.append((d_page / d_pos).mean())
+        assert [int(m.get("data-node")) for m in with_class(panel, "polygon", "marker", "source")] == [0]
+        assert [int(m.get("data-node")) for m in with_class(panel, "polygon", "marker", "target")] == [4]
+    assert np.ptp(scales) < 2e-3 * scales[0]
+    texts = {t.text for t in root.iter(SVG + "text")}
+    assert {"frame", "expanded", "contracted", "source", "target"} <= texts
+
+
+FRAME = {"dim": 2, "positions": [[0, 0], [1, 0], [0, 1]], "edges": [[0, 1], [1, 2], [0, 2]], "specified": [0, 1]}
+
+
+@pytest.mark.parametrize(
+    "body, code",
+    [
+        ({"frame": FRAME, "modes": [[[0, 0], [1, 0]]]}, "invalid_shape"),
+        ({"frame": {**FRAME, "specified": []}, "targets": [[[0, 1]]]}, "invalid_targets"),
+        ({"frame": FRAME, "targets": [[[0, 1], [1, 0], [0, 0]]]}, "invalid_shape"),
+        ({"frame": FRAME, "source": [3]}, "invalid_nodes"),
+        ({"frame": FRAME, "target_nodes": [1, 1]}, "invalid_nodes"),
+        ({"frame": FRAME, "solution_space": True}, "no_motion"),
+        ({"frame": FRAME, "labels": ["a", "b"]}, "invalid_labels"),
+        ({"frame": FRAME, "configurations": [[[0, 0], [1, 0]]]}, "invalid_shape"),
+        ({"frame": {**FRAME, "edges": [[0, 5]]}}, "edge_out_of_range"),
+        ({"frame": FRAME, "configurations": [FRAME["positions"]] * 9}, "invalid_request"),
+        ({"frame": FRAME, "modes": [[[0, 0], [1, "x"], [0, 0]]]}, "invalid_request"),
+    ],
+)
+def test_api_bad_input_is_422_with_a_code(client, body, code):
+    resp = client.post("/v1/plot", json=body)
+    assert resp.status_code == 422
+    detail = resp.json()["detail"]
+    assert detail["code"] == code and detail["message"]
+
+
+def test_api_rejects_non_finite_numbers(client):
+    body = json.dumps({"frame": FRAME, "modes": [[[0, 0], [float("nan"), 0], [0, 0]]]})
+    resp = client.post("/v1/plot", content=body, headers={"content-type": "application/json"})
+    assert resp.status_code == 422
+
+
+def test_cli_plots_a_request_and_a_response(tmp_path, client):
+    request = example_request("cube_outward_3d")
+    req = tmp_path / "request.json"
+    req.write_text(json.dumps(request))
+    assert main(["plot", str(req), "-o", str(tmp_path / "a.svg")]) == 0
+    root = parse((tmp_path / "a.svg").read_text())
+    _, d = designed("cube_outward_3d")
+    assert len(with_class(root, "circle", "node")) == d.frame.n_nodes
+    assert len(with_class(root, "polygon", "arrow", "target")) == len(request["positions"])
+    assert with_class(root, "polyline", "solution")
+
+    response = client.post("/v1/design", json=example_request("outward_2d")).json()
+    resp_file = tmp_path / "response.json"
+    resp_file.write_text(json.dumps(response))
+    assert main(["plot", str(resp_file), "-o", str(tmp_path / "b.svg"), "--no-solution-space"]) == 0
+    root = parse((tmp_path / "b.svg").read_text())
+    assert len(with_class(root, "line", "bar")) == len(response["frame"]["edges"])
+    assert len(with_class(root, "polygon", "arrow", "target")) == 4  # derived from the modes
+    assert not with_class(root, "polyline", "solution")
+    pytest.importorskip("cairosvg")
+    assert main(["plot", str(resp_file), "-o", str(tmp_path / "b.png")]) == 0
+    assert (tmp_path / "b.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_cli_png_without_cairosvg_says_so(tmp_path, monkeypatch, capsys):
+    req = tmp_path / "request.json"
+    req.write_text(json.dumps(example_request("outward_2d")))
+    monkeypatch.setitem(sys.modules, "cairosvg", None)  # import fails as if not installed
+    assert main(["plot", str(req), "-o", str(tmp_path / "a.png")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "cairosvg" in err and err.count("\n") == 0
+    assert not (tmp_path / "a.png").exists()
+    assert main(["plot", str(req), "-o", str(tmp_path / "a.pdf")]) == 2

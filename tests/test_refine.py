@@ -1,0 +1,135 @@
+"""IPOPT refinement for finite-motion fidelity (real IPOPT runs through casadi; kept small).
+
+Independent checks: for the outward square the exact refined geometry follows from the bar
+constraints by hand (below); bar lengths along IPOPT's path are recomputed from scratch; ε
+after refinement is measured by continuation from the refined frame; zero modes and
+self-stresses of the refined frame are counted by PyRigi.
+
+Outward square, by hand: the specified corners x_i = (±1, ±1) must reach λ·x_i (λ = 1 + a).
+An unspecified node at x (reference) and y (final) keeps its four bars iff
+|y − λx_i|² = |x − x_i|² for all i, i.e. (2x − 2λy)·x_i = const over the four corners, so
+x = λy, and then |y|² + 2λ² = |x|² + 2, i.e. |x|² = 2λ²: the refined unspecified nodes sit on
+the circle of radius λ√2 (the linear design has them on radius √2).
+"""
+
+import numpy as np
+import pytest
+from mechanisms import bipartite_design, outward_square, random_targets
+from zeromode.solver import DomainError, Frame
+from zeromode.solver.finite_motion import motion_fidelity
+from zeromode.solver.refine import RefinementFailed, refine
+
+pyrigi = pytest.importorskip("pyrigi")
+
+
+def pyrigi_counts(positions, edges):
+    graph = pyrigi.Graph([tuple(int(v) for v in e) for e in edges])
+    framework = pyrigi.Framework(graph, {i: [float(v) for v in p] for i, p in enumerate(positions)})
+    return (
+        len(framework.nontrivial_inf_flexes(numerical=True)),
+        len(framework.stresses(numerical=True)),
+    )
+
+
+def path_bar_error(path, edges):
+    ref = np.linalg.norm(path[0][edges[:, 0]] - path[0][edges[:, 1]], axis=1)
+    return max(
+        float(np.max(np.abs(np.linalg.norm(x[edges[:, 0]] - x[edges[:, 1]], axis=1) - ref) / ref)) for x in path
+    )
+
+
+def test_outward_square_reaches_its_target_exactly():
+    frame = outward_square()
+    x_s = frame.positions[:4]
+    res = refine(frame, x_s, 0.2)
+    assert res.ok and res.ipopt_status == "Solve_Succeeded"
+    assert 0.05 < res.epsilon_before < 1.0
+    assert res.epsilon_after <= 1e-6
+    assert np.allclose(res.displacement, 0.2 * x_s)
+    # The hand-derived geometry: unspecified nodes on the circle of radius 1.2·√2.
+    assert np.allclose(np.linalg.norm(res.frame.positions[4:], axis=1), 1.2 * np.sqrt(2), rtol=1e-6)
+    assert np.array_equal(res.frame.positions[:4], x_s)  # specified nodes do not move
+    # IPOPT's path: K+1 configurations, every bar at its reference length, the end on target.
+    assert res.path.shape == (9, 6, 2)
+    assert path_bar_error(res.path, frame.edges) <= 1e-6
+    assert np.allclose(res.path[-1][:4], 1.2 * x_s, atol=1e-12)
+    # Re-verified by PyRigi: one nontrivial flex and no self-stress at both ends.
+    assert pyrigi_counts(res.path[0], frame.edges) == (1, 0)
+    assert pyrigi_counts(res.path[-1], frame.edges) == (1, 0)
+
+
+def test_targets_given_as_final_positions_up_to_a_rigid_motion():
+    frame = outward_square()
+    x_s = frame.positions[:4]
+    c, s = np.cos(0.5), np.sin(0.5)
+    targets = 1.2 * x_s @ np.array([[c, -s], [s, c]]).T + [3.0, -1.0]
+    res = refine(frame, targets=targets)
+    assert res.epsilon_after <= 1e-6
+    assert np.allclose(res.path[-1][:4], targets, atol=1e-12)
+    # A rigid motion of the target changes nothing about the refined frame's geometry.
+    assert np.allclose(np.linalg.norm(res.frame.positions[4:], axis=1), 1.2 * np.sqrt(2), rtol=1e-6)
+
+
+@pytest.mark.parametrize("k, d, n_unspecified, seed", [(3, 2, 2, 0), (3, 2, 2, 1), (4, 3, 5, 0), (4, 3, 5, 2)])
+def test_random_targets_at_ten_percent(k, d, n_unspecified, seed):
+    x_s, u_s = random_targets(k, d, seed)
+    frame = bipartite_design(x_s, u_s, n_unspecified, seed=seed)
+    res = refine(frame, u_s, 0.1)
+    assert res.epsilon_after <= 1e-3
+    assert res.epsilon_after < res.epsilon_before
+    assert res.ipopt_time_ms <= 1000
+    assert res.time_ms <= 5000  # with both ε measurements; generous for a loaded CI machine
+    assert path_bar_error(res.path, frame.edges) <= 1e-6
+    # Δ_S has RMS a·r_S with r_S the RMS radius of the specified positions.
+    r_s = np.sqrt(np.mean(np.sum((x_s - x_s.mean(0)) ** 2, axis=1)))
+    assert np.sqrt(np.mean(np.sum(res.displacement**2, axis=1))) == pytest.approx(0.1 * r_s)
+    assert pyrigi_counts(res.path[0], frame.edges) == (1, 0)
+
+
+def test_infeasible_refinement_fails_with_the_best_result():
+    # Keeping u_S an exact zero mode pins the unspecified nodes to the circle |x_U| = √2 (the
+    # paper's conic), but reaching 1.2·x_S needs |x_U| = 1.2·√2: no solution exists.
+    frame = outward_square()
+    with pytest.raises(RefinementFailed) as err:
+        refine(frame, frame.positions[:4], 0.2, stay_on_solution_space=True)
+    assert err.value.code == "refinement_failed"
+    best = err.value.best
+    assert not best.ok and best.ipopt_status not in ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+    # The best result found is returned, and its ε is what continuation measures for it.
+    assert best.epsilon_after <= best.epsilon_before
+    assert motion_fidelity(best.frame, best.displacement)[0].epsilon == pytest.approx(best.epsilon_after, rel=1e-6)
+    assert best.epsilon_after > 0.05  # no frame near the conic reaches the target
+
+
+def test_iteration_limit_fails_and_keeps_the_better_frame():
+    x_s, u_s = random_targets(4, 3, 0)
+    frame = bipartite_design(x_s, u_s, 5, seed=0)
+    with pytest.raises(RefinementFailed) as err:
+        refine(frame, u_s, 0.1, max_iter=2)
+    best = err.value.best
+    assert best.ipopt_status == "Maximum_Iterations_Exceeded" and best.iterations == 2
+    assert best.epsilon_after <= best.epsilon_before
+    assert motion_fidelity(best.frame, best.displacement)[0].epsilon == pytest.approx(best.epsilon_after, rel=1e-6)
+    assert "Maximum_Iterations_Exceeded" in err.value.message
+
+
+def test_bad_requests():
+    frame = outward_square()
+    with pytest.raises(DomainError) as err:
+        refine(Frame.build(frame.positions, frame.edges, [0]), [[1.0, 1.0]], 0.2)
+    assert err.value.code == "too_few_specified"
+    with pytest.raises(DomainError) as err:
+        refine(frame, frame.positions[:3], 0.2)
+    assert err.value.code == "invalid_shape"
+    with pytest.raises(DomainError) as err:
+        refine(frame, frame.positions[:4], 0.2, targets=frame.positions[:4])
+    assert err.value.code == "invalid_request"
+    with pytest.raises(DomainError) as err:
+        refine(Frame.build(frame.positions, frame.edges, list(range(6))), np.ones((6, 2)), 0.2)
+    assert err.value.code == "nothing_to_refine"
+    pentagon = Frame.build(
+        [[np.cos(t), np.sin(t)] for t in np.linspace(0, 6, 5)], [[i, (i + 1) % 5] for i in range(5)], [0, 1, 2]
+    )
+    with pytest.raises(DomainError) as err:
+        refine(pentagon, np.eye(3, 2), 0.1)
+    assert err.value.code == "not_single_mode"
