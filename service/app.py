@@ -12,7 +12,7 @@ from fastapi.responses import JSONResponse
 
 from zeromode.service import __version__
 from zeromode.service.errors import error_body, install_error_handlers
-from zeromode.service.routes import analyze, design, examples, health, motion, plot
+from zeromode.service.routes import analyze, design, examples, health, lattice, motion, plot
 from zeromode.service.settings import SETTINGS, Settings
 
 log = logging.getLogger("zeromode")
@@ -28,7 +28,7 @@ def create_app(settings: Settings = SETTINGS) -> FastAPI:
         ),
     )
     install_error_handlers(app)
-    for module in (health, analyze, design, examples, plot, motion):
+    for module in (health, analyze, design, examples, lattice, plot, motion):
         app.include_router(module.router)
 
     @app.middleware("http")

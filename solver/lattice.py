@@ -34,6 +34,7 @@ import numpy as np
 from zeromode.solver.coupling import Module, couple
 from zeromode.solver.design import design
 from zeromode.solver.errors import DomainError, InvalidInput
+from zeromode.solver.finite_motion import trace_motion
 from zeromode.solver.frame import Frame
 from zeromode.solver.multimode import spatial_quadric
 from zeromode.solver.rigidity import Analysis, analyze, zero_mode_residual
@@ -205,11 +206,14 @@ def auxetic_chain_3d(
     n: int,
     poisson: float = -0.5,
     block: tuple[float, float, float] = (1.0, 1.0, 1.0),
+    strain: float = 0.1,
     seed: int = 0,
 ) -> Lattice:
     """n 3D blocks chained along x by merging two ports and adding one bar per coupling.
 
     Linear Poisson ratio of every block: −β for y and −γ for z, here both set to ``poisson``.
+    The expanded and contracted states are the ends of the traced finite motion (continuation,
+    ``finite_motion.trace_motion``) to a parameter of ``strain`` either way.
     """
     if not 1 <= n <= 64:
         raise InvalidInput("invalid_size", "a 3D chain has between 1 and 64 blocks.")
@@ -233,13 +237,18 @@ def auxetic_chain_3d(
         "top": np.array([m[b][0] for b in range(n)] + [m[b][2] for b in range(n)]),
     }
     frame, mode = composite.frame, composite.mode
+    path = trace_motion(frame, mode, amplitude=strain, direction="both")
+    states = {}
+    for end in (path.positions[0], path.positions[-1]):
+        ex, ey = boundary_strains(frame.positions, end - frame.positions, boundary)
+        states["expanded" if ex > 0 else "contracted"] = (end, -ey / ex)
     return Lattice(
         frame=frame,
         mode=mode,
         analysis=composite.analysis,
         poisson_ratio=poisson_ratio(frame.positions, mode, boundary),
-        states={},
-        max_relative_bar_error=0.0,
+        states=states,
+        max_relative_bar_error=path.max_relative_bar_error,
         mode_residual=zero_mode_residual(frame, mode),
         boundary={k: v.tolist() for k, v in boundary.items()},
     )

@@ -256,7 +256,7 @@ def _project(x: np.ndarray, basis: np.ndarray | None) -> tuple[np.ndarray, np.nd
 
 def _mix_white(colour: str, f: float) -> str:
     """colour mixed with a fraction f ∈ [0, 1] of white (in steps of 1/128: a few distinct strings)."""
-    return _mixed(colour, int(round(128 * min(max(float(f), 0.0), 1.0))))
+    return _mixed(colour, round(128 * min(max(float(f), 0.0), 1.0)))
 
 
 @lru_cache(maxsize=4096)

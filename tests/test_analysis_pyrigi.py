@@ -27,11 +27,27 @@ def pyrigi_framework(positions, edges, exact=False):
 
 
 def generic_case(seed):
+    """A generic frame (Gaussian positions) in 2D (even seed) or 3D (odd seed).
+
+    Seeds ≡ 0, 1 (mod 4): a random graph near the isostatic count dN − d(d+1)/2.
+    Seeds ≡ 2, 3 (mod 4): a complete K_{d+2} (one self-stress) plus fewer than d bars per
+    further node (at least one nontrivial flex), so both kinds of null vector are present.
+    """
     rng = np.random.default_rng(seed)
     dim = (2, 3)[seed % 2]
-    n = int(rng.integers(dim + 1, 9))
-    n_edges = int(rng.integers(1, n * (n - 1) // 2 + 1))  # PyRigi needs at least one bar
-    return random_frame(rng, dim, n, n_edges)
+    if seed % 4 < 2:
+        n = int(rng.integers(dim + 1, 9))
+        isostatic = dim * n - dim * (dim + 1) // 2
+        n_edges = int(np.clip(isostatic + rng.integers(-4, 5), 1, n * (n - 1) // 2))
+        return random_frame(rng, dim, n, n_edges)  # PyRigi needs at least one bar
+    n = int(rng.integers(dim + 3, 9))
+    k = dim + 2
+    positions, _ = random_frame(rng, dim, n, 0)
+    cluster = [[i, j] for i in range(k) for j in range(i + 1, k)]
+    others = [[i, j] for j in range(k, n) for i in range(j)]
+    n_extra = dim * (n - k) - 1 - int(rng.integers(0, 2))
+    extra = [others[m] for m in rng.choice(len(others), size=n_extra, replace=False)]
+    return positions, cluster + extra
 
 
 @pytest.mark.parametrize("seed", range(20))

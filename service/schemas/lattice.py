@@ -1,0 +1,56 @@
+"""POST /v1/design/auxetic."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import BaseModel, Field, FiniteFloat
+
+from zeromode.service.schemas.common import AnalysisCounts, FrameModel, Points
+
+
+class AuxeticRequest(BaseModel):
+    dim: Literal[2, 3] = Field(default=2, description="2: a sheet of n_x × n_y modules; 3: a chain of blocks.")
+    cells: list[int] = Field(
+        default=[4, 4],
+        min_length=1,
+        max_length=2,
+        description="2D: [n_x, n_y] modules (n_x·n_y ≤ 2500); 3D: [n] blocks (n ≤ 64).",
+    )
+    poisson_ratio: FiniteFloat = Field(
+        default=-1.0,
+        description="Linear Poisson ratio ν = −ε_y/ε_x of the designed mode (negative: auxetic).",
+    )
+    cell: list[FiniteFloat] | None = Field(
+        default=None,
+        description="Module half-sizes: 2D [w, h] (default [1, 1]); 3D [w, h, l] (default [1, 1, 1]).",
+    )
+    strain: FiniteFloat = Field(
+        default=0.1, gt=0, lt=0.9, description="Axial strain (2D) or path parameter (3D) of the finite states."
+    )
+    seed: int = Field(default=0, ge=0)
+
+
+class LatticeState(BaseModel):
+    name: Literal["expanded", "contracted"]
+    positions: Points
+    poisson_ratio: float = Field(description="Secant Poisson ratio of this state relative to the reference.")
+
+
+class AuxeticReport(BaseModel):
+    analysis: AnalysisCounts
+    boundary: dict[str, list[int]] = Field(description="Node sets whose mean positions define the strains.")
+    mode_residual: float
+    max_relative_bar_error: float = Field(description="Largest relative bar-length change over the states.")
+    timings_ms: dict[str, float]
+
+
+class AuxeticResponse(BaseModel):
+    frame: FrameModel
+    modes: list[Points] = Field(description="The single nontrivial zero mode (N×d).")
+    poisson_ratio: float = Field(
+        description="ν = −ε_y/ε_x of the mode: ε is the rate of change of the distance between the mean "
+        "positions of opposite boundary sets (pulled along x). Negative means auxetic."
+    )
+    states: list[LatticeState]
+    report: AuxeticReport
