@@ -31,7 +31,7 @@ from zeromode.solver.frame import Frame, check_positions
 from zeromode.solver.solution_space import (
     CONSTRAINT_ATOL,
     SolutionSpace,
-    _real_roots_on_lines,
+    real_roots_on_lines,
     solution_space,
 )
 
@@ -173,7 +173,7 @@ def _trace_conic(space: SolutionSpace, conic: np.ndarray, to_alpha, window: Wind
 
     def evaluate(s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         delta = np.column_stack([np.cos(np.pi * s), np.sin(np.pi * s)])
-        t, ok = _real_roots_on_lines(conic, np.broadcast_to(centre, delta.shape), delta)
+        t, ok = real_roots_on_lines(conic, np.broadcast_to(centre, delta.shape), delta)
         t_big = np.where(ok, t, -np.inf).max(axis=1)
         real = np.isfinite(t_big)
         x_u, u_u = space.points(to_alpha(centre + np.where(real, t_big, 0.0)[:, None] * delta))

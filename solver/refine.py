@@ -13,6 +13,8 @@ Nonlinear program (normalised coordinates: frame centred and divided by its RMS 
                rigid-motion gauge at both ends);
     equalities |X_{j,i} − X_{j,k}|² = |X_{0,i} − X_{0,k}|²  for every bar (i, k), j = 1 … K
                (every configuration has the reference bar lengths);
+    separation |X_i − X_j| ≥ MIN_SEPARATION·(closest such pair in the design) at both ends, for
+               every pair with an unspecified node (merged nodes make a degenerate frame);
     objective  (1/(K·N)) Σ_j ‖X_j − ((1 − j/K)·X_0 + (j/K)·X_K)‖²  +  μ‖x_U − x_U⁰‖²/N_U
                — departure from the straight path (for the specified nodes that is the
                straight route x_S + (j/K)·Δ_S); it also fixes the gauge of the intermediate
@@ -50,6 +52,8 @@ from zeromode.solver.rigidity import Analysis, analyze
 
 # Weight of ‖x_U − x_U⁰‖² relative to the straight-path term (see the module docstring).
 DESIGN_WEIGHT = 1e-3
+# Unspecified nodes keep at least this fraction of the design's closest node distance.
+MIN_SEPARATION = 0.25
 # IPOPT unknowns are capped so one refinement stays within a request's time budget.
 MAX_UNKNOWNS = 20_000
 IPOPT_SUCCESS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
@@ -198,7 +202,7 @@ def refine(
     radius = rms_radius(frame.positions) or 1.0
     x0 = (frame.positions - centre) / radius
     target = x0[spec] + delta / radius
-    nlp, x_init, unpack = _build_nlp(
+    nlp, x_init, lbg, ubg, unpack = _build_nlp(
         x0, frame.edges, spec, unspec, target, K, before.modes[0], stay_on_solution_space
     )
     solver = ca.nlpsol(
@@ -217,7 +221,7 @@ def refine(
         },
     )
     t_ipopt = time.perf_counter()
-    sol = solver(x0=x_init, lbg=0.0, ubg=0.0)
+    sol = solver(x0=x_init, lbg=lbg, ubg=ubg)
     ipopt_ms = 1e3 * (time.perf_counter() - t_ipopt)
     stats = solver.stats()
     status = str(stats.get("return_status", "unknown"))
@@ -305,6 +309,17 @@ def _build_nlp(x0, edges, spec, unspec, target, K, mode, stay_on_solution_space)
 
     ref_len = squared_lengths(x_ref)
     g = [squared_lengths(m) - ref_len for m in configs[1:]]
+    equalities = K * len(edges)
+    # Both ends keep every unspecified node MIN_SEPARATION·(the design's closest such pair)
+    # away from every other node: merging two nodes satisfies the bars cheaply but leaves a
+    # degenerate frame (a self-stress and an extra mode).
+    moving = set(int(i) for i in unspec)
+    pairs = [(i, j) for i in range(n) for j in range(i + 1, n) if i in moving or j in moving]
+    p0, p1 = [i for i, _ in pairs], [j for _, j in pairs]
+    closest = float(np.min(np.sum((x0[p0] - x0[p1]) ** 2, axis=1)))
+    for m in (x_ref, x_end):
+        diff = m[p0, :] - m[p1, :]
+        g.append(ca.sum2(diff * diff) - MIN_SEPARATION**2 * closest)
     objective = 0
     for j in range(1, K):
         s = j / K
@@ -327,10 +342,13 @@ def _build_nlp(x0, edges, spec, unspec, target, K, mode, stay_on_solution_space)
         variables.append(ca.vec(w_uu))
         init.append(linear_motion[unspec].ravel(order="F"))
     nlp = {"x": ca.vertcat(*variables), "f": objective, "g": ca.vertcat(*g)}
+    lbg = np.zeros(nlp["g"].shape[0])
+    ubg = np.zeros(nlp["g"].shape[0])
+    ubg[equalities : equalities + 2 * len(pairs)] = np.inf
     flat_configs = ca.Function("configs", [nlp["x"]], [ca.vertcat(*[ca.vec(m) for m in configs])])
 
     def unpack(w: np.ndarray) -> np.ndarray:
         flat = np.asarray(flat_configs(w)).ravel()
         return flat.reshape(K + 1, d, n).transpose(0, 2, 1)
 
-    return nlp, np.concatenate(init), unpack
+    return nlp, np.concatenate(init), lbg, ubg, unpack

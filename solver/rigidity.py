@@ -84,10 +84,12 @@ def rigid_motions(positions: np.ndarray, rtol: float = RTOL) -> np.ndarray:
 
 def zero_mode_residual(frame: Frame, mode: np.ndarray) -> float:
     """‖C u‖ / (‖C‖_F ‖u‖) with C of the normalised frame: 0 for an exact zero mode u (N, d)."""
-    c = compatibility_matrix(frame.normalised_positions(), frame.edges)
+    dense = frame.dim * frame.n_nodes <= DENSE_MAX_DOF
+    c = compatibility_matrix(frame.normalised_positions(), frame.edges, dense=dense)
     if c.shape[0] == 0:
         return 0.0
-    return float(np.linalg.norm(c @ mode.ravel()) / (spla.norm(c) * max(np.linalg.norm(mode), 1e-300)))
+    c_norm = np.linalg.norm(c) if dense else spla.norm(c)
+    return float(np.linalg.norm(c @ mode.ravel()) / (c_norm * max(np.linalg.norm(mode), 1e-300)))
 
 
 @dataclass(frozen=True, eq=False)
@@ -150,12 +152,12 @@ def analyze(frame: Frame, rtol: float = RTOL, method: str = "auto", bases: bool 
     (dense up to DENSE_MAX_DOF degrees of freedom).  bases=False skips the bases.
     """
     x = frame.normalised_positions()
-    c = compatibility_matrix(x, frame.edges)
     rigid = rigid_motions(x, rtol)
     if method == "auto":
         method = "dense" if frame.dim * frame.n_nodes <= DENSE_MAX_DOF else "sparse"
+    c = compatibility_matrix(x, frame.edges, dense=method == "dense")
     if method == "dense":
-        null, stresses, rank, gap = _dense_null_spaces(c.toarray(), rtol)
+        null, stresses, rank, gap = _dense_null_spaces(c, rtol)
     elif method == "sparse":
         null, stresses, rank, gap = _sparse_null_spaces(c, rtol, rigid.shape[1], want_stresses=bases)
     else:

@@ -132,7 +132,7 @@ class SolutionSpace:
             a0 = spread * rng.standard_normal((lines, m)) if m > 1 else np.zeros((1, 1))
             delta = rng.standard_normal((lines, m))
             delta /= np.linalg.norm(delta, axis=1, keepdims=True)
-            t, ok = _real_roots_on_lines(self.quadric_n, a0, delta)
+            t, ok = real_roots_on_lines(self.quadric_n, a0, delta)
             alphas = (a0[:, None, :] + t[:, :, None] * delta[:, None, :])[ok]
         x_u, u_u = self.points(alphas)
         good = np.max(np.abs(self.residuals(x_u, u_u)), axis=1, initial=0.0) <= CONSTRAINT_ATOL
@@ -145,7 +145,7 @@ class SolutionSpace:
         return np.einsum("nkd,nkd->nk", xs[None] - xu[:, None], us[None] - uu[:, None])
 
 
-def _real_roots_on_lines(q: np.ndarray, a0: np.ndarray, delta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def real_roots_on_lines(q: np.ndarray, a0: np.ndarray, delta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Real t with (a0 + tδ, 1)ᵀ Q (a0 + tδ, 1) = 0 for each line: t (L, 2) and a validity mask."""
     p0 = np.hstack([a0, np.ones((len(a0), 1))])
     p1 = np.hstack([delta, np.zeros((len(delta), 1))])

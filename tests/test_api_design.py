@@ -16,15 +16,22 @@ import pytest
 from fastapi.testclient import TestClient
 from hypothesis import given, settings
 from hypothesis import strategies as st
-
 from zeromode.service.app import create_app
 
 SQUARE = [[1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0], [1.0, -1.0]]
 CUBE = [[i, j, k] for i in (-1.0, 1.0) for j in (-1.0, 1.0) for k in (-1.0, 1.0)]
 KINDS = {1: "points", 2: "conic", 3: "quadric_surface"}
 COUNT_FIELDS = {
-    "nodes", "edges", "dim", "maxwell_count", "rank", "zero_modes",
-    "rigid_body_modes", "nontrivial_zero_modes", "self_stresses", "rank_gap",
+    "nodes",
+    "edges",
+    "dim",
+    "maxwell_count",
+    "rank",
+    "zero_modes",
+    "rigid_body_modes",
+    "nontrivial_zero_modes",
+    "self_stresses",
+    "rank_gap",
 }
 
 
@@ -40,7 +47,9 @@ def is_number(v) -> bool:
 
 def matrix(value, rows: int, cols: int) -> np.ndarray:
     assert isinstance(value, list) and len(value) == rows
-    assert all(isinstance(r, list) and len(r) == cols and all(is_number(v) for v in r) for r in value)
+    assert all(
+        isinstance(r, list) and len(r) == cols and all(is_number(v) for v in r) for r in value
+    )
     return np.array(value, dtype=float)
 
 
@@ -118,12 +127,19 @@ def check_design_body(body: dict, request: dict) -> None:
 
 # --------------------------------------------------------------------------- /v1/solution-space
 @pytest.mark.parametrize(
-    ("d", "k", "samples"), [(2, 3, 8), (2, 2, 5), (2, 4, 8), (3, 4, 10), (3, 5, 6), (3, 3, 3), (2, 3, 0)]
+    ("d", "k", "samples"),
+    [(2, 3, 8), (2, 2, 5), (2, 4, 8), (3, 4, 10), (3, 5, 6), (3, 3, 3), (2, 3, 0)],
 )
 def test_solution_space_fields(client, d, k, samples):
     rng = np.random.default_rng([d, k])
     x, u = rng.standard_normal((k, d)), rng.standard_normal((k, d))
-    request = {"dim": d, "positions": x.tolist(), "motions": u.tolist(), "samples": samples, "seed": 1}
+    request = {
+        "dim": d,
+        "positions": x.tolist(),
+        "motions": u.tolist(),
+        "samples": samples,
+        "seed": 1,
+    }
     response = client.post("/v1/solution-space", json=request)
     assert response.status_code == 200, response.text
     body = response.json()
@@ -137,13 +153,17 @@ def test_solution_space_fields(client, d, k, samples):
     a = np.hstack([u, x, -np.ones((k, 1))])
     b = np.sum(x * u, axis=1)
     assert np.linalg.norm(a @ basis[:, :m]) <= 1e-12 * np.linalg.norm(a)
-    assert np.allclose(a @ basis[:, m], b, atol=1e-12 * np.linalg.norm(a) * (1 + np.linalg.norm(basis[:, m])))
+    assert np.allclose(
+        a @ basis[:, m], b, atol=1e-12 * np.linalg.norm(a) * (1 + np.linalg.norm(basis[:, m]))
+    )
     assert isinstance(body["samples"], list) and len(body["samples"]) <= samples
     for sample in body["samples"]:
         assert set(sample) >= {"position", "motion"}
         x_u, u_u = matrix([sample["position"]], 1, d)[0], matrix([sample["motion"]], 1, d)[0]
         bars = np.sum((x - x_u) * (u - u_u), axis=1)
-        scale = (np.linalg.norm(x, axis=1) + np.linalg.norm(x_u)) * (np.linalg.norm(u, axis=1) + np.linalg.norm(u_u))
+        scale = (np.linalg.norm(x, axis=1) + np.linalg.norm(x_u)) * (
+            np.linalg.norm(u, axis=1) + np.linalg.norm(u_u)
+        )
         assert np.all(np.abs(bars) <= 1e-9 * scale)
     if samples and k <= d + 1:  # x_U = x_Si always solves these, so the set is not empty
         assert body["samples"]
@@ -151,7 +171,9 @@ def test_solution_space_fields(client, d, k, samples):
 
 def test_solution_space_of_the_outward_square(client):
     """Paper: redundant rows (v4 = v2 + v3 − v1) → a conic, the circle through the square."""
-    response = client.post("/v1/solution-space", json={"dim": 2, "positions": SQUARE, "motions": SQUARE, "samples": 6})
+    response = client.post(
+        "/v1/solution-space", json={"dim": 2, "positions": SQUARE, "motions": SQUARE, "samples": 6}
+    )
     assert response.status_code == 200
     body = response.json()
     assert (body["nullity"], body["kind"]) == (2, "conic")
@@ -163,7 +185,9 @@ def test_solution_space_of_the_outward_square(client):
 def test_solution_space_without_solution(client):
     rng = np.random.default_rng(0)
     x, u = rng.standard_normal((6, 2)), rng.standard_normal((6, 2))
-    response = client.post("/v1/solution-space", json={"dim": 2, "positions": x.tolist(), "motions": u.tolist()})
+    response = client.post(
+        "/v1/solution-space", json={"dim": 2, "positions": x.tolist(), "motions": u.tolist()}
+    )
     assert_error(response, "no_solution")
 
 
@@ -184,7 +208,10 @@ def test_solution_space_without_solution(client):
     ],
 )
 def test_solution_space_rejects_malformed_requests(client, body):
-    assert_error(client.post("/v1/solution-space", json=body), {"invalid_shape", "invalid_request", "invalid_dim"})
+    assert_error(
+        client.post("/v1/solution-space", json=body),
+        {"invalid_shape", "invalid_request", "invalid_dim"},
+    )
 
 
 # --------------------------------------------------------------------------- /v1/design
@@ -192,7 +219,12 @@ def test_solution_space_rejects_malformed_requests(client, body):
     "request_body",
     [
         {"dim": 2, "positions": SQUARE, "motions": [SQUARE]},
-        {"dim": 2, "positions": SQUARE, "motions": [SQUARE], "options": {"seed": 3, "n_unspecified": 4}},
+        {
+            "dim": 2,
+            "positions": SQUARE,
+            "motions": [SQUARE],
+            "options": {"seed": 3, "n_unspecified": 4},
+        },
         {"dim": 3, "positions": CUBE, "motions": [CUBE], "options": {"seed": 1}},
     ],
 )
@@ -218,10 +250,13 @@ def test_design_of_random_targets(client, d, k):
 
 
 def test_paper_counts_over_the_api(client):
-    outward = client.post("/v1/design", json={"dim": 2, "positions": SQUARE, "motions": [SQUARE]}).json()
+    outward = client.post(
+        "/v1/design", json={"dim": 2, "positions": SQUARE, "motions": [SQUARE]}
+    ).json()
     assert (outward["report"]["unspecified_nodes"], len(outward["frame"]["edges"])) == (2, 8)
     four = client.post(
-        "/v1/design", json={"dim": 2, "positions": SQUARE, "motions": [SQUARE], "options": {"n_unspecified": 4}}
+        "/v1/design",
+        json={"dim": 2, "positions": SQUARE, "motions": [SQUARE], "options": {"n_unspecified": 4}},
     ).json()
     assert (four["report"]["unspecified_nodes"], len(four["frame"]["edges"])) == (4, 12)
 
@@ -235,14 +270,30 @@ def translation(k: int, d: int) -> list:
     [
         ({"dim": 2, "positions": SQUARE, "motions": [[[0.0, 0.0]] * 4]}, "rigid_target"),
         ({"dim": 2, "positions": SQUARE, "motions": [translation(4, 2)]}, "rigid_target"),
-        ({"dim": 2, "positions": SQUARE, "motions": [[[-y, x] for x, y in SQUARE]]}, "rigid_target"),
-        ({"dim": 3, "positions": CUBE, "motions": [[[-y, x, 0.0] for x, y, _ in CUBE]]}, "rigid_target"),
+        (
+            {"dim": 2, "positions": SQUARE, "motions": [[[-y, x] for x, y in SQUARE]]},
+            "rigid_target",
+        ),
+        (
+            {"dim": 3, "positions": CUBE, "motions": [[[-y, x, 0.0] for x, y, _ in CUBE]]},
+            "rigid_target",
+        ),
         ({"dim": 3, "positions": CUBE, "motions": [translation(8, 3)]}, "rigid_target"),
-        ({"dim": 2, "positions": [[0, 0], [1, 0], [0, 0], [0, 1]], "motions": [SQUARE]}, "degenerate_specified"),
-        ({"dim": 2, "positions": SQUARE, "motions": [SQUARE], "options": {"n_unspecified": 1}}, "no_solution"),
+        (
+            {"dim": 2, "positions": [[0, 0], [1, 0], [0, 0], [0, 1]], "motions": [SQUARE]},
+            "degenerate_specified",
+        ),
+        (
+            {"dim": 2, "positions": SQUARE, "motions": [SQUARE], "options": {"n_unspecified": 1}},
+            "no_solution",
+        ),
         (
             # k = 3 in 3D: each node brings 3 coordinates and at most 3 bars, N_D stays ≥ 9.
-            {"dim": 3, "positions": [[0, 0, 0], [1, 0, 0], [0, 1, 0]], "motions": [[[1, 0, 0], [0, 0, 0], [0, 0, 0]]]},
+            {
+                "dim": 3,
+                "positions": [[0, 0, 0], [1, 0, 0], [0, 1, 0]],
+                "motions": [[[1, 0, 0], [0, 0, 0], [0, 0, 0]]],
+            },
             "no_solution",
         ),
         ({"dim": 2, "positions": SQUARE, "motions": [SQUARE[:3]]}, "invalid_shape"),
@@ -250,8 +301,14 @@ def translation(k: int, d: int) -> list:
         ({"dim": 3, "positions": SQUARE, "motions": [SQUARE]}, "invalid_shape"),
         ({"dim": 2, "positions": SQUARE, "motions": []}, "invalid_request"),
         ({"dim": 2, "positions": SQUARE, "motions": [SQUARE] * 5}, "invalid_request"),
-        ({"dim": 2, "positions": SQUARE, "motions": [SQUARE], "options": {"n_unspecified": -1}}, "invalid_request"),
-        ({"dim": 2, "positions": SQUARE, "motions": [SQUARE], "options": {"seed": "zero"}}, "invalid_request"),
+        (
+            {"dim": 2, "positions": SQUARE, "motions": [SQUARE], "options": {"n_unspecified": -1}},
+            "invalid_request",
+        ),
+        (
+            {"dim": 2, "positions": SQUARE, "motions": [SQUARE], "options": {"seed": "zero"}},
+            "invalid_request",
+        ),
         ({"dim": 2, "positions": SQUARE, "motions": SQUARE}, "invalid_request"),
         ({"dim": "two", "positions": SQUARE, "motions": [SQUARE]}, "invalid_request"),
     ],
@@ -263,8 +320,14 @@ def test_design_failures_answer_422_with_a_code(client, body, code):
 @pytest.mark.parametrize("path", ["/v1/design", "/v1/solution-space"])
 @pytest.mark.parametrize("bad", ["NaN", "Infinity", "-Infinity", "1e999"])
 def test_non_finite_numbers_are_rejected(client, path, bad):
-    motions = "[[[1, 1], [-1, 1], [-1, -1], [1, -1]]]" if path == "/v1/design" else "[[1, 1], [-1, 1], [-1, -1], [1, -1]]"
-    raw = f'{{"dim": 2, "positions": [[1, 1], [-1, {bad}], [-1, -1], [1, -1]], "motions": {motions}}}'
+    motions = (
+        "[[[1, 1], [-1, 1], [-1, -1], [1, -1]]]"
+        if path == "/v1/design"
+        else "[[1, 1], [-1, 1], [-1, -1], [1, -1]]"
+    )
+    raw = (
+        f'{{"dim": 2, "positions": [[1, 1], [-1, {bad}], [-1, -1], [1, -1]], "motions": {motions}}}'
+    )
     response = client.post(path, content=raw, headers={"content-type": "application/json"})
     assert_error(response, "invalid_request")
     assert "positions" in response.json()["detail"]["message"]
@@ -346,7 +409,10 @@ def test_design_is_scale_free_at_extreme_units(client, scale):
     square = (scale * np.array(SQUARE)).tolist()
     response = client.post("/v1/design", json={"dim": 2, "positions": square, "motions": [square]})
     assert response.status_code == 200, response.text
-    assert (response.json()["report"]["unspecified_nodes"], len(response.json()["frame"]["edges"])) == (2, 8)
+    assert (
+        response.json()["report"]["unspecified_nodes"],
+        len(response.json()["frame"]["edges"]),
+    ) == (2, 8)
 
 
 @pytest.mark.xfail(
@@ -356,7 +422,9 @@ def test_design_is_scale_free_at_extreme_units(client, scale):
 )
 def test_solution_space_never_returns_non_numbers(client):
     square = (1e200 * np.array(SQUARE)).tolist()
-    response = client.post("/v1/solution-space", json={"dim": 2, "positions": square, "motions": square})
+    response = client.post(
+        "/v1/solution-space", json={"dim": 2, "positions": square, "motions": square}
+    )
     if response.status_code == 200:
         body = response.json()
         assert all(is_number(v) for row in body["basis"] + body["quadric"] for v in row)
@@ -385,7 +453,9 @@ def test_five_node_example_is_the_papers(client):
     """Supplementary coordinates, verbatim."""
     body = client.get("/v1/examples/five_node_3d/request").json()
     assert body["positions"] == [[2, 0, 1], [1, 0, 2], [3, 0, 3], [3.5, -1, 2.5], [3.5, 1, 2.5]]
-    assert body["motions"] == [[[-0.8, 0, 0.8], [0.8, 0, -0.8], [-0.8, 0, 0], [0, -0.8, 0], [0, 0.8, 0]]]
+    assert body["motions"] == [
+        [[-0.8, 0, 0.8], [0.8, 0, -0.8], [-0.8, 0, 0], [0, -0.8, 0], [0, 0.8, 0]]
+    ]
     report = client.post("/v1/design", json=body).json()["report"]
     assert report["analysis"]["zero_modes"] == 7 and report["analysis"]["self_stresses"] == 0
 
@@ -399,6 +469,18 @@ def test_openapi_documents_the_contract(client):
     assert {"/v1/solution-space", "/v1/design", "/v1/examples"} <= set(spec["paths"])
     schemas = spec["components"]["schemas"]
     text = str(schemas)
-    for field in ("nullity", "dimension", "kind", "basis", "quadric", "samples", "target_zero_modes",
-                  "unspecified_nodes", "timings_ms", "modes", "frame", "report"):
+    for field in (
+        "nullity",
+        "dimension",
+        "kind",
+        "basis",
+        "quadric",
+        "samples",
+        "target_zero_modes",
+        "unspecified_nodes",
+        "timings_ms",
+        "modes",
+        "frame",
+        "report",
+    ):
         assert f"'{field}'" in text, field

@@ -17,7 +17,6 @@ import numpy as np
 import pytest
 import scipy.linalg as sla
 from pyrigi import Framework, Graph
-
 from zeromode.solver.design import design
 from zeromode.solver.errors import DomainError
 
@@ -61,10 +60,16 @@ def pyrigi_report(positions: np.ndarray, edges) -> tuple[np.ndarray, np.ndarray,
     framework = pyrigi_framework(positions, edges)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        trivial = np.column_stack([np.array(v, dtype=float).ravel() for v in framework.trivial_inf_flexes()])
+        trivial = np.column_stack(
+            [np.array(v, dtype=float).ravel() for v in framework.trivial_inf_flexes()]
+        )
         flexes = framework.nontrivial_inf_flexes(numerical=True, tolerance=RANK_RTOL)
         stresses = framework.stresses(numerical=True, tolerance=RANK_RTOL)
-    flex = np.column_stack([np.asarray(f, dtype=float).ravel() for f in flexes]) if flexes else np.zeros((trivial.shape[0], 0))
+    flex = (
+        np.column_stack([np.asarray(f, dtype=float).ravel() for f in flexes])
+        if flexes
+        else np.zeros((trivial.shape[0], 0))
+    )
     return trivial, flex, len(stresses)
 
 
@@ -96,13 +101,17 @@ def check_design(result, x: np.ndarray, motions: np.ndarray) -> None:
         assert np.all(edges.min(axis=1) < k) and np.all(edges.max(axis=1) >= k)
     assert result.unspecified_nodes == n - k == len(result.anchor_sets)
     for j, anchors in enumerate(result.anchor_sets):
-        neighbours = {int(a) for a, b in edges if b == k + j} | {int(b) for a, b in edges if a == k + j}
+        neighbours = {int(a) for a, b in edges if b == k + j} | {
+            int(b) for a, b in edges if a == k + j
+        }
         assert neighbours == set(anchors)
 
     # C·u = 0 and the counts, from a C built here.
     c = compatibility(unit_frame(positions), edges)
     for mode in result.modes:
-        assert np.linalg.norm(c @ mode.ravel()) <= MODE_RTOL * np.linalg.norm(c) * np.linalg.norm(mode)
+        assert np.linalg.norm(c @ mode.ravel()) <= MODE_RTOL * np.linalg.norm(c) * np.linalg.norm(
+            mode
+        )
     s = np.linalg.svd(c, compute_uv=False) if len(edges) else np.zeros(0)
     rank = int(np.count_nonzero(s > RANK_RTOL * s[0])) if len(s) else 0
     assert d * n - rank == target  # zero modes
@@ -173,7 +182,9 @@ def test_design_is_deterministic():
 
 
 SCALES = [(1e-3, 1.0), (1e3, 1.0), (1.0, 1e-3), (1e3, 1e-3)]
-SCALE_CASES = [(d, k, seed) for d, k in [(2, 3), (2, 4), (3, 4), (3, 5), (3, 6)] for seed in range(6)]
+SCALE_CASES = [
+    (d, k, seed) for d, k in [(2, 3), (2, 4), (3, 4), (3, 5), (3, 6)] for seed in range(6)
+]
 
 
 def test_scaling_keeps_the_counts():
@@ -183,7 +194,10 @@ def test_scaling_keeps_the_counts():
         reference = design(x, motions, d, seed=seed)
         for sx, su in SCALES:
             scaled = design(sx * x, su * motions, d, seed=seed)
-            assert (scaled.frame.n_nodes, scaled.frame.n_edges) == (reference.frame.n_nodes, reference.frame.n_edges)
+            assert (scaled.frame.n_nodes, scaled.frame.n_edges) == (
+                reference.frame.n_nodes,
+                reference.frame.n_edges,
+            )
             assert scaled.analysis.zero_modes == reference.analysis.zero_modes
             assert scaled.analysis.self_stresses == 0
 
@@ -203,7 +217,9 @@ def test_scaling_keeps_the_topology():
         for sx, su in SCALES:
             scaled = design(sx * x, su * motions, d, seed=seed)
             assert np.array_equal(scaled.frame.edges, reference.frame.edges)
-            assert np.allclose(scaled.frame.positions / sx, reference.frame.positions, rtol=1e-6, atol=1e-9)
+            assert np.allclose(
+                scaled.frame.positions / sx, reference.frame.positions, rtol=1e-6, atol=1e-9
+            )
 
 
 # --------------------------------------------------------------------------- the paper's cases
@@ -249,7 +265,9 @@ def test_paper_outward_cube_with_the_figure_node_counts(n_unspecified, bars):
     check_design(result, CUBE, CUBE[None])
 
 
-def full_set_plane(x: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def full_set_plane(
+    x: np.ndarray, u: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """For 5 specified nodes in 3D, N(Ã) is 2-dimensional, so x_U = x* + W_x α sweeps a plane.
 
     Returns (x*, unit normal, W̃ = [W, ṽ*], Q) — all from the paper's Ã, b and block formula."""

@@ -19,7 +19,6 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-
 from zeromode.solver.errors import DomainError
 from zeromode.solver.solution_space import solution_space
 
@@ -147,11 +146,15 @@ def test_basis_solves_the_linear_system(d, data, seed):
     w, v_star = space.w_tilde[:, :m], space.w_tilde[:, m]
     a_norm = np.linalg.norm(a, 2)
     assert np.linalg.norm(a @ w) <= 1e-12 * a_norm
-    assert np.linalg.norm(a @ v_star - b) <= 1e-12 * (a_norm * np.linalg.norm(v_star) + np.linalg.norm(b))
+    assert np.linalg.norm(a @ v_star - b) <= 1e-12 * (
+        a_norm * np.linalg.norm(v_star) + np.linalg.norm(b)
+    )
     pinv = np.linalg.pinv(a, rcond=RANK_RTOL) @ b
     assert np.linalg.norm(v_star - pinv) <= 1e-9 * np.linalg.norm(pinv)
     assert np.allclose(w.T @ w, np.eye(m), atol=1e-12)
-    assert np.allclose(space.quadric, space.quadric.T, rtol=0, atol=1e-14 * np.abs(space.quadric).max())
+    assert np.allclose(
+        space.quadric, space.quadric.T, rtol=0, atol=1e-14 * np.abs(space.quadric).max()
+    )
     assert space.dimension == m - 1
 
 
@@ -182,7 +185,9 @@ def test_points_of_the_quadric_close_the_coupling(d, data, seed):
         for t in roots_on_line(space.quadric, a0, delta):
             v = space.w_tilde @ np.append(a0 + t * delta, 1.0)
             x_u, u_u, c = v[:d], v[d : 2 * d], v[2 * d]
-            assert abs(c - x_u @ u_u) <= 1e-9 * (abs(c) + np.linalg.norm(x_u) * np.linalg.norm(u_u) + 1)
+            assert abs(c - x_u @ u_u) <= 1e-9 * (
+                abs(c) + np.linalg.norm(x_u) * np.linalg.norm(u_u) + 1
+            )
             assert np.all(bar_residuals(x, u, x_u, u_u) <= 1e-9)
             found += 1
     # The specified nodes themselves solve the k ≤ d + 1 problem, so a real point must exist.
@@ -213,11 +218,15 @@ def test_isolated_points_match_the_roots_of_the_quadratic(d):
         space = solution_space(x, u, d)
         assert (space.nullity, space.kind, space.dimension) == (1, "points", 0)
         roots = roots_on_line(space.quadric, np.zeros(1), np.ones(1))
-        expected = np.array([space.w_tilde @ np.array([t, 1.0]) for t in roots]).reshape(-1, 2 * d + 1)
+        expected = np.array([space.w_tilde @ np.array([t, 1.0]) for t in roots]).reshape(
+            -1, 2 * d + 1
+        )
         positions, motions = space.sample(4, np.random.default_rng(seed))
         assert len(positions) == len(expected)
         for v in expected:
-            hit = np.linalg.norm(positions - v[:d], axis=1) + np.linalg.norm(motions - v[d : 2 * d], axis=1)
+            hit = np.linalg.norm(positions - v[:d], axis=1) + np.linalg.norm(
+                motions - v[d : 2 * d], axis=1
+            )
             assert hit.min() <= 1e-8 * (1 + np.linalg.norm(v))
 
 
@@ -272,7 +281,9 @@ def test_unique_linear_solution_on_the_coupling_is_the_one_sample():
     assert (space.kind, space.dimension) == ("points", 0)
     positions, motions = space.sample(4, np.random.default_rng(0))
     assert len(positions) == 1
-    assert np.allclose(positions[0], x_star, atol=1e-9) and np.allclose(motions[0], u_star, atol=1e-9)
+    assert np.allclose(positions[0], x_star, atol=1e-9) and np.allclose(
+        motions[0], u_star, atol=1e-9
+    )
 
 
 # --------------------------------------------------------------------------- the paper's cases
@@ -416,7 +427,11 @@ def test_nullity_and_kind_are_invariant(d, data, seed, x_exp, u_exp, redundant):
     x2 = sx * x @ rotation + 3 * sx * rng.standard_normal(d)
     u2 = su * u @ rotation + 3 * su * rng.standard_normal(d)
     moved = solution_space(x2, u2, d)
-    assert (moved.nullity, moved.kind, moved.dimension) == (reference.nullity, reference.kind, reference.dimension)
+    assert (moved.nullity, moved.kind, moved.dimension) == (
+        reference.nullity,
+        reference.kind,
+        reference.dimension,
+    )
     assert moved.nullity == expected_nullity(x2, u2)
     positions, motions = moved.sample(6, np.random.default_rng(seed))
     for x_u, u_u in zip(positions, motions):
@@ -426,7 +441,11 @@ def test_nullity_and_kind_are_invariant(d, data, seed, x_exp, u_exp, redundant):
 @pytest.mark.parametrize("scale", [1e-3, 1e-1, 1e1, 1e3])
 def test_paper_cases_are_scale_free(scale):
     for points, m in ((SQUARE, 2), (CUBE, 3)):
-        for x, u in ((scale * points, points), (points, scale * points), (scale * points, scale * points)):
+        for x, u in (
+            (scale * points, points),
+            (points, scale * points),
+            (scale * points, scale * points),
+        ):
             space = solution_space(x, u, points.shape[1])
             assert space.nullity == m
             positions, motions = space.sample(8, np.random.default_rng(0))

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+
 from zeromode_client import Frame
 
 API_KEY = "test-key-3f9c"

@@ -20,6 +20,7 @@ import httpx
 import pytest
 import uvicorn
 from client_reference import API_KEY
+
 from zeromode.service.app import create_app
 
 STARTUP_TIMEOUT_S = 60.0

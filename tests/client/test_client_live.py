@@ -19,6 +19,7 @@ from client_reference import (
     compatibility_matrix,
     rigid_motions,
 )
+
 from zeromode_client import Analysis, AsyncClient, Client, Frame, ZeromodeError
 
 
@@ -246,22 +247,63 @@ def test_refine_keeps_the_specified_nodes_and_improves_fidelity(client: Client, 
     assert max_relative_bar_change(result.array("path"), refined) < 1e-6
 
 
-def test_auxetic_design_has_negative_poisson_ratio(client: Client, require) -> None:
+def strain_ratio(positions: np.ndarray, moved: np.ndarray, boundary: dict[str, list[int]]) -> float:
+    """ν = −ε_y/ε_x, ε = Δgap/gap of the mean positions of opposite boundary sets under ``moved``.
+
+    ``moved`` is a displacement (finite: a secant ratio) or a mode (a rate: the linear ratio).
+    """
+
+    def gap(x: np.ndarray, low: str, high: str, axis: int) -> float:
+        return float(x[boundary[high]].mean(axis=0)[axis] - x[boundary[low]].mean(axis=0)[axis])
+
+    eps_x = gap(moved, "left", "right", 0) / gap(positions, "left", "right", 0)
+    eps_y = gap(moved, "bottom", "top", 1) / gap(positions, "bottom", "top", 1)
+    return -eps_y / eps_x
+
+
+def test_auxetic_sheet_has_the_requested_poisson_ratio(client: Client, require) -> None:
     require("/v1/design/auxetic")
-    result = client.design_auxetic()
-    assert result["poisson_ratio"] < 0
-    frame, modes = result.frame, result.modes
-    assert frame is not None and modes is not None and modes.shape[1:] == frame.positions.shape
+    result = client.design_auxetic(dim=2, cells=[2, 2], poisson_ratio=-0.5)
+    frame, modes, boundary = result.frame, result.modes, result["report"]["boundary"]
+    assert frame is not None and modes is not None and modes.shape == (1, *frame.positions.shape)
     c = compatibility_matrix(frame.positions, frame.edges)
-    for mode in modes:
-        assert np.linalg.norm(c @ mode.ravel()) < 1e-8 * np.linalg.norm(c) * np.linalg.norm(mode)
+    assert np.linalg.norm(c @ modes[0].ravel()) < 1e-8 * np.linalg.norm(c) * np.linalg.norm(
+        modes[0]
+    )
+    # Linear ratio of the mode, from scratch: ε = d(gap)/gap for the boundary sets.
+    assert strain_ratio(frame.positions, modes[0], boundary) == pytest.approx(-0.5, abs=1e-6)
+    assert result["poisson_ratio"] == pytest.approx(-0.5, abs=1e-6)
+    for state in result["states"]:
+        moved = np.asarray(state["positions"])
+        assert max_relative_bar_change(moved[np.newaxis], frame) < 1e-8  # a finite mechanism
+        secant = strain_ratio(frame.positions, moved - frame.positions, boundary)
+        assert secant < 0 and state["poisson_ratio"] == pytest.approx(secant, rel=1e-6)
 
 
-def test_allosteric_design_carries_frame_and_modes(client: Client, require) -> None:
+def test_allosteric_design_drives_the_target(client: Client, require) -> None:
+    """A dilating source triangle must contract a target triangle 6 units away."""
     require("/v1/design/allosteric")
-    result = client.design_allosteric()
-    frame, modes = result.frame, result.modes
-    assert frame is not None and modes is not None and modes.shape[1:] == frame.positions.shape
+    x_src = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+    x_tgt = x_src + [6.0, 0.0]
+    u_src, u_tgt = x_src - x_src.mean(axis=0), -(x_tgt - x_tgt.mean(axis=0))
+    result = client.design_allosteric(
+        dim=2,
+        source={"positions": x_src, "motion": u_src},
+        target={"positions": x_tgt, "motion": u_tgt},
+    )
+    frame, report = result.frame, result["report"]
+    assert frame is not None and result.modes is not None
+    np.testing.assert_array_equal(frame.positions[report["source"]], x_src)
+    np.testing.assert_array_equal(frame.positions[report["target"]], x_tgt)
+    # From scratch: d(d+1)/2 + 1 zero modes, no self-stress, and some zero mode moves the
+    # source by u_src and the target by u_tgt at once.
     c = compatibility_matrix(frame.positions, frame.edges)
-    for mode in modes:
-        assert np.linalg.norm(c @ mode.ravel()) < 1e-8 * np.linalg.norm(c) * np.linalg.norm(mode)
+    sigma = np.linalg.svd(c / np.abs(c).max(), compute_uv=False)
+    rank = int(np.sum(sigma > 1e-9 * sigma[0]))
+    assert (c.shape[1] - rank, c.shape[0] - rank) == (4, 0)
+    null = np.linalg.svd(c)[2][rank:].T
+    sites = report["source"] + report["target"]
+    rows = [2 * i + a for i in sites for a in range(2)]
+    wanted = np.concatenate([u_src.ravel(), u_tgt.ravel()])
+    coef, *_ = np.linalg.lstsq(null[rows], wanted, rcond=None)
+    assert np.linalg.norm(null[rows] @ coef - wanted) < 1e-8 * np.linalg.norm(wanted)

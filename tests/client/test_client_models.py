@@ -7,6 +7,7 @@ import json
 import numpy as np
 import pytest
 from client_reference import K4_SPACE
+
 from zeromode_client import Frame, Result
 
 

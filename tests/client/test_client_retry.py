@@ -14,6 +14,7 @@ from collections.abc import Callable, Iterator
 import httpx
 import pytest
 from client_reference import SQUARE
+
 from zeromode_client import (
     AsyncClient,
     Client,

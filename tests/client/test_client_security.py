@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import pytest
 from client_reference import API_KEY, SQUARE
+
 from zeromode_client import Client, ZeromodeError
 
 
