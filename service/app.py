@@ -14,6 +14,7 @@ from zeromode.service import __version__
 from zeromode.service.errors import error_body, install_error_handlers
 from zeromode.service.routes import analyze, design, examples, health, lattice, motion, plot
 from zeromode.service.settings import SETTINGS, Settings
+from zeromode.solver.budget import time_budget
 
 log = logging.getLogger("zeromode")
 
@@ -58,7 +59,8 @@ def create_app(settings: Settings = SETTINGS) -> FastAPI:
                     status_code=401,
                     content=error_body("unauthorized", "a valid X-API-Key header is required."),
                 )
-        response = await call_next(request)
+        with time_budget(settings.time_budget_s):
+            response = await call_next(request)
         response.headers["x-request-id"] = request_id
         log.info("request_id=%s %s %s -> %s", request_id, request.method, request.url.path, response.status_code)
         return response

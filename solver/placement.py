@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 
+from zeromode.solver.budget import check_budget
 from zeromode.solver.errors import DomainError
 from zeromode.solver.rank import RTOL, nullspace
 
@@ -200,6 +201,7 @@ def place_nodes(
     levels: list[list[CandidatePool]] = []
     level_iter = iter(candidate_levels)
     while state.n_d > state.target:
+        check_budget()
         nodes_left = None if n_unspecified is None else n_unspecified - len(state.anchor_sets)
         if nodes_left is not None and nodes_left <= 0:
             raise DomainError(

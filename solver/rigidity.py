@@ -27,6 +27,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from zeromode.solver.budget import check_budget
 from zeromode.solver.errors import DomainError
 from zeromode.solver.frame import Frame
 from zeromode.solver.rank import RTOL, RankGap, complement_within, decide_rank, orthonormal_range
@@ -250,6 +251,7 @@ def _null_by_subspace_iteration(
     rng = np.random.default_rng(0)
     block = min(ndof, max(lower_bound, 1) + oversample)
     while True:
+        check_budget()
         y = rng.standard_normal((ndof, block))
         for _ in range(steps):
             y, _ = np.linalg.qr(lu.solve(y))

@@ -1,0 +1,44 @@
+"""A cooperative time budget for long computations.
+
+The caller opens ``time_budget(seconds)``; long loops call ``check_budget()`` once per
+iteration, which raises DomainError ``too_expensive`` (with the limit in the message) once the
+deadline has passed.  The deadline lives in a context variable, so concurrent requests (threads
+or tasks) each see their own.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
+
+from zeromode.solver.errors import DomainError
+
+_DEADLINE: ContextVar[tuple[float, float] | None] = ContextVar("zeromode_deadline", default=None)
+
+
+@contextmanager
+def time_budget(seconds: float | None) -> Iterator[None]:
+    """Within this block, ``check_budget`` fails once ``seconds`` have passed (None: no limit)."""
+    token = _DEADLINE.set(None if seconds is None else (time.monotonic() + seconds, seconds))
+    try:
+        yield
+    finally:
+        _DEADLINE.reset(token)
+
+
+def remaining() -> float | None:
+    """Seconds left in the current budget (None when unlimited)."""
+    deadline = _DEADLINE.get()
+    return None if deadline is None else max(deadline[0] - time.monotonic(), 0.0)
+
+
+def check_budget() -> None:
+    deadline = _DEADLINE.get()
+    if deadline is not None and time.monotonic() > deadline[0]:
+        raise DomainError(
+            "too_expensive",
+            f"the request needs more than the time budget of {deadline[1]:g} s; "
+            "ask for a smaller problem or run it as a job.",
+        )
