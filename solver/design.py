@@ -20,7 +20,7 @@ from math import comb
 import numpy as np
 
 from zeromode.solver.errors import DomainError, InvalidInput
-from zeromode.solver.frame import Frame
+from zeromode.solver.frame import Frame, check_positions, unit_scaled
 from zeromode.solver.multimode import multi_mode_levels
 from zeromode.solver.placement import (
     CandidatePool,
@@ -64,9 +64,11 @@ def check_motions_nonrigid(positions: np.ndarray, motions: np.ndarray) -> None:
     norm = Normalisation.of(positions, motions[0])
     rigid = rigid_motions(norm.positions_in(positions))
     flat = motions.reshape(len(motions), -1).T  # (k·d, M)
+    peak = np.max(np.abs(flat), axis=0)
+    if np.any(peak == 0):
+        raise DomainError("rigid_target", f"motion {int(np.argmin(peak))} is zero everywhere.")
+    flat = flat / peak  # scale-free before any sum of squares (1e±200 must not under/overflow)
     scale = np.linalg.norm(flat, axis=0)
-    if np.any(scale == 0):
-        raise DomainError("rigid_target", f"motion {int(np.argmin(scale))} is zero everywhere.")
     residual = (flat - rigid @ (rigid.T @ flat)) / scale
     norms = np.linalg.norm(residual, axis=0)
     if np.any(norms <= 1e-9):
@@ -88,9 +90,9 @@ def check_specified_distinct(positions: np.ndarray) -> None:
     k = len(positions)
     if k < 2:
         return
-    scale = float(np.sqrt(np.mean(np.sum((positions - positions.mean(0)) ** 2, axis=1))))
-    diff = positions[:, None, :] - positions[None, :, :]
-    dist = np.sqrt(np.sum(diff**2, axis=-1))
+    y, _ = unit_scaled(positions - positions.mean(axis=0))  # scale-free at any magnitude
+    scale = float(np.sqrt(np.mean(np.sum(y**2, axis=1))))
+    dist = np.linalg.norm(y[:, None, :] - y[None, :, :], axis=-1)
     np.fill_diagonal(dist, np.inf)
     i, j = np.unravel_index(np.argmin(dist), dist.shape)
     if scale == 0 or dist[i, j] <= 1e-9 * scale:
@@ -138,22 +140,20 @@ def design(
 ) -> Design:
     """Design a frame whose only non-rigid zero modes are the requested motions.
 
-    positions: x_S (k, d); motions: (M, k, d) or (k, d) for one motion.
+    positions: x_S (k, d); motions: a sequence of M motions, each (k, d), or one (k, d) array.
     Raises DomainError: ``rigid_target``, ``degenerate_specified``, ``no_solution``.
     """
-    x = np.asarray(positions, dtype=float)
-    u_all = np.asarray(motions, dtype=float)
-    if u_all.ndim == 2:
-        u_all = u_all[None]
-    for u in u_all:
-        check_targets(x, u, dim)
-    if len(u_all) == 0:
+    x = check_positions(positions, dim, "positions")
+    if isinstance(motions, np.ndarray) and motions.ndim == 2:
+        motions = [motions]  # one k×d motion
+    if len(motions) == 0:
         raise InvalidInput("invalid_shape", "motions must hold at least one motion.")
-    d = x.shape[1]
+    u_all = np.stack([check_targets(x, u)[1] for u in motions])
     check_specified_distinct(x)
     check_motions_nonrigid(x, u_all)
     if n_unspecified is not None and n_unspecified < 0:
         raise InvalidInput("invalid_options", "n_unspecified must be non-negative.")
+    d = x.shape[1]
     norm = Normalisation.of(x, u_all[0])
     x_n = norm.positions_in(x)
     u_n = np.stack([norm.motions_in(u) for u in u_all])

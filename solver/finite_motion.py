@@ -54,13 +54,15 @@ import numpy as np
 import scipy.linalg as sla
 from scipy.optimize import minimize_scalar
 
+from zeromode.solver.budget import check_budget
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame, check_positions, rms_radius
 from zeromode.solver.rank import RTOL, complement_within, decide_rank
 from zeromode.solver.rigidity import rigid_motions
 
-# Continuation runs on a dense C; above this many degrees of freedom one step costs seconds.
-MAX_DOF = 1200
+# Continuation runs on a dense C (full SVD per step); at 600 degrees of freedom a step costs
+# about 0.1 s, beyond that a path would not fit in a request's time budget.
+MAX_DOF = 600
 # Newton stops when every bar is within this relative length error (the API promises ≤ 1e-9).
 NEWTON_RTOL = 1e-12
 NEWTON_MAX_ITER = 12
@@ -250,7 +252,9 @@ def _solve(matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     return np.linalg.lstsq(matrix, rhs, rcond=None)[0]
 
 
-def _correct(cons: _Constraints, pred: np.ndarray, t: np.ndarray, b: np.ndarray, start=None, tight=False):
+def _correct(
+    cons: _Constraints, pred: np.ndarray, t: np.ndarray, b: np.ndarray, start=None, tight=False
+):
     """Newton on g(Y) = 0, tᵀ(Y − P) = 0, Bᵀ(Y − P) = 0 from ``start`` (default the predictor P).
 
     Converged when every bar is within NEWTON_RTOL of its length.  With ``tight`` Newton then
@@ -288,12 +292,15 @@ def _trace_one_way(cons, start: _Point, amplitude, max_step, max_steps):
     point, tau, h = start, 0.0, min(max_step, amplitude)
     xs, taus = [], []
     for _ in range(max_steps):
+        check_budget()
         if tau >= amplitude * (1 - 1e-12):
             return xs, taus, None
         h = min(h, amplitude - tau)
         accepted = None
         while h >= MIN_STEP:
-            got = _correct(cons, point.x + h * sqrt_n * point.t.reshape(point.x.shape), point.t, point.b)
+            got = _correct(
+                cons, point.x + h * sqrt_n * point.t.reshape(point.x.shape), point.t, point.b
+            )
             if got is not None:
                 y, iters = got
                 c = cons.jacobian(y)
@@ -301,14 +308,20 @@ def _trace_one_way(cons, start: _Point, amplitude, max_step, max_steps):
                 if local is not None and float(local[0] @ point.t) >= np.cos(MAX_TURN):
                     accepted = (y, iters, c, local)
                     break
-                if local is None:  # no nontrivial mode continues t here: can only be a singular point
+                if (
+                    local is None
+                ):  # no nontrivial mode continues t here: can only be a singular point
                     accepted = (y, iters, c, None)
                     break
             h *= 0.5
         if accepted is None:
             n_zero, s = _zero_modes_at(cons, point.x, SINGULAR_RTOL)
             sig = _vanishing_sigma(s, point.rank)
-            return xs, taus, Singularity(len(xs), tau, max(n_zero - point.zero_modes, 0), sig, "stalled")
+            return (
+                xs,
+                taus,
+                Singularity(len(xs), tau, max(n_zero - point.zero_modes, 0), sig, "stalled"),
+            )
         y, iters, c, local = accepted
         crossed = local is None or _det_sign(c, point.rows, point.t, point.b) != point.sign
         if local is not None and local[3] > point.zero_modes:
@@ -410,7 +423,9 @@ def _start_direction(frame: Frame, x: np.ndarray, cons: _Constraints, mode) -> n
         return u * (1.0 if u[np.argmax(np.abs(u))] > 0 else -1.0)
     u = check_positions(mode, frame.dim, name="mode")
     if u.shape[0] != n:
-        raise InvalidInput("invalid_shape", f"mode must have one row per node ({n}), got {u.shape[0]}.")
+        raise InvalidInput(
+            "invalid_shape", f"mode must have one row per node ({n}), got {u.shape[0]}."
+        )
     u = u.ravel()
     norm = np.linalg.norm(u)
     if norm == 0:
@@ -445,7 +460,9 @@ def trace_motion(
     (``status`` "singular_path"); the path up to them is returned.
     """
     if direction not in ("both", "forward", "backward"):
-        raise InvalidInput("invalid_direction", "direction must be 'both', 'forward' or 'backward'.")
+        raise InvalidInput(
+            "invalid_direction", "direction must be 'both', 'forward' or 'backward'."
+        )
     if not (np.isfinite(amplitude) and amplitude > 0 and np.isfinite(max_step) and max_step > 0):
         raise InvalidInput("invalid_amplitude", "amplitude and max_step must be positive numbers.")
     ndof = frame.dim * frame.n_nodes
@@ -477,13 +494,23 @@ def trace_motion(
     singularities = []
     if back_sing is not None:
         singularities.append(
-            Singularity(ref - back_sing.step, -back_sing.parameter, back_sing.extra_zero_modes,
-                        back_sing.sigma, back_sing.kind)
+            Singularity(
+                ref - back_sing.step,
+                -back_sing.parameter,
+                back_sing.extra_zero_modes,
+                back_sing.sigma,
+                back_sing.kind,
+            )
         )
     if fwd_sing is not None:
         singularities.append(
-            Singularity(ref + fwd_sing.step, fwd_sing.parameter, fwd_sing.extra_zero_modes,
-                        fwd_sing.sigma, fwd_sing.kind)
+            Singularity(
+                ref + fwd_sing.step,
+                fwd_sing.parameter,
+                fwd_sing.extra_zero_modes,
+                fwd_sing.sigma,
+                fwd_sing.kind,
+            )
         )
     positions = centre + radius * np.stack(configs)
     lengths = bar_lengths(frame.positions, frame.edges)

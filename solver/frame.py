@@ -46,7 +46,7 @@ def check_positions(positions, dim: int | None = None, name: str = "positions") 
     return x
 
 
-def _unit_scaled(x: np.ndarray) -> tuple[np.ndarray, float]:
+def unit_scaled(x: np.ndarray) -> tuple[np.ndarray, float]:
     """(x / m, m) with m = max |x_ia|, so sums of squares can neither overflow nor underflow."""
     m = float(np.max(np.abs(x))) if x.size else 0.0
     return (x / m, m) if m > 0 else (x, 1.0)
@@ -62,7 +62,7 @@ def rms_radius(x: np.ndarray) -> float:
     """Root-mean-square distance of the points from their centroid (0 for a single point)."""
     if len(x) == 0:
         return 0.0
-    y, m = _unit_scaled(x)
+    y, m = unit_scaled(x)
     return m * _centred_rms(y)[1]
 
 
@@ -117,7 +117,7 @@ class Frame:
             )
         if len(e):
             # Compared in units of max |x|, which keeps the test scale-free at any magnitude.
-            y, _ = _unit_scaled(x)
+            y, _ = unit_scaled(x)
             lengths = np.linalg.norm(y[e[:, 0]] - y[e[:, 1]], axis=1)
             scale = max(_centred_rms(y)[1], float(np.max(np.abs(y))), np.finfo(float).tiny)
             short = np.flatnonzero(lengths <= COINCIDENT_RTOL * scale)
@@ -165,7 +165,7 @@ class Frame:
     def normalised_positions(self) -> np.ndarray:
         """Positions centred at the centroid and divided by the RMS radius (identity scale for one point)."""
         # Divided by max |x| first, so neither the centring nor the RMS overflows or underflows.
-        x, r = _centred_rms(_unit_scaled(self.positions)[0])
+        x, r = _centred_rms(unit_scaled(self.positions)[0])
         return x / r if r > 0 else x
 
     def to_dict(self) -> dict:

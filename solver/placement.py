@@ -22,7 +22,6 @@ from math import comb
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg as sla
 
 from zeromode.solver.budget import check_budget
 from zeromode.solver.errors import DomainError
@@ -72,9 +71,9 @@ class Placement:
     def n_d(self) -> int:
         return self.d * len(self.positions) - len(self.edges)
 
-    def best_in(self, pool: CandidatePool, budget: int) -> tuple[int, float, int, list[int]] | None:
+    def best_in(self, pool: CandidatePool, budget: int) -> tuple[tuple, int, list[int]] | None:
         """Best candidate of ``pool`` if joined to at most ``budget`` of its anchors:
-        (rank gained, conditioning, index in pool, anchors chosen), or None.
+        (ranking key, index in pool, anchors chosen), or None; larger keys are better.
 
         For each candidate the rows of the new bars, projected onto the current N(C) for the old
         columns, form R = [A·N_old, B] (a × (z + d)); rank R is the rank gained, its take-th
@@ -103,25 +102,38 @@ class Placement:
         viable = valid & spans & (gained > d)
         if not np.all(viable):
             pool.keep(viable)
-            rows, s, take, ok, p = rows[viable], s[viable], take[viable], ok[viable], p[viable]
+            rows, s, take, ok, p, diff = rows[viable], s[viable], take[viable], ok[viable], p[viable], diff[viable]
         if not np.any(ok):
             return None
         cond = np.where(ok, s[np.arange(len(p)), np.maximum(take, 1) - 1], -1.0)
-        for i in np.lexsort((-cond, -np.where(ok, take, -1))):
+        # Ties in conditioning (exact ones occur, e.g. for the first node) are broken by
+        # compactness; both keys are quantised so that rounding noise — which differs between
+        # a request and its rescaled copy — never decides.
+        reach = np.max(np.linalg.norm(diff, axis=2), axis=1)
+        for i in np.lexsort((np.round(reach, 6), -np.round(cond, 6), -np.where(ok, take, -1))):
             if not ok[i]:
                 break
-            chosen = self._choose_anchors(rows[i], anchors, int(take[i]))
+            chosen = self._choose_anchors(rows[i], anchors, np.linalg.norm(diff[i], axis=1), int(take[i]))
             if np.linalg.matrix_rank(x[chosen] - p[i], tol=1e-7) >= d:
-                return int(take[i]), float(cond[i]), int(i), chosen
+                return (int(take[i]), round(float(cond[i]), 6), -round(float(reach[i]), 6)), int(i), chosen
         return None
 
     @staticmethod
-    def _choose_anchors(rows: np.ndarray, anchors: np.ndarray, take: int) -> list[int]:
-        """The ``take`` most independent bars (pivoted QR), or all of them when all are needed."""
+    def _choose_anchors(rows: np.ndarray, anchors: np.ndarray, lengths: np.ndarray, take: int) -> list[int]:
+        """``take`` independent bars: all of them when all are needed, otherwise greedily in a
+        scale-free order (shortest bar first, lengths quantised, then anchor index), keeping a
+        bar only if it raises the rank — so rounding noise never decides which bars are used."""
         if take == len(anchors):
             return [int(a) for a in anchors]
-        _, _, piv = sla.qr(rows.T, mode="economic", pivoting=True)
-        return sorted(int(anchors[i]) for i in piv[:take])
+        chosen: list[int] = []
+        for i in np.lexsort((anchors, np.round(lengths, 6))):
+            trial = rows[chosen + [int(i)]]
+            s = np.linalg.svd(trial, compute_uv=False)
+            if s[-1] > 1e-7 * s[0]:
+                chosen.append(int(i))
+                if len(chosen) == take:
+                    break
+        return sorted(int(anchors[i]) for i in chosen)
 
     def add(self, position: np.ndarray, motions: np.ndarray, anchors: list[int]) -> None:
         """Join a node at ``position`` to ``anchors`` and update N(C) incrementally.
@@ -180,8 +192,8 @@ def _budget(state: Placement, nodes_left: int | None) -> int:
     excess = state.n_d - state.target
     if nodes_left is None:
         return excess + state.d
-    # Spread the remaining reduction evenly when the user fixed the number of nodes.
-    return state.d + -(-excess // nodes_left)
+    # A fixed node count: spread the reduction evenly, leaving at least one per later node.
+    return state.d + min(-(-excess // nodes_left), excess - (nodes_left - 1))
 
 
 def place_nodes(
@@ -200,6 +212,12 @@ def place_nodes(
     state = Placement(x_n, u_n, target_zero_modes(d, u_n.shape[0]))
     levels: list[list[CandidatePool]] = []
     level_iter = iter(candidate_levels)
+    if n_unspecified is not None and n_unspecified > state.n_d - state.target:
+        raise DomainError(
+            "no_solution",
+            f"{n_unspecified} unspecified nodes cannot all be used: each must remove at least one "
+            f"of the {state.n_d - state.target} degrees of freedom to remove.",
+        )
     while state.n_d > state.target:
         check_budget()
         nodes_left = None if n_unspecified is None else n_unspecified - len(state.anchor_sets)
@@ -220,7 +238,7 @@ def place_nodes(
                 levels.append(nxt)
             for pool in levels[level]:
                 found = state.best_in(pool, budget)
-                if found and (best is None or found[:2] > best[0][:2]):
+                if found and (best is None or found[0] > best[0][0]):
                     best = (found, pool)
             level += 1
         if best is None:
@@ -234,7 +252,7 @@ def place_nodes(
                 f"no real placement removes the remaining {state.n_d - state.target} degrees of "
                 f"freedom: {why}.",
             )
-        (_, _, i, chosen), pool = best
+        (_, i, chosen), pool = best
         state.add(pool.positions[i], pool.motions[i], chosen)
         pool.remove(i)
     return state

@@ -80,7 +80,7 @@ def quadric_matrix(w_tilde: np.ndarray, d: int) -> np.ndarray:
     linear = w_tilde[2 * d]  # pᵀW̃: the c-row
     q[:, -1] -= 0.5 * linear
     q[-1, :] -= 0.5 * linear
-    return q
+    return 0.5 * (q + q.T)  # exactly symmetric (the products above differ in the last bit)
 
 
 @dataclass(frozen=True, eq=False)
@@ -195,6 +195,11 @@ def solution_space(positions, motions, dim: int | None = None, rtol: float = RTO
     v_n = vt[:rank].T @ ((uu[:, :rank].T @ b_n) / s[:rank])
     w_tilde_n = np.column_stack([w_n, v_n])
     w_tilde = _original_basis(x, u, rank)
+    if not np.all(np.isfinite(w_tilde)) or not np.all(np.isfinite(quadric_matrix(w_tilde, d))):
+        raise InvalidInput(
+            "out_of_range",
+            "positions × motions overflow double precision in the caller's units; rescale the request.",
+        )
     space = SolutionSpace(
         dim=d,
         positions=x,

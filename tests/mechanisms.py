@@ -46,7 +46,7 @@ def bipartite_design(x_s, u_s, n_unspecified: int, seed: int = 0, scale_limit: f
     qualifies (unspecified nodes within ``scale_limit`` RMS radii of the specified centroid, no
     two nodes closer than 0.2 of it)."""
     x_s, u_s = np.asarray(x_s, float), np.asarray(u_s, float)
-    k, d = x_s.shape
+    k = len(x_s)
     rng = np.random.default_rng(seed)
     centre = x_s.mean(axis=0)
     size = np.sqrt(np.mean(np.sum((x_s - centre) ** 2, axis=1)))
@@ -55,9 +55,14 @@ def bipartite_design(x_s, u_s, n_unspecified: int, seed: int = 0, scale_limit: f
         pts = solution_points(x_s, u_s, n_unspecified, rng)
         x_u = np.array([p[0] for p in pts])
         positions = np.vstack([x_s, x_u])
-        gaps = np.linalg.norm(positions[:, None] - positions[None], axis=2)[np.triu_indices(k + n_unspecified, 1)]
+        gaps = np.linalg.norm(positions[:, None] - positions[None], axis=2)[
+            np.triu_indices(k + n_unspecified, 1)
+        ]
         # The conic passes through every specified node: keep clear of them (and of each other).
-        if np.max(np.linalg.norm(x_u - centre, axis=1)) > scale_limit * size or gaps.min() < 0.2 * size:
+        if (
+            np.max(np.linalg.norm(x_u - centre, axis=1)) > scale_limit * size
+            or gaps.min() < 0.2 * size
+        ):
             continue
         frame = Frame.build(positions, edges, specified=list(range(k)))
         an = analyze(frame)

@@ -19,6 +19,7 @@ from rigidity_reference import (
     singular_values,
     span,
 )
+
 from zeromode.solver import Frame, analyze
 
 TOL = 1e-10

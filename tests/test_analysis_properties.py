@@ -22,6 +22,7 @@ from rigidity_reference import (
     singular_values,
     span,
 )
+
 from zeromode.solver import Frame, analyze
 from zeromode.solver.rank import RTOL
 

@@ -13,6 +13,7 @@ import warnings
 import numpy as np
 import pytest
 from rigidity_reference import as_columns, projector, random_frame, span
+
 from zeromode.solver import Frame, analyze
 
 pyrigi = pytest.importorskip("pyrigi")

@@ -382,11 +382,6 @@ def test_design_never_answers_5xx(client, dim, k, defect, n_modes, values, seed)
         assert response.json()["detail"]["code"]
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="bug: solver.design.design() calls np.asarray(positions/motions, dtype=float) before "
-    "check_targets, so ragged rows raise ValueError and the service answers 500 internal_error",
-)
 @pytest.mark.parametrize(
     "body",
     [
@@ -399,11 +394,6 @@ def test_ragged_design_requests_are_4xx(client, body):
     assert_error(client.post("/v1/design", json=body), {"invalid_shape", "invalid_request"})
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="bug: check_specified_distinct squares raw coordinates, so its RMS scale underflows "
-    "to 0 at 1e-200 ('nodes 0 and 1 coincide') and overflows at 1e200 ('nodes 0 and 0 coincide')",
-)
 @pytest.mark.parametrize("scale", [1e-200, 1e200])
 def test_design_is_scale_free_at_extreme_units(client, scale):
     square = (scale * np.array(SQUARE)).tolist()
@@ -415,11 +405,6 @@ def test_design_is_scale_free_at_extreme_units(client, scale):
     ) == (2, 8)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="bug: solution_space builds W̃ and Q in caller coordinates where b_i = x_Si·u_Si "
-    "overflows at 1e200, and the response carries NaN (serialised as null) in basis/quadric",
-)
 def test_solution_space_never_returns_non_numbers(client):
     square = (1e200 * np.array(SQUARE)).tolist()
     response = client.post(

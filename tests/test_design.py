@@ -202,13 +202,6 @@ def test_scaling_keeps_the_counts():
             assert scaled.analysis.self_stresses == 0
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="bug: Placement.best_in ranks candidates by the smallest pivot of their unit bar rows; "
-    "for the first unspecified node (no bars yet) that Gram matrix is (I + EEᵀ)/2 and every "
-    "candidate scores exactly 1/√2, so the first pick is decided by rounding noise and a "
-    "rescaled request gets different bars and positions",
-)
 def test_scaling_keeps_the_topology():
     """Same request in other units → the same bars, and positions scaled by the same factor."""
     for d, k, seed in SCALE_CASES:
@@ -393,12 +386,6 @@ def test_three_nodes_in_3d_cannot_be_designed():
     assert err.value.code == "no_solution"
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="bug: place_nodes stops as soon as N_D reaches the target, so n_unspecified above the "
-    "number needed (square: 5, 6) silently returns fewer nodes instead of exactly n_unspecified "
-    "or a no_solution error",
-)
 @pytest.mark.parametrize("n_unspecified", [5, 6])
 def test_n_unspecified_is_honoured_or_refused(n_unspecified):
     try:

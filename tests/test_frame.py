@@ -4,6 +4,7 @@ import math
 
 import numpy as np
 import pytest
+
 from zeromode.solver.errors import InvalidInput
 from zeromode.solver.frame import Frame
 

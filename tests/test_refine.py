@@ -15,6 +15,7 @@ the circle of radius λ√2 (the linear design has them on radius √2).
 import numpy as np
 import pytest
 from mechanisms import bipartite_design, outward_square, random_targets
+
 from zeromode.solver import DomainError, Frame
 from zeromode.solver.finite_motion import motion_fidelity
 from zeromode.solver.refine import RefinementFailed, refine
@@ -34,7 +35,8 @@ def pyrigi_counts(positions, edges):
 def path_bar_error(path, edges):
     ref = np.linalg.norm(path[0][edges[:, 0]] - path[0][edges[:, 1]], axis=1)
     return max(
-        float(np.max(np.abs(np.linalg.norm(x[edges[:, 0]] - x[edges[:, 1]], axis=1) - ref) / ref)) for x in path
+        float(np.max(np.abs(np.linalg.norm(x[edges[:, 0]] - x[edges[:, 1]], axis=1) - ref) / ref))
+        for x in path
     )
 
 
@@ -70,7 +72,9 @@ def test_targets_given_as_final_positions_up_to_a_rigid_motion():
     assert np.allclose(np.linalg.norm(res.frame.positions[4:], axis=1), 1.2 * np.sqrt(2), rtol=1e-6)
 
 
-@pytest.mark.parametrize("k, d, n_unspecified, seed", [(3, 2, 2, 0), (3, 2, 2, 1), (4, 3, 5, 0), (4, 3, 5, 2)])
+@pytest.mark.parametrize(
+    "k, d, n_unspecified, seed", [(3, 2, 2, 0), (3, 2, 2, 1), (4, 3, 5, 0), (4, 3, 5, 2)]
+)
 def test_random_targets_at_ten_percent(k, d, n_unspecified, seed):
     x_s, u_s = random_targets(k, d, seed)
     frame = bipartite_design(x_s, u_s, n_unspecified, seed=seed)
@@ -94,10 +98,15 @@ def test_infeasible_refinement_fails_with_the_best_result():
         refine(frame, frame.positions[:4], 0.2, stay_on_solution_space=True)
     assert err.value.code == "refinement_failed"
     best = err.value.best
-    assert not best.ok and best.ipopt_status not in ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+    assert not best.ok and best.ipopt_status not in (
+        "Solve_Succeeded",
+        "Solved_To_Acceptable_Level",
+    )
     # The best result found is returned, and its ε is what continuation measures for it.
     assert best.epsilon_after <= best.epsilon_before
-    assert motion_fidelity(best.frame, best.displacement)[0].epsilon == pytest.approx(best.epsilon_after, rel=1e-6)
+    assert motion_fidelity(best.frame, best.displacement)[0].epsilon == pytest.approx(
+        best.epsilon_after, rel=1e-6
+    )
     assert best.epsilon_after > 0.05  # no frame near the conic reaches the target
 
 
@@ -109,7 +118,9 @@ def test_iteration_limit_fails_and_keeps_the_better_frame():
     best = err.value.best
     assert best.ipopt_status == "Maximum_Iterations_Exceeded" and best.iterations == 2
     assert best.epsilon_after <= best.epsilon_before
-    assert motion_fidelity(best.frame, best.displacement)[0].epsilon == pytest.approx(best.epsilon_after, rel=1e-6)
+    assert motion_fidelity(best.frame, best.displacement)[0].epsilon == pytest.approx(
+        best.epsilon_after, rel=1e-6
+    )
     assert "Maximum_Iterations_Exceeded" in err.value.message
 
 
@@ -128,7 +139,9 @@ def test_bad_requests():
         refine(Frame.build(frame.positions, frame.edges, list(range(6))), np.ones((6, 2)), 0.2)
     assert err.value.code == "nothing_to_refine"
     pentagon = Frame.build(
-        [[np.cos(t), np.sin(t)] for t in np.linspace(0, 6, 5)], [[i, (i + 1) % 5] for i in range(5)], [0, 1, 2]
+        [[np.cos(t), np.sin(t)] for t in np.linspace(0, 6, 5)],
+        [[i, (i + 1) % 5] for i in range(5)],
+        [0, 1, 2],
     )
     with pytest.raises(DomainError) as err:
         refine(pentagon, np.eye(3, 2), 0.1)

@@ -97,6 +97,7 @@ def post_refine(request: RefineRequest):
         )
     except RefinementFailed as exc:
         return JSONResponse(
-            status_code=422, content=error_body(exc.code, exc.message, best=_json_safe(exc.best.to_dict()))
+            status_code=422,
+            content=error_body(exc.code, exc.message, best=_json_safe(exc.best.to_dict())),
         )
     return result.to_dict()

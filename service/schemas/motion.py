@@ -36,10 +36,16 @@ class MotionRequest(BaseModel):
         ),
     )
     max_step: float = Field(
-        default=0.02, gt=0, le=1, description="Largest continuation step, in the units of `amplitude`."
+        default=0.02,
+        gt=0,
+        le=1,
+        description="Largest continuation step, in the units of `amplitude`.",
     )
     max_steps: int = Field(
-        default=5000, ge=1, le=20000, description="Step budget per direction (422 `step_limit` past it)."
+        default=5000,
+        ge=1,
+        le=20000,
+        description="Step budget per direction (422 `step_limit` past it).",
     )
     direction: Literal["both", "forward", "backward"] = Field(
         default="both", description="Follow +mode, −mode, or both."
@@ -66,23 +72,32 @@ class SingularityModel(BaseModel):
 
 class MotionResponse(BaseModel):
     path: list[Points] = Field(description="Configurations (N×d each) ordered by `parameter`.")
-    parameter: list[float] = Field(description="Path parameter of each configuration (0 at the input frame).")
+    parameter: list[float] = Field(
+        description="Path parameter of each configuration (0 at the input frame)."
+    )
     reference_index: int = Field(description="Index of the input configuration in `path`.")
     max_relative_bar_error: float = Field(
         description="max over the path and the bars of | |x_i − x_j| − l | / l (≤ 1e-9)."
     )
-    singularities: list[SingularityModel] = Field(description="Singular points met (at most one per direction).")
+    singularities: list[SingularityModel] = Field(
+        description="Singular points met (at most one per direction)."
+    )
     status: Literal["ok", "singular_path"]
     steps: int = Field(description="Number of continuation steps taken (len(path) − 1).")
     timings_ms: dict[str, float]
 
 
 class RefineOptions(BaseModel):
-    K: int = Field(default=8, ge=1, le=64, description="Configurations after the reference along the path.")
+    K: int = Field(
+        default=8, ge=1, le=64, description="Configurations after the reference along the path."
+    )
     tol: float = Field(default=1e-8, gt=0, lt=1, description="IPOPT tol.")
     max_iter: int = Field(default=500, ge=1, le=10000, description="IPOPT max_iter.")
     max_time_s: float = Field(
-        default=5.0, gt=0, le=SETTINGS.time_budget_s, description="IPOPT max_cpu_time and max_wall_time."
+        default=5.0,
+        gt=0,
+        le=SETTINGS.time_budget_s,
+        description="IPOPT max_cpu_time and max_wall_time.",
     )
     stay_on_solution_space: bool = Field(
         default=False,
@@ -94,7 +109,9 @@ class RefineOptions(BaseModel):
 
 
 class RefineRequest(BaseModel):
-    frame: FrameModel = Field(description="A frame with specified nodes and one nontrivial zero mode.")
+    frame: FrameModel = Field(
+        description="A frame with specified nodes and one nontrivial zero mode."
+    )
     motion: Points | None = Field(
         default=None,
         description="u_S (k×d, rows in the order of frame.specified): the direction of the target motion.",
@@ -124,7 +141,9 @@ class RefineRequest(BaseModel):
 
 class RefineResponse(BaseModel):
     frame: FrameModel = Field(description="The refined frame (specified nodes unchanged).")
-    displacement: Points = Field(description="Δ_S, the target displacement of the specified nodes (k×d).")
+    displacement: Points = Field(
+        description="Δ_S, the target displacement of the specified nodes (k×d)."
+    )
     amplitude: float = Field(description="a (RMS of Δ_S over the RMS radius of x_S).")
     epsilon_before: float = Field(description="ε of the input frame. " + FIDELITY)
     epsilon_after: float = Field(
@@ -132,12 +151,22 @@ class RefineResponse(BaseModel):
     )
     ipopt_status: str = Field(description="IPOPT's return status.")
     iterations: int = Field(description="IPOPT iterations.")
-    time_ms: float = Field(description="Whole refinement, including both ε measurements and the re-verification.")
+    time_ms: float = Field(
+        description="Whole refinement, including both ε measurements and the re-verification."
+    )
     ipopt_time_ms: float = Field(description="IPOPT alone.")
-    path: list[Points] = Field(description="IPOPT's K+1 configurations, the refined reference first.")
-    max_relative_bar_error: float = Field(description="Largest relative bar-length error along `path`.")
-    analysis_reference: AnalysisCounts | None = Field(description="Rigidity analysis of the refined frame.")
-    analysis_end: AnalysisCounts | None = Field(description="Rigidity analysis of the final configuration.")
+    path: list[Points] = Field(
+        description="IPOPT's K+1 configurations, the refined reference first."
+    )
+    max_relative_bar_error: float = Field(
+        description="Largest relative bar-length error along `path`."
+    )
+    analysis_reference: AnalysisCounts | None = Field(
+        description="Rigidity analysis of the refined frame."
+    )
+    analysis_end: AnalysisCounts | None = Field(
+        description="Rigidity analysis of the final configuration."
+    )
     status: Literal["ok", "refinement_failed"]
     message: str
 
