@@ -37,11 +37,17 @@ def install_error_handlers(app: FastAPI) -> None:
         return JSONResponse(status_code=422, content=error_body("invalid_request", message, errors=slim))
 
     @app.exception_handler(StarletteHTTPException)
-    async def http_error(_: Request, exc: StarletteHTTPException):
+    async def http_error(request: Request, exc: StarletteHTTPException):
         if isinstance(exc.detail, dict):
             return JSONResponse(status_code=exc.status_code, content={"detail": exc.detail})
-        code = {404: "not_found", 405: "method_not_allowed"}.get(exc.status_code, "http_error")
-        return JSONResponse(status_code=exc.status_code, content=error_body(code, str(exc.detail)))
+        sentences = {
+            404: ("not_found", f"there is no endpoint at {request.url.path}; see /docs."),
+            405: ("method_not_allowed", f"{request.method} is not allowed on {request.url.path}."),
+        }
+        code, message = sentences.get(exc.status_code, ("http_error", str(exc.detail)))
+        return JSONResponse(
+            status_code=exc.status_code, content=error_body(code, message), headers=exc.headers
+        )
 
     @app.exception_handler(Exception)
     async def unexpected(request: Request, exc: Exception):
