@@ -7,7 +7,7 @@ Writes docs/benchmarks/allostery_pruning.md. Four sweeps:
   hard     large |η| (amplification, up to ±100) at N = 25 … 200;
   coord    excess coordination ΔZ from 0.1 to ~2 (undiluted Delaunay), N = 200, η = +2.
 Every method row comes from a function task -> result (``prune`` here, ``analytic_design`` for
-the analytic designer once the lead fills the hook in), so both share one table.
+the paper's analytic construction), so both share one table.
 Timings are wall-clock medians on a shared, noisy machine with single-threaded BLAS.
 """
 
@@ -19,15 +19,18 @@ import os
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
-import argparse
-import platform
-import time
-from pathlib import Path
+import argparse  # noqa: E402
+import platform  # noqa: E402
+import time  # noqa: E402
+from dataclasses import dataclass  # noqa: E402
+from pathlib import Path  # noqa: E402
 
-import numpy as np
+import numpy as np  # noqa: E402
 
-from benchmarks.allostery_tasks import AllosteryTask, make_task, random_network
-from benchmarks.pruning import prune_for_allostery
+from benchmarks.allostery_tasks import AllosteryTask, make_task, random_network  # noqa: E402
+from benchmarks.pruning import prune_for_allostery  # noqa: E402
+from zeromode.solver.allostery import design_allosteric, response  # noqa: E402
+from zeromode.solver.errors import DomainError  # noqa: E402
 
 OUT = Path(__file__).resolve().parent.parent / "docs" / "benchmarks" / "allostery_pruning.md"
 
@@ -38,14 +41,38 @@ def prune(task: AllosteryTask):
     )
 
 
-def analytic_design(task: AllosteryTask):
-    """Hook for the analytic designer (the paper's construction) on the same task.
+@dataclass(frozen=True)
+class AnalyticResult:
+    achieved_ratio: float
+    error: float
+    bars_used: int
+    time_s: float
+    bars_removed: int = 0
+    iterations: int = 0
 
-    To be filled in by the lead: design a frame whose specified nodes task.frame.specified
-    move as task.specified_motion() and return an object with the fields ``achieved_ratio``,
-    ``error`` (= |achieved − task.ratio|), ``bars_used`` and ``time_s`` (``bars_removed`` and
-    ``iterations`` optional); its rows then appear beside pruning's. None = not available.
-    """
+
+def pair_strain(x: np.ndarray, u: np.ndarray) -> float:
+    """ε of a node pair under motion u: (x_i − x_j)·(u_i − u_j) / |x_i − x_j|²."""
+    dx = x[0] - x[1]
+    return float(dx @ (u[0] - u[1]) / (dx @ dx))
+
+
+def analytic_design(task: AllosteryTask):
+    """The paper's construction on the same task (zeromode.solver.allostery): a frame whose only
+    nontrivial mode carries the source strain and the prescribed target strain. The achieved
+    ratio is scored from the response solved independently from the frame's zero modes."""
+    x = task.frame.positions
+    spec = np.asarray(task.frame.specified)
+    u = task.specified_motion()
+    t0 = time.perf_counter()
+    try:
+        result = design_allosteric(x[spec[:2]], u[:2], x[spec[2:]], u[2:], seed=task.seed)
+    except DomainError:
+        return AnalyticResult(float("nan"), float("inf"), 0, time.perf_counter() - t0)
+    elapsed = time.perf_counter() - t0
+    driven = response(result.design, np.asarray(result.source), u[:2])
+    eta = pair_strain(x[spec[2:]], driven[list(result.target)]) / pair_strain(x[spec[:2]], driven[list(result.source)])
+    return AnalyticResult(eta, abs(eta - task.ratio), result.design.frame.n_edges, elapsed)
 
 
 METHODS = {"pruning": prune, "analytic": analytic_design}

@@ -12,7 +12,7 @@ from fastapi.responses import JSONResponse
 
 from zeromode.service import __version__
 from zeromode.service.errors import error_body, install_error_handlers
-from zeromode.service.routes import analyze, design, examples, health, lattice, motion, plot
+from zeromode.service.routes import analyze, design, examples, health, jobs, lattice, motion, plot
 from zeromode.service.settings import SETTINGS, Settings
 from zeromode.solver.budget import time_budget
 
@@ -29,7 +29,8 @@ def create_app(settings: Settings = SETTINGS) -> FastAPI:
         ),
     )
     install_error_handlers(app)
-    for module in (health, analyze, design, examples, lattice, plot, motion):
+    app.state.settings = settings  # the job store reads its directory and limits here
+    for module in (health, analyze, design, examples, lattice, plot, motion, jobs):
         app.include_router(module.router)
 
     @app.middleware("http")

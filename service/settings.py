@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import tempfile
 from dataclasses import dataclass, field
 
 
@@ -25,6 +26,15 @@ class Settings:
     max_motions: int = field(default_factory=lambda: _int("ZEROMODE_MAX_MOTIONS", 4))
     max_samples: int = field(default_factory=lambda: _int("ZEROMODE_MAX_SAMPLES", 1000))
     time_budget_s: float = field(default_factory=lambda: _float("ZEROMODE_TIME_BUDGET_S", 60.0))
+    job_time_budget_s: float = field(default_factory=lambda: _float("ZEROMODE_JOB_TIME_BUDGET_S", 900.0))
+    job_dir: str = field(
+        default_factory=lambda: os.environ.get("ZEROMODE_JOB_DIR")
+        or os.path.join(tempfile.gettempdir(), "zeromode-jobs")
+    )
+    job_threads: int = field(default_factory=lambda: _int("ZEROMODE_JOB_THREADS", 1))
+    max_pending_jobs: int = field(default_factory=lambda: _int("ZEROMODE_MAX_PENDING_JOBS", 8))
+    max_stored_jobs: int = field(default_factory=lambda: _int("ZEROMODE_MAX_STORED_JOBS", 1000))
+    job_ttl_s: float = field(default_factory=lambda: _float("ZEROMODE_JOB_TTL_S", 86_400.0))
     api_key: str | None = field(default_factory=lambda: os.environ.get("ZEROMODE_API_KEY") or None)
     cors_origins: tuple[str, ...] = field(
         default_factory=lambda: tuple(

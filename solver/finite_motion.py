@@ -604,31 +604,30 @@ def _polish(path: MotionPath, k: int, distance):
     return float(path.parameter[k] + res.x), float(res.fun)
 
 
-def motion_fidelity(frame: Frame, displacement_s: np.ndarray, max_step: float = 0.02):
-    """Trace the frame's single nontrivial mode toward the target x_S + Δ_S and return
-    (Fidelity, MotionPath), with a = 1 and u_S = Δ_S in the definition of ε.
+def motion_fidelity(frame: Frame, displacement_s: np.ndarray, horizon: float = 0.0, max_step: float = 0.02):
+    """ε of a frame with one nontrivial mode for the target x_S + Δ_S: (Fidelity, MotionPath),
+    with a = 1 and u_S = Δ_S in the definition of ε.
 
-    The mode is oriented along Δ_S; the amplitude starts at 1.5 times the linear estimate of
-    the parameter where the target is reached and doubles (≤ 4 times) while the best point is
-    the path's far end and no singular point was met.
+    The mode is traced both ways up to the parameter max(3·τ_lin, ``horizon``, 0.05), τ_lin
+    the linear estimate of where the target is reached, doubling (≤ 3 times) while the closest
+    point is an end of the path and no singular point was met.  The distance to the target
+    need not fall monotonically along the motion, hence the margin and ``horizon`` (refine()
+    passes the length of IPOPT's path).
     """
     spec = np.asarray(frame.specified, dtype=int)
     x_s = frame.positions[spec]
-    centre = frame.positions.mean(axis=0)
     radius = rms_radius(frame.positions) or 1.0
-    x0 = (frame.positions - centre) / radius
+    x0 = (frame.positions - frame.positions.mean(axis=0)) / radius
     u = _start_direction(frame, x0, _Constraints(frame.edges, x0), None).reshape(x0.shape)
-    if np.sum(u[spec] * displacement_s) < 0:
-        u = -u
-    # Linear estimate: X_S(τ) ≈ x_S + τ·r·√N·u_S (u unit in dN), matched in least squares to Δ_S.
+    # Linear estimate: X_S(τ) ≈ x_S + τ·r·√N·u_S (u unit in dN), fitted to Δ_S in least squares.
     along = radius * np.sqrt(frame.n_nodes) * u[spec]
-    tau_lin = float(np.sum(along * displacement_s) / max(np.sum(along * along), 1e-300))
-    amplitude = 1.5 * max(tau_lin, 1e-3) + 0.02
+    tau_lin = abs(float(np.sum(along * displacement_s) / max(np.sum(along * along), 1e-300)))
+    amplitude = max(3 * tau_lin, horizon, 0.05)
     step = min(max_step, amplitude / 10)
-    for _ in range(5):
-        path = trace_motion(frame, mode=u, amplitude=amplitude, max_step=step, direction="forward")
+    for _ in range(4):
+        path = trace_motion(frame, amplitude=amplitude, max_step=step, direction="both")
         fid = fidelity(path, spec, x_s, displacement_s, 1.0)
-        if not (fid.at_end and fid.parameter > 0) or path.singularities:
+        if not fid.at_end or path.singularities:
             break
         amplitude *= 2
     return fid, path

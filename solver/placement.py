@@ -25,6 +25,7 @@ import numpy as np
 
 from zeromode.solver.budget import check_budget
 from zeromode.solver.errors import DomainError
+from zeromode.solver.progress import report_progress
 from zeromode.solver.rank import RTOL, nullspace
 
 # Candidates closer than this (normalised units) to an existing node are skipped: a bar there
@@ -218,6 +219,7 @@ def place_nodes(
             f"{n_unspecified} unspecified nodes cannot all be used: each must remove at least one "
             f"of the {state.n_d - state.target} degrees of freedom to remove.",
         )
+    to_remove = state.n_d - state.target
     while state.n_d > state.target:
         check_budget()
         nodes_left = None if n_unspecified is None else n_unspecified - len(state.anchor_sets)
@@ -255,6 +257,10 @@ def place_nodes(
         (_, i, chosen), pool = best
         state.add(pool.positions[i], pool.motions[i], chosen)
         pool.remove(i)
+        report_progress(
+            1 - (state.n_d - state.target) / to_remove,
+            f"placed {len(state.anchor_sets)} unspecified nodes",
+        )
     return state
 
 
