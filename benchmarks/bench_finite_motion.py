@@ -177,7 +177,7 @@ def plot(speed, summary, fail_rows, path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(13, 5.2))
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(13, 6.8))
     colours = dict(zip(KS, ("tab:blue", "tab:orange", "tab:green", "tab:red")))
     markers = dict(zip(TOLS, ("o", "s", "^")))
     floor = 1e-16
@@ -209,7 +209,7 @@ def plot(speed, summary, fail_rows, path: Path) -> None:
     ax1.set_xlabel("IPOPT time per refinement [ms]")
     ax1.set_ylabel("finite-motion error ε after refinement")
     ax1.set_title("Speed vs accuracy (each point one design; large: median)")
-    ax1.legend(fontsize=6.5, ncol=2, loc="upper right")
+    ax1.legend(fontsize=7, ncol=3, loc="upper center", bbox_to_anchor=(0.5, -0.14))
 
     grid = np.full((len(RANDOMNESS), len(AMPLITUDES)), np.nan)
     notes = [["" for _ in AMPLITUDES] for _ in RANDOMNESS]
@@ -247,10 +247,20 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="fewer seeds (a smoke run)")
     parser.add_argument("--out", default=str(Path(__file__).resolve().parents[1] / "docs"))
+    parser.add_argument("--replot", action="store_true", help="redraw the PNG from the saved JSON")
     args = parser.parse_args(argv)
     seeds = range(2) if args.quick else range(5)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
+    if args.replot:
+        data = json.loads((out / "finite_motion_bench.json").read_text())
+        plot(
+            data["speed_vs_accuracy"],
+            data["summary"],
+            data["failure_map"],
+            out / "finite_motion.png",
+        )
+        return 0
     speed = speed_vs_accuracy(default_designs(seeds))
     summary = summarise(speed)
     fail_rows = failure_map(range(2) if args.quick else range(4))

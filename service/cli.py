@@ -121,6 +121,58 @@ def cmd_plot(args) -> int:
     return 0
 
 
+def _http_json(method: str, url: str, api_key: str | None, body: dict | None = None) -> dict:
+    """One JSON request with the standard library (the service package needs no HTTP client);
+    an error answer raises DomainError with the service's code and sentence."""
+    import urllib.error
+    import urllib.request
+
+    try:
+        data = None if body is None else json.dumps(body, allow_nan=False).encode()
+    except ValueError as exc:
+        raise DomainError("invalid_request", "every number in a request must be finite.") from exc
+    headers = {"content-type": "application/json", **({"x-api-key": api_key} if api_key else {})}
+    try:
+        request = urllib.request.Request(url, data, headers, method=method)
+        with urllib.request.urlopen(request) as resp:
+            return json.load(resp)
+    except urllib.error.HTTPError as exc:
+        try:
+            detail = json.load(exc).get("detail", {})
+        except (ValueError, AttributeError):
+            detail = {}
+        if not isinstance(detail, dict):
+            detail = {"message": str(detail)}
+        code, message = detail.get("code", "http_error"), detail.get("message", f"HTTP {exc.code}")
+        raise DomainError(code, message) from exc
+    except urllib.error.URLError as exc:
+        raise DomainError("connection_error", f"cannot reach {url}: {exc.reason}.") from exc
+
+
+def cmd_job(args) -> int:
+    import time
+
+    endpoint = "/v1/" + args.endpoint.strip("/").removeprefix("v1/")
+    base = args.url.rstrip("/")
+    submission = {"endpoint": endpoint, "request": _load_json(args.request)}
+    job = _http_json("POST", f"{base}/v1/jobs", args.api_key, submission)
+    width = 30
+    while True:
+        status = _http_json("GET", f"{base}/v1/jobs/{job['id']}", args.api_key)
+        done = round(width * status["progress"])
+        bar = f"[{'#' * done}{'.' * (width - done)}] {100 * status['progress']:3.0f}%"
+        print(f"\r{bar}  {status['message'][:40]:40s}", end="", file=sys.stderr, flush=True)
+        if status["status"] in ("done", "failed"):
+            print(file=sys.stderr)
+            break
+        time.sleep(args.poll)
+    if status["status"] == "failed":
+        raise DomainError(status["error"]["code"], status["error"]["message"])
+    json.dump(status["result"], sys.stdout)
+    print()
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="zeromode", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -146,6 +198,17 @@ def build_parser() -> argparse.ArgumentParser:
     pl.add_argument("--no-solution-space", action="store_true", help="do not draw the solution space")
     pl.add_argument("--scale", type=float, default=1.5, help="PNG pixels per SVG unit (default 1.5)")
     pl.set_defaults(func=cmd_plot)
+    jb = sub.add_parser(
+        "job", help="run a request as a job on a running service (progress bar); print its result"
+    )
+    jb.add_argument("endpoint", help="e.g. /v1/design/auxetic (or design/auxetic)")
+    jb.add_argument("request", help="the endpoint's request body: JSON file (or - for stdin)")
+    jb.add_argument("--url", default="http://127.0.0.1:8000", help="default: %(default)s")
+    jb.add_argument(
+        "--api-key", default=os.environ.get("ZEROMODE_API_KEY"), help="default: $ZEROMODE_API_KEY"
+    )
+    jb.add_argument("--poll", type=float, default=0.5, help="seconds between status requests")
+    jb.set_defaults(func=cmd_job)
     return parser
 
 

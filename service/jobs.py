@@ -26,7 +26,7 @@ import time
 import uuid
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
@@ -64,7 +64,7 @@ class JobFailed(Exception):
 
 
 def _now_iso() -> str:
-    return datetime.now(timezone.utc).isoformat(timespec="milliseconds")
+    return datetime.now(UTC).isoformat(timespec="milliseconds")
 
 
 @dataclass
@@ -239,8 +239,10 @@ class JobStore:
             with time_budget(self.settings.job_time_budget_s), progress_scope(progress):
                 result = job.run()
             self._write(self._result_path(job.state["id"]), result)
-        except Exception as exc:  # every failure is the job's answer, never the worker's
-            self._update(job, status="failed", finished=_now_iso(), message="failed", error=_error(exc))
+        except Exception as exc:  # noqa: BLE001 — every failure is the job's answer
+            self._update(
+                job, status="failed", finished=_now_iso(), message="failed", error=_error(exc)
+            )
             return
         self._update(job, status="done", progress=1.0, finished=_now_iso(), message="done")
 

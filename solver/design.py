@@ -114,8 +114,12 @@ def single_mode_levels(
         pools = [_pool(x_n, u, sub, rng, samples) for sub in anchor_subsets(x_n, size)]
         yield [p for p in pools if p is not None]
     if comb(k, d + 1) > 64:
-        pools = [_pool(x_n, u, sub, rng, samples) for sub in coupling_subsets(k, sizes, rng, 2 * k)]
-        yield [p for p in pools if p is not None]
+        # Coupling modules, drawn in small batches: a batch is built only if the ones before
+        # it could not remove a degree of freedom.
+        subsets = coupling_subsets(k, sizes, rng, 2 * k)
+        for start in range(0, len(subsets), 16):
+            pools = [_pool(x_n, u, sub, rng, samples) for sub in subsets[start : start + 16]]
+            yield [p for p in pools if p is not None]
 
 
 def _pool(

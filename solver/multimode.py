@@ -224,5 +224,6 @@ def multi_mode_levels(
         yield [p for p in pools if p is not None]
     if comb(k, d + 1) > 64:
         subsets = coupling_subsets(k, range(2 * d, d, -1), rng, 2 * k)
-        pools = [_pool(x_n, u_n, sub, rng, samples) for sub in subsets]
-        yield [p for p in pools if p is not None]
+        for start in range(0, len(subsets), 16):  # small lazy batches, as for one motion
+            pools = [_pool(x_n, u_n, sub, rng, samples) for sub in subsets[start : start + 16]]
+            yield [p for p in pools if p is not None]

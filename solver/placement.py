@@ -42,12 +42,27 @@ class CandidatePool:
     positions: np.ndarray
     motions: np.ndarray
     anchors: tuple[int, ...]
+    # Upper bound on the rank any candidate here can still add: rank gains only fall as bars
+    # are added, so the last best gain bounds every later one (lazy greedy).
+    bound: int = 1 << 30
 
     def remove(self, i: int) -> None:
         self.keep(np.arange(len(self.positions)) != i)
 
     def keep(self, mask: np.ndarray) -> None:
         self.positions, self.motions = self.positions[mask], self.motions[mask]
+
+
+def admissible(pool: CandidatePool, x: np.ndarray) -> CandidatePool:
+    """Drop, once, candidates that can never be placed whatever happens later: too far out, or
+    whose bars to the anchors cannot span R^d (the node would dangle)."""
+    p = pool.positions
+    if len(p):
+        d = p.shape[1]
+        diff = x[np.asarray(pool.anchors)][None] - p[:, None]
+        spans = np.linalg.matrix_rank(diff, tol=1e-7) >= d
+        pool.keep(spans & (np.linalg.norm(p, axis=1) <= MAX_RADIUS))
+    return pool
 
 
 def target_zero_modes(d: int, n_modes: int) -> int:
@@ -86,8 +101,7 @@ class Placement:
         if len(p) == 0:
             return None
         anchors = np.asarray(pool.anchors)
-        sep = np.min(np.linalg.norm(x[None] - p[:, None], axis=2), axis=1)
-        valid = (sep >= MIN_SEPARATION) & (np.linalg.norm(p, axis=1) <= MAX_RADIUS)
+        valid = np.min(np.linalg.norm(x[None] - p[:, None], axis=2), axis=1) >= MIN_SEPARATION
         diff = x[anchors][None] - p[:, None]  # (n, a, d) bar directions
         null_blocks = self._null.reshape(len(x), d, -1)[anchors]  # (a, d, z)
         rows = np.concatenate([np.einsum("nad,adz->naz", diff, null_blocks), -diff], axis=2)
@@ -95,12 +109,11 @@ class Placement:
         s = np.linalg.svd(rows, compute_uv=False)  # (n, min(a, z+d))
         gained = np.count_nonzero(s > 1e-7 * np.maximum(s[:, :1], 1e-300), axis=1)
         take = np.minimum(gained, budget)
-        # The node must be pinned: its bars' directions must span R^d.
-        spans = np.linalg.matrix_rank(diff, tol=1e-7) >= d
-        ok = valid & spans & (take > d)
+        ok = valid & (take > d)
         # Rank gain only falls as bars are added and separation only shrinks, so a candidate
         # that cannot remove a degree of freedom now never will: drop it for good.
-        viable = valid & spans & (gained > d)
+        viable = valid & (gained > d)
+        pool.bound = int(np.max(gained[viable], initial=0))
         if not np.all(viable):
             pool.keep(viable)
             rows, s, take, ok, p, diff = rows[viable], s[viable], take[viable], ok[viable], p[viable], diff[viable]
@@ -237,8 +250,11 @@ def place_nodes(
                 nxt = next(level_iter, None)
                 if nxt is None:
                     break
-                levels.append(nxt)
-            for pool in levels[level]:
+                levels.append([admissible(p, x_n) for p in nxt])
+            # Highest bound first; stop once no remaining pool can reach the best gain found.
+            for pool in sorted(levels[level], key=lambda p: -p.bound):
+                if best is not None and min(pool.bound, budget) < best[0][0][0]:
+                    break
                 found = state.best_in(pool, budget)
                 if found and (best is None or found[0] > best[0][0]):
                     best = (found, pool)

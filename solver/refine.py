@@ -32,7 +32,8 @@ After IPOPT the result is re-verified through independent routes: the rigidity a
 refined reference X_0 and at X_K (no new self-stress, exactly one nontrivial zero mode at both)
 and ε after refinement measured by continuation (finite_motion.motion_fidelity) from the
 refined reference — not from IPOPT's own configurations.  The target counts as reached when
-ε after ≤ max(1e-6, 100·tol); otherwise IPOPT's configurations were not one continuous motion.
+ε after ≤ max(1e-6, 100·tol); otherwise IPOPT's configurations were not one continuous motion
+(they straddle two branches of the configuration space) and the solve is retried once with 2K.
 """
 
 from __future__ import annotations
@@ -60,6 +61,9 @@ MIN_SEPARATION = 0.25
 # The target counts as reached when ε after ≤ max(REACHED_EPS, REACHED_PER_TOL·tol).
 REACHED_EPS = 1e-6
 REACHED_PER_TOL = 100.0
+# A refinement that misses the target for lack of intermediate configurations is retried once
+# with 2K of them, up to this many.
+MAX_K = 64
 # IPOPT unknowns are capped so one refinement stays within a request's time budget.
 MAX_UNKNOWNS = 20_000
 IPOPT_SUCCESS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
@@ -82,6 +86,8 @@ class Refinement:
     epsilon_after: float
     ipopt_status: str
     iterations: int
+    K: int
+    attempts: int
     time_ms: float
     ipopt_time_ms: float
     path: np.ndarray
@@ -100,6 +106,8 @@ class Refinement:
             "epsilon_after": self.epsilon_after,
             "ipopt_status": self.ipopt_status,
             "iterations": self.iterations,
+            "K": self.K,
+            "attempts": self.attempts,
             "time_ms": self.time_ms,
             "ipopt_time_ms": self.ipopt_time_ms,
             "path": self.path.tolist(),
@@ -186,9 +194,11 @@ def refine(
 
     frame: a frame with specified nodes and exactly one nontrivial zero mode (a linear design).
     motion_s/amplitude or targets: the target, see target_displacement().
-    K: number of configurations after the reference (≥ 1); tol, max_iter, max_time_s: IPOPT's
-    tol, max_iter and max_cpu_time.  Returns a Refinement with ``ok`` True; raises
-    RefinementFailed (code ``refinement_failed``, with the best result) otherwise.
+    K: number of configurations after the reference (≥ 1); if IPOPT's configurations straddle
+    two branches (the refined motion misses the target), the solve is retried once with 2K
+    (≤ MAX_K).  tol, max_iter, max_time_s: IPOPT's tol, max_iter and max_cpu_time (per solve).
+    Returns a Refinement with ``ok`` True; raises RefinementFailed (code ``refinement_failed``,
+    with the best result) otherwise.
     """
     t_start = time.perf_counter()
     delta, a = target_displacement(frame, motion_s, amplitude, targets)
@@ -199,7 +209,7 @@ def refine(
         raise InvalidInput("nothing_to_refine", "the frame has no unspecified node to move.")
     if K < 1:
         raise InvalidInput("invalid_option", "K must be at least 1.")
-    unknowns = (K - 1) * n * d + (2 + int(stay_on_solution_space)) * len(unspec) * d
+    unknowns = (2 * K - 1) * n * d + (2 + int(stay_on_solution_space)) * len(unspec) * d
     if unknowns > MAX_UNKNOWNS:
         raise DomainError(
             "too_expensive",
@@ -213,6 +223,69 @@ def refine(
         )
     fid_before, _ = motion_fidelity(frame, delta)
 
+    # IPOPT's K configurations can straddle two branches of the configuration space (the
+    # refined motion then misses the target); a finer path (2K) usually stays on one.
+    attempts = []
+    for k_try in (K, 2 * K):
+        attempt = _attempt(
+            frame, before, delta, k_try, tol, max_iter, max_time_s, stay_on_solution_space
+        )
+        attempts.append(attempt)
+        if not attempt.problems or not attempt.discontinuous or 2 * k_try > MAX_K:
+            break
+    best = min(attempts, key=lambda t: (bool(t.problems), t.eps_after))
+    ok = not best.problems
+    keep_refined = best.eps_after < fid_before.epsilon or ok
+    result = Refinement(
+        frame=best.refined if keep_refined else frame,
+        displacement=delta,
+        amplitude=a,
+        epsilon_before=fid_before.epsilon,
+        epsilon_after=float(best.eps_after) if keep_refined else fid_before.epsilon,
+        ipopt_status=best.status,
+        iterations=best.iterations,
+        K=best.K,
+        attempts=len(attempts),
+        time_ms=1e3 * (time.perf_counter() - t_start),
+        ipopt_time_ms=sum(t.ipopt_ms for t in attempts),
+        path=best.path,
+        max_relative_bar_error=best.bar_error,
+        analysis_reference=best.an_ref if keep_refined else before,
+        analysis_end=best.an_end if keep_refined else None,
+        ok=ok,
+        message="refinement succeeded."
+        if ok
+        else "refinement failed: " + "; ".join(best.problems) + ".",
+    )
+    if not ok:
+        raise RefinementFailed(result)
+    return result
+
+
+@dataclass(eq=False)
+class _Attempt:
+    """One IPOPT solve with its re-verification (see refine)."""
+
+    K: int
+    status: str
+    iterations: int
+    ipopt_ms: float
+    path: np.ndarray
+    bar_error: float
+    refined: Frame
+    an_ref: Analysis | None
+    an_end: Analysis | None
+    eps_after: float
+    problems: list[str]
+    discontinuous: bool
+
+
+def _attempt(
+    frame, before, delta, K, tol, max_iter, max_time_s, stay_on_solution_space
+) -> _Attempt:
+    spec = np.asarray(frame.specified, dtype=int)
+    unspec = np.setdiff1d(np.arange(frame.n_nodes), spec)
+    n, d = frame.n_nodes, frame.dim
     centre = frame.positions.mean(axis=0)
     radius = rms_radius(frame.positions) or 1.0
     x0 = (frame.positions - centre) / radius
@@ -286,35 +359,26 @@ def refine(
     # IPOPT's configurations may jump between branches of the configuration space; then the
     # refined frame's own motion does not reach the target and ε after stays large.
     reach = max(REACHED_EPS, REACHED_PER_TOL * tol)
-    if not problems and eps_after > reach:
+    discontinuous = not problems and eps_after > reach
+    if discontinuous:
         problems.append(
-            f"the refined frame's motion passes the target at ε = {eps_after:.3g} (> {reach:.3g}): "
-            "IPOPT's configurations are not joined by one continuous motion"
+            f"the refined frame's motion passes the target at ε = {eps_after:.3g} (> {reach:.3g}) "
+            f"with K = {K}: IPOPT's configurations are not joined by one continuous motion"
         )
-    ok = not problems
-    keep_refined = eps_after < fid_before.epsilon or ok
-    result = Refinement(
-        frame=refined if keep_refined else frame,
-        displacement=delta,
-        amplitude=a,
-        epsilon_before=fid_before.epsilon,
-        epsilon_after=float(eps_after) if keep_refined else fid_before.epsilon,
-        ipopt_status=status,
-        iterations=iterations,
-        time_ms=1e3 * (time.perf_counter() - t_start),
-        ipopt_time_ms=ipopt_ms,
-        path=path,
-        max_relative_bar_error=bar_error,
-        analysis_reference=an_ref if keep_refined else before,
-        analysis_end=an_end if keep_refined else None,
-        ok=ok,
-        message="refinement succeeded."
-        if ok
-        else "refinement failed: " + "; ".join(problems) + ".",
+    return _Attempt(
+        K,
+        status,
+        iterations,
+        ipopt_ms,
+        path,
+        bar_error,
+        refined,
+        an_ref,
+        an_end,
+        eps_after,
+        problems,
+        discontinuous,
     )
-    if not ok:
-        raise RefinementFailed(result)
-    return result
 
 
 def _build_nlp(x0, edges, spec, unspec, target, K, mode, stay_on_solution_space):

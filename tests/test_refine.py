@@ -145,3 +145,17 @@ def test_bad_requests():
     with pytest.raises(DomainError) as err:
         refine(pentagon, np.eye(3, 2), 0.1)
     assert err.value.code == "not_single_mode"
+
+
+def test_a_design_whose_first_path_straddles_two_branches_still_reaches_its_target():
+    # A dilation of a random triangle (the benchmark's η = 0, seed 3 design): with K = 8 IPOPT's
+    # configurations land on two branches of the configuration space, which continuation from
+    # the refined frame detects (ε stays ~0.8); the retry with 2K = 16 reaches the target.
+    x_s = np.random.default_rng(1003).standard_normal((3, 2))
+    u_s = x_s - x_s.mean(axis=0)
+    u_s /= np.sqrt(np.mean(np.sum(u_s**2, axis=1)))
+    frame = bipartite_design(x_s, u_s, 2, seed=3)
+    res = refine(frame, u_s, 0.2, K=8)
+    assert res.ok and res.epsilon_after <= 1e-6
+    assert (res.attempts, res.K) in {(1, 8), (2, 16)}
+    assert res.path.shape[0] == res.K + 1

@@ -35,7 +35,11 @@ def _job_routes() -> dict[str, APIRoute]:
     for info in pkgutil.iter_modules(routes_package.__path__):
         module = importlib.import_module(f"{routes_package.__name__}.{info.name}")
         for route in getattr(getattr(module, "router", None), "routes", ()):
-            if isinstance(route, APIRoute) and route.path in JOB_ENDPOINTS and "POST" in route.methods:
+            if (
+                isinstance(route, APIRoute)
+                and route.path in JOB_ENDPOINTS
+                and "POST" in route.methods
+            ):
                 found[route.path] = route
     return found
 
@@ -90,7 +94,9 @@ def submit_job(job: JobRequest, request: Request) -> JSONResponse:
             [{**e, "loc": ("body", "request", *e["loc"])} for e in exc.errors()]
         ) from exc
     try:
-        accepted = _store(request).submit(job.endpoint, partial(_run_route, route, param.name, body))
+        accepted = _store(request).submit(
+            job.endpoint, partial(_run_route, route, param.name, body)
+        )
     except JobRejected as exc:
         return JSONResponse(status_code=429, content=error_body(exc.code, exc.message))
     return JSONResponse(

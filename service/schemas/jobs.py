@@ -39,11 +39,15 @@ class JobStatus(BaseModel):
     progress: float = Field(ge=0, le=1, description="Fraction of the work done (1 when done).")
     message: str = Field(description="What the job is doing, e.g. 'placed 2 unspecified nodes'.")
     result: dict[str, Any] | None = Field(
-        default=None, description="When done: the endpoint's answer, exactly as it would have sent it."
+        default=None,
+        description="When done: the endpoint's answer, exactly as it would have sent it.",
     )
     error: ErrorDetail | None = Field(
-        default=None, description="When failed: the code and message the endpoint would have answered."
+        default=None,
+        description="When failed: the code and message the endpoint would have answered.",
     )
     created: str = Field(description="When the job was accepted (ISO 8601, UTC).")
-    started: str | None = Field(default=None, description="When it started running (ISO 8601, UTC).")
+    started: str | None = Field(
+        default=None, description="When it started running (ISO 8601, UTC)."
+    )
     finished: str | None = Field(default=None, description="When it finished (ISO 8601, UTC).")

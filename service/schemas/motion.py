@@ -89,7 +89,13 @@ class MotionResponse(BaseModel):
 
 class RefineOptions(BaseModel):
     K: int = Field(
-        default=8, ge=1, le=64, description="Configurations after the reference along the path."
+        default=8,
+        ge=1,
+        le=64,
+        description=(
+            "Configurations after the reference along the path; retried once with 2K (≤ 64) if "
+            "they straddle two branches of the configuration space."
+        ),
     )
     tol: float = Field(default=1e-8, gt=0, lt=1, description="IPOPT tol.")
     max_iter: int = Field(default=500, ge=1, le=10000, description="IPOPT max_iter.")
@@ -150,11 +156,15 @@ class RefineResponse(BaseModel):
         description="ε of the refined frame, measured by continuation from it (independently of IPOPT)."
     )
     ipopt_status: str = Field(description="IPOPT's return status.")
-    iterations: int = Field(description="IPOPT iterations.")
+    iterations: int = Field(description="IPOPT iterations (of the solve reported).")
+    K: int = Field(description="Configurations after the reference in the solve reported.")
+    attempts: int = Field(
+        description="IPOPT solves: 2 when the first path straddled two branches and was redone with 2K."
+    )
     time_ms: float = Field(
         description="Whole refinement, including both ε measurements and the re-verification."
     )
-    ipopt_time_ms: float = Field(description="IPOPT alone.")
+    ipopt_time_ms: float = Field(description="IPOPT alone (all attempts).")
     path: list[Points] = Field(
         description="IPOPT's K+1 configurations, the refined reference first."
     )

@@ -13,7 +13,16 @@ from zeromode_client._client import AsyncClient, Client
 from zeromode_client._core import DEFAULT_TIMEOUT
 from zeromode_client._core import VERSION as __version__
 from zeromode_client._errors import ZeromodeConnectionError, ZeromodeError, ZeromodeTimeoutError
-from zeromode_client._models import Analysis, Design, Frame, Health, RankGap, Result, SolutionSpace
+from zeromode_client._models import (
+    Analysis,
+    Design,
+    Frame,
+    Health,
+    JobStatus,
+    RankGap,
+    Result,
+    SolutionSpace,
+)
 
 __all__ = [
     "DEFAULT_TIMEOUT",
@@ -23,6 +32,7 @@ __all__ = [
     "Design",
     "Frame",
     "Health",
+    "JobStatus",
     "RankGap",
     "Result",
     "SolutionSpace",

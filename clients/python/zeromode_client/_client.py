@@ -13,7 +13,16 @@ from numpy.typing import ArrayLike
 
 from zeromode_client import _endpoints as ep
 from zeromode_client._core import DEFAULT_TIMEOUT, VERSION, Call, Retry, build_request, parse
-from zeromode_client._models import Analysis, Design, Frame, Health, Result, SolutionSpace
+from zeromode_client._errors import ZeromodeError, ZeromodeTimeoutError
+from zeromode_client._models import (
+    Analysis,
+    Design,
+    Frame,
+    Health,
+    JobStatus,
+    Result,
+    SolutionSpace,
+)
 
 T = TypeVar("T")
 FrameLike = Frame | Mapping[str, Any]
@@ -154,6 +163,27 @@ class Client(_BaseClient):
         """POST /v1/design/allosteric with ``fields`` as the request object."""
         return self._send(ep.capability("/v1/design/allosteric", fields))
 
+    def submit_job(self, endpoint: str, request: Mapping[str, Any]) -> str:
+        """POST /v1/jobs: run ``endpoint`` (e.g. ``"/v1/design/auxetic"``) with ``request`` as its
+        body in the background, under the service's longer job time budget; returns the job id.
+        An invalid ``request`` is refused at once (ZeromodeError, status 422)."""
+        return self._send(ep.submit_job(endpoint, request))
+
+    def job(self, job_id: str) -> JobStatus:
+        """GET /v1/jobs/{id}: status, progress (0..1) and message; the result once done."""
+        return self._send(ep.job(job_id))
+
+    def wait(self, job_id: str, poll: float = 0.5, timeout: float | None = None) -> Result:
+        """Poll the job every ``poll`` s until it finishes and return its result. A failed job
+        raises ZeromodeError with the endpoint's code and message (``status`` None); a job still
+        running after ``timeout`` s raises ZeromodeTimeoutError (it keeps running)."""
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while True:
+            status = self.job(job_id)
+            if status.finished_running:
+                return _job_result(status)
+            time.sleep(_poll_delay(job_id, poll, deadline, timeout))
+
 
 class AsyncClient(_BaseClient):
     """Asynchronous twin of ``Client``: same constructor, same methods, each awaited."""
@@ -240,7 +270,40 @@ class AsyncClient(_BaseClient):
     async def design_allosteric(self, **fields: Any) -> Result:
         return await self._send(ep.capability("/v1/design/allosteric", fields))
 
+    async def submit_job(self, endpoint: str, request: Mapping[str, Any]) -> str:
+        return await self._send(ep.submit_job(endpoint, request))
+
+    async def job(self, job_id: str) -> JobStatus:
+        return await self._send(ep.job(job_id))
+
+    async def wait(self, job_id: str, poll: float = 0.5, timeout: float | None = None) -> Result:
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while True:
+            status = await self.job(job_id)
+            if status.finished_running:
+                return _job_result(status)
+            await asyncio.sleep(_poll_delay(job_id, poll, deadline, timeout))
+
 
 def _given(**options: Any) -> dict[str, Any]:
     """The options the caller set (None means: the service's default)."""
     return {k: v for k, v in options.items() if v is not None}
+
+
+def _job_result(status: JobStatus) -> Result:
+    """A finished job's result, or its failure as the ZeromodeError the endpoint would have raised."""
+    if status.result is not None:
+        return status.result
+    error = status.error or {"code": "job_failed", "message": status.message}
+    code, message = str(error.get("code", "job_failed")), str(error.get("message", ""))
+    raise ZeromodeError(message, code=code, detail=error)
+
+
+def _poll_delay(job_id: str, poll: float, deadline: float | None, timeout: float | None) -> float:
+    """Seconds to sleep before the next poll; raises ZeromodeTimeoutError past the deadline."""
+    if deadline is None:
+        return poll
+    left = deadline - time.monotonic()
+    if left <= 0:
+        raise ZeromodeTimeoutError(f"job {job_id} did not finish within {timeout:g} s.")
+    return min(poll, left)

@@ -4,12 +4,21 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from typing import Any
+from urllib.parse import quote
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from zeromode_client._core import Call, jsonable
-from zeromode_client._models import Analysis, Design, Frame, Health, Result, SolutionSpace
+from zeromode_client._models import (
+    Analysis,
+    Design,
+    Frame,
+    Health,
+    JobStatus,
+    Result,
+    SolutionSpace,
+)
 
 
 def as_frame(frame: Frame | Mapping[str, Any]) -> Frame:
@@ -76,3 +85,13 @@ def capability(
     """A capability endpoint: ``{"frame": frame, **fields}`` is sent as the JSON object, unchanged."""
     body = {"frame": as_frame(frame), **fields} if frame is not None else dict(fields)
     return Call("POST", path, jsonable(body), lambda data: Result(path, data))
+
+
+def submit_job(endpoint: str, request: Mapping[str, Any]) -> Call[str]:
+    """POST /v1/jobs: ``request`` is ``endpoint``'s body; the answer's job id."""
+    body = {"endpoint": endpoint, "request": jsonable(request)}
+    return Call("POST", "/v1/jobs", body, lambda data: str(data["id"]))
+
+
+def job(job_id: str) -> Call[JobStatus]:
+    return Call("GET", f"/v1/jobs/{quote(job_id, safe='')}", None, JobStatus.from_json)

@@ -219,3 +219,41 @@ class Result:
             return None
         frame = self.frame
         return readonly(self.raw["modes"], frame.positions.shape if frame is not None else ())
+
+
+@dataclass(frozen=True, eq=False)
+class JobStatus:
+    """GET /v1/jobs/{id}: a job's state, ``progress`` in [0, 1]; ``result`` (the endpoint's
+    answer) once ``status`` is ``"done"``, ``error`` (``{"code", "message"}``) once ``"failed"``."""
+
+    id: str
+    endpoint: str
+    status: str
+    progress: float
+    message: str
+    result: Result | None
+    error: dict[str, Any] | None
+    created: str
+    finished: str | None
+    raw: dict[str, Any] = field(repr=False)
+
+    @property
+    def finished_running(self) -> bool:
+        return self.status in ("done", "failed")
+
+    @classmethod
+    def from_json(cls, data: dict[str, Any]) -> JobStatus:
+        endpoint = str(data["endpoint"])
+        result = data.get("result")
+        return cls(
+            id=str(data["id"]),
+            endpoint=endpoint,
+            status=str(data["status"]),
+            progress=float(data["progress"]),
+            message=str(data.get("message", "")),
+            result=Result(endpoint, result) if result is not None else None,
+            error=data.get("error"),
+            created=str(data["created"]),
+            finished=data.get("finished"),
+            raw=data,
+        )

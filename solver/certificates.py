@@ -1,0 +1,540 @@
+"""Certificates for a frame: self-stresses, prestress stability, rigidity margin of a design.
+
+Definitions (vectors of motions are flattened row-major, node i at rows d·i … d·i+d−1):
+
+Self-stress (paper, Eq. 3): ω ∈ R^{N_B} with Cᵀω = 0, i.e. Σ_j ω_ij (x_i − x_j) = 0 at every
+    node. Its stress matrix Ω = Σ_e ω_e (e_i − e_j)(e_i − e_j)ᵀ (N × N) gives the stress energy
+    E_ω(q) = Σ_e ω_e ‖q_i − q_j‖² = qᵀ(Ω ⊗ I_d)q of a motion q; ω_e > 0 is tension.
+    Every rigid motion is in the kernel of Ω ⊗ I_d (translations because Ω1 = 0, rotations by
+    the equilibrium equations), so E_ω is a form on the nontrivial flexes alone.
+
+Prestress stability (Connelly & Whiteley 1996): a frame is prestress stable when one
+    self-stress ω has E_ω(q) > 0 for every nontrivial infinitesimal flex q. With F (dN × f) an
+    orthonormal basis of the nontrivial flexes (⟂ rigid motions) and ω_1 … ω_s an orthonormal
+    basis of the self-stresses, G_k = Fᵀ(Ω_k ⊗ I_d)F (f × f) and the margin is the SDP
+
+        t* = max { t : Σ_k c_k G_k ⪰ t·I_f, ‖c‖₂ ≤ 1 }            (primal, c ∈ R^s)
+           = min { ‖(⟨G_k, Y⟩)_k‖₂ : Y ⪰ 0, tr Y = 1 }              (dual, Y ∈ S^f)
+
+    t* ≥ 0 always (c = 0); the frame is prestress stable iff t* > 0, certified by the stress
+    ω = Σ c_k ω_k (‖ω‖ = 1) and refuted by the dual Y, a positive semidefinite combination of
+    flexes on which every stress energy vanishes. ω and −ω are both stresses, hence the ball.
+    t* is invariant under rigid motions and scaling of the frame (stresses and flexes are).
+
+Rigidity margin of a design (mode isolation): with bar stiffnesses k ≥ 0, Σ_e k_e = N_B, the
+    stiffness matrix K(k) = Cᵀ diag(k) C; with P (dN × p) an orthonormal basis of the complement
+    of (rigid motions ⊕ designed modes), p = dN − ρ − M,
+
+        λ*(k) = λ_min(Pᵀ K(k) P),    λ* = max { λ : Σ_e k_e a_e a_eᵀ ⪰ λ·I_p, k ≥ 0, Σ k = N_B }
+                                        = N_B · min { max_e a_eᵀ Y a_e : Y ⪰ 0, tr Y = 1 }
+
+    where a_e = Pᵀc_e (c_e the row of bar e of C). C is that of the scale-normalised frame
+    (centred, RMS radius 1), so margins are dimensionless; k_e weighs (ℓ_e δℓ_e)², i.e. a
+    physical spring constant κ_e corresponds to k_e = κ_e / ℓ_e². The uniform allocation k = 1
+    gives σ_min(CP)². An undesigned zero mode makes every λ*(k) zero.
+
+Both SDPs are "maximise λ_min(Σ x_i A_i) over a convex set X" (an `LmiProgram`). Modelling
+(the A_i, in numpy) is kept apart from solving (cvxpy; Clarabel by default, SCS as fallback).
+Every solution is verified outside the solver: the lower bound is λ_min at the returned x
+(projected onto X) and the upper bound is the dual objective at the returned Y (projected onto
+{Y ⪰ 0, tr Y = 1}); both are exact bounds on the optimum whatever the solver's accuracy.
+
+Size: the SDPs have one LMI of size f (prestress) or p (margin). Clarabel factorises a dense
+block of size n(n+1)/2 for an n × n LMI, so its time grows like n⁶: SDP_MAX_DIM caps n, and a
+larger LMI is refused with ``too_expensive`` rather than left to run for minutes.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse.linalg as spla
+
+from zeromode.solver.budget import check_budget, remaining
+from zeromode.solver.errors import DomainError, InvalidInput
+from zeromode.solver.frame import Frame
+from zeromode.solver.progress import report_progress
+from zeromode.solver.rank import RTOL, nullspace, orthonormal_range
+from zeromode.solver.rigidity import (
+    DENSE_MAX_DOF,
+    Analysis,
+    analyze,
+    compatibility_matrix,
+    zero_mode_residual,
+)
+
+SOLVERS = ("clarabel", "scs")
+# Largest LMI (f or p) handed to a solver: Clarabel needs ≈ 10 s at n = 57 on one core.
+SDP_MAX_DIM = 48
+# A dense orthonormal complement P is formed up to this many degrees of freedom (dN).
+MARGIN_MAX_DOF = DENSE_MAX_DOF
+# t* ≤ PRESTRESS_TOL counts as zero. t* is dimensionless (unit stress, unit flexes); Clarabel
+# brackets it to ~1e-9, SCS to ~1e-6, stable frames of interest have t* ≳ 1e-4.
+PRESTRESS_TOL = 1e-6
+# A solved margin SDP must close its bracket to this relative gap (else the fallback runs).
+MARGIN_GAP_RTOL = 1e-4
+# A designed mode m is a zero mode when ‖C m‖ ≤ MODE_RTOL · ‖C‖_F · ‖m‖, and independent
+# when its part outside span(rigid motions, earlier modes) exceeds MODE_RTOL · ‖m‖.
+MODE_RTOL = 1e-6
+
+
+# ----------------------------------------------------------------------------- modelling
+
+
+@dataclass(frozen=True, eq=False)
+class LmiProgram:
+    """maximise λ subject to Σ_i x_i A_i ⪰ λ·I_n, x ∈ X.
+
+    matrices: (m, n, n) symmetric A_i. domain: "ball" (‖x‖₂ ≤ 1) or "simplex"
+    (x ≥ 0, Σ x = total). The dual is min { h_X(g(Y)) : Y ⪰ 0, tr Y = 1 } with
+    g_i(Y) = ⟨A_i, Y⟩ and h_X the support function of X: ‖g‖₂ (ball), total·max g (simplex).
+    """
+
+    matrices: np.ndarray
+    domain: str
+    total: float = 1.0
+
+    @property
+    def size(self) -> int:
+        return int(self.matrices.shape[1])
+
+    def project(self, x: np.ndarray) -> np.ndarray:
+        """A point of X from a solver's (possibly slightly infeasible) x."""
+        if self.domain == "ball":
+            norm = np.linalg.norm(x)
+            # λ_min is homogeneous: a unit x gives the largest positive value along the ray.
+            return x / norm if norm > 0 else x
+        k = np.maximum(x, 0.0)
+        return k * (self.total / k.sum()) if k.sum() > 0 else np.full_like(x, self.total / x.size)
+
+    def lower_bound(self, x: np.ndarray) -> float:
+        """λ_min(Σ x_i A_i) for x ∈ X: a value the program attains."""
+        return float(np.linalg.eigvalsh(np.tensordot(x, self.matrices, axes=1))[0])
+
+    def upper_bound(self, y: np.ndarray) -> float:
+        """h_X(g(Y)) after projecting Y onto {Y ⪰ 0, tr Y = 1}: weak duality bounds λ* by it."""
+        w, u = np.linalg.eigh((y + y.T) / 2)
+        w = np.maximum(w, 0.0)
+        if w.sum() <= 0:
+            return np.inf
+        y = (u * (w / w.sum())) @ u.T
+        g = np.tensordot(self.matrices, y, axes=([1, 2], [0, 1]))
+        return float(np.linalg.norm(g)) if self.domain == "ball" else float(self.total * g.max())
+
+
+def stress_energy_forms(flexes: np.ndarray, stresses: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """G_k = Fᵀ(Ω_k ⊗ I_d)F, shape (s, f, f), from flexes (f, N, d) and stresses (s, N_B).
+
+    Σ_e ω_e D_eᵀD_e with D_e = F_i − F_j (d × f): one pass over the bars, never dN × dN.
+    """
+    diff = flexes[:, edges[:, 0], :] - flexes[:, edges[:, 1], :]  # (f, N_B, d)
+    per_bar = np.einsum("aeu,beu->eab", diff, diff)  # (N_B, f, f)
+    return np.tensordot(stresses, per_bar, axes=1)
+
+
+def prestress_program(analysis: Analysis, edges: np.ndarray) -> LmiProgram:
+    """The prestress-stability SDP over the orthonormal flex and stress bases of ``analysis``."""
+    return LmiProgram(stress_energy_forms(analysis.modes, analysis.stresses, edges), "ball")
+
+
+def stiffness_program(a: np.ndarray) -> LmiProgram:
+    """The stiffness-allocation SDP: A_e = a_e a_eᵀ for the rows a_e of CP (N_B × p), Σ k = N_B."""
+    return LmiProgram(a[:, :, None] * a[:, None, :], "simplex", total=float(a.shape[0]))
+
+
+# ----------------------------------------------------------------------------- solving
+
+
+@dataclass(frozen=True)
+class SolverRun:
+    """One attempt: solver name, cvxpy status, wall time."""
+
+    solver: str
+    status: str
+    time_ms: float
+
+    def to_dict(self) -> dict:
+        return {"solver": self.solver, "status": self.status, "time_ms": self.time_ms}
+
+
+@dataclass(frozen=True, eq=False)
+class LmiSolution:
+    """A verified solution: x ∈ X with λ_min(Σ x_i A_i) = lower ≤ λ* ≤ upper.
+
+    solver/status/time_ms describe the accepted attempt; attempts lists every attempt in order.
+    """
+
+    x: np.ndarray
+    lower: float
+    upper: float
+    solver: str
+    status: str
+    time_ms: float
+    attempts: tuple[SolverRun, ...]
+
+    def to_dict(self) -> dict:
+        return {
+            "solver": self.solver,
+            "status": self.status,
+            "time_ms": self.time_ms,
+            "size": int(self.x.size),
+            "attempts": [a.to_dict() for a in self.attempts],
+        }
+
+
+def _solve_once(program: LmiProgram, solver: str, time_limit: float | None, max_iters: int | None):
+    """One cvxpy solve; returns (x, Y, status) with x, Y None when the solver gave nothing."""
+    import cvxpy as cp
+
+    m, n, _ = program.matrices.shape
+    x = cp.Variable(m, nonneg=program.domain == "simplex")
+    lam = cp.Variable()
+    coefficients = program.matrices.reshape(m, n * n).T  # column i = vec(A_i)
+    lmi = cp.reshape(coefficients @ x, (n, n), order="F") - lam * np.eye(n) >> 0
+    domain = cp.norm(x, 2) <= 1 if program.domain == "ball" else cp.sum(x) == program.total
+    problem = cp.Problem(cp.Maximize(lam), [lmi, domain])
+    if solver == "clarabel":
+        name, limits = cp.CLARABEL, {"time_limit": time_limit, "max_iter": max_iters}
+        options = {}
+    else:
+        name, limits = cp.SCS, {"time_limit_secs": time_limit, "max_iters": max_iters}
+        # SCS's default 1e-4 leaves the prestress bracket straddling PRESTRESS_TOL.
+        options = {"eps_abs": 1e-7, "eps_rel": 1e-7}
+    options.update({key: value for key, value in limits.items() if value is not None})
+    try:
+        problem.solve(solver=name, **options)
+    except cp.error.SolverError:
+        return None, None, "solver_error"
+    status = str(problem.status)
+    if x.value is None or lmi.dual_value is None or not np.all(np.isfinite(x.value)):
+        return None, None, status
+    return np.asarray(x.value, dtype=float), np.asarray(lmi.dual_value, dtype=float), status
+
+
+def solve_lmi(
+    program: LmiProgram, solver: str = "clarabel", accept=None, max_iters: int | None = None
+) -> LmiSolution:
+    """Solve ``program`` with ``solver``, then the other solver if the first fails.
+
+    An attempt fails when the solver returns no solution, a status other than optimal /
+    optimal_inaccurate, or verified bounds that ``accept(lower, upper)`` rejects. Each attempt
+    gets what is left of the request's time budget (budget.py); once that is spent:
+    DomainError ``too_expensive``. When every attempt fails: ``certificate_failed`` naming each
+    solver and its status.
+    """
+    if solver not in SOLVERS:
+        raise InvalidInput("invalid_solver", f"solver must be one of {', '.join(SOLVERS)}, got {solver!r}.")
+    order = (solver,) + tuple(s for s in SOLVERS if s != solver)
+    attempts = []
+    for name in order:
+        check_budget()
+        t0 = time.perf_counter()
+        x, y, status = _solve_once(program, name, remaining(), max_iters)
+        if x is not None:
+            x = program.project(x)
+            lower, upper = program.lower_bound(x), program.upper_bound(y)
+            if status in ("optimal", "optimal_inaccurate") and (accept is None or accept(lower, upper)):
+                run = SolverRun(name, status, 1e3 * (time.perf_counter() - t0))
+                attempts.append(run)
+                return LmiSolution(x, lower, upper, name, status, run.time_ms, tuple(attempts))
+            if status in ("optimal", "optimal_inaccurate"):
+                status = f"{status}_unverified"
+        attempts.append(SolverRun(name, status, 1e3 * (time.perf_counter() - t0)))
+    check_budget()  # a solver stopped by the time limit is a budget failure, not a math one
+    summary = "; ".join(f"{a.solver}: {a.status}" for a in attempts)
+    raise DomainError(
+        "certificate_failed",
+        f"no solver produced a verified certificate for the {program.size}×{program.size} SDP ({summary}).",
+    )
+
+
+# ----------------------------------------------------------------------------- certificates
+
+
+@dataclass(frozen=True, eq=False)
+class SelfStressCertificate:
+    """Count and orthonormal basis (s, N_B) of the self-stresses, with the rank evidence.
+
+    smallest_nonzero / largest_zero: σ_r and σ_{r+1} of the scale-normalised C (0 if none).
+    equilibrium_residual: max_k ‖Cᵀω_k‖ / ‖C‖_F over the basis (0 when there is none).
+    """
+
+    count: int
+    basis: np.ndarray
+    basis_included: bool
+    smallest_nonzero: float
+    largest_zero: float
+    equilibrium_residual: float
+
+    def to_dict(self) -> dict:
+        return {
+            "count": self.count,
+            "basis": self.basis.tolist(),
+            "basis_included": self.basis_included,
+            "singular_values": {
+                "smallest_nonzero": self.smallest_nonzero,
+                "largest_zero": self.largest_zero,
+            },
+            "equilibrium_residual": self.equilibrium_residual,
+        }
+
+
+@dataclass(frozen=True, eq=False)
+class PrestressCertificate:
+    """Prestress stability. decided_by: "infinitesimal_rigidity" (f = 0, stable, no margin),
+    "no_self_stress" (f > 0, s = 0, not stable, margin 0) or "sdp".
+
+    margin ≤ t* ≤ margin_upper_bound; stress: the certifying unit self-stress (N_B) when stable.
+    """
+
+    prestress_stable: bool
+    decided_by: str
+    flexes: int
+    stresses: int
+    margin: float | None
+    margin_upper_bound: float | None
+    stress: np.ndarray | None
+    threshold: float
+    sdp: LmiSolution | None
+
+    def to_dict(self) -> dict:
+        return {
+            "prestress_stable": self.prestress_stable,
+            "decided_by": self.decided_by,
+            "flexes": self.flexes,
+            "stresses": self.stresses,
+            "margin": self.margin,
+            "margin_upper_bound": self.margin_upper_bound,
+            "stress": None if self.stress is None else self.stress.tolist(),
+            "threshold": self.threshold,
+            "sdp": None if self.sdp is None else self.sdp.to_dict(),
+        }
+
+
+@dataclass(frozen=True, eq=False)
+class RigidityMargin:
+    """Mode isolation of a design: λ_min(Pᵀ K(k) P) for uniform and optimal k.
+
+    optimal ≤ λ* ≤ optimal_upper_bound; stiffness: the optimal allocation (N_B, Σ = N_B);
+    gain = optimal / uniform. uniform is None when the complement is empty (p = 0). With
+    undesigned zero modes every margin is 0 and no SDP runs; the other optimal fields are None
+    when the SDP did not run.
+    """
+
+    designed_modes: int
+    complement_dim: int
+    undesigned_zero_modes: int
+    uniform: float | None
+    optimal: float | None = None
+    optimal_upper_bound: float | None = None
+    gain: float | None = None
+    stiffness: np.ndarray | None = None
+    sdp: LmiSolution | None = None
+
+    def to_dict(self) -> dict:
+        return {
+            "designed_modes": self.designed_modes,
+            "complement_dim": self.complement_dim,
+            "undesigned_zero_modes": self.undesigned_zero_modes,
+            "uniform": self.uniform,
+            "optimal": self.optimal,
+            "optimal_upper_bound": self.optimal_upper_bound,
+            "gain": self.gain,
+            "stiffness": None if self.stiffness is None else self.stiffness.tolist(),
+            "sdp": None if self.sdp is None else self.sdp.to_dict(),
+        }
+
+
+@dataclass(frozen=True, eq=False)
+class Certificate:
+    """The three certificates of one frame, its analysis, and timings in milliseconds."""
+
+    analysis: Analysis
+    self_stress: SelfStressCertificate
+    prestress: PrestressCertificate
+    rigidity_margin: RigidityMargin
+    timings_ms: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        return {
+            "analysis": self.analysis.counts(),
+            "self_stress": self.self_stress.to_dict(),
+            "prestress": self.prestress.to_dict(),
+            "rigidity_margin": self.rigidity_margin.to_dict(),
+            "timings_ms": dict(self.timings_ms),
+        }
+
+
+def self_stress_certificate(analysis: Analysis, c) -> SelfStressCertificate:
+    """Self-stress count, basis and evidence from ``analysis`` and the normalised C (sparse)."""
+    basis = analysis.stresses
+    residual = 0.0
+    if basis.size:
+        residual = float(np.max(np.linalg.norm(c.T @ basis.T, axis=0)) / spla.norm(c))
+    return SelfStressCertificate(
+        count=analysis.self_stresses,
+        basis=basis,
+        basis_included=analysis.bases_included,
+        smallest_nonzero=analysis.rank_gap.last_nonzero,
+        largest_zero=analysis.rank_gap.first_zero,
+        equilibrium_residual=residual,
+    )
+
+
+def prestress_certificate(
+    analysis: Analysis, edges: np.ndarray, solver: str = "clarabel", **solve_options
+) -> PrestressCertificate:
+    """Decide prestress stability; run the SDP only when there are both flexes and stresses."""
+    f, s = analysis.nontrivial_zero_modes, analysis.self_stresses
+    if f == 0:
+        return PrestressCertificate(True, "infinitesimal_rigidity", 0, s, None, None, None, PRESTRESS_TOL, None)
+    if s == 0:
+        return PrestressCertificate(False, "no_self_stress", f, 0, 0.0, 0.0, None, PRESTRESS_TOL, None)
+    if f > SDP_MAX_DIM or not analysis.bases_included:
+        raise DomainError(
+            "too_expensive",
+            f"the frame has {f} nontrivial flexes; the prestress SDP is limited to {SDP_MAX_DIM}.",
+        )
+    program = prestress_program(analysis, edges)
+    # The bracket must fall on one side of the threshold, or the solve does not decide anything.
+    solution = solve_lmi(
+        program,
+        solver,
+        accept=lambda lo, up: lo > PRESTRESS_TOL or up <= PRESTRESS_TOL,
+        **solve_options,
+    )
+    stable = solution.lower > PRESTRESS_TOL
+    stress = solution.x @ analysis.stresses if stable else None
+    return PrestressCertificate(
+        stable, "sdp", f, s, max(solution.lower, 0.0), solution.upper, stress, PRESTRESS_TOL, solution
+    )
+
+
+def designed_mode_basis(frame: Frame, rigid: np.ndarray, modes) -> np.ndarray:
+    """Orthonormal basis (dN × (ρ + M)) of rigid motions ⊕ designed modes, after validation.
+
+    modes: M arrays of shape (N, d). Raises InvalidInput ``invalid_modes`` naming the first mode
+    that has the wrong shape, is not a zero mode, or adds nothing to the earlier span.
+    """
+    n, d = frame.n_nodes, frame.dim
+    span = rigid
+    for i, mode in enumerate(modes):
+        m = np.asarray(mode, dtype=float)
+        if m.shape != (n, d):
+            raise InvalidInput("invalid_modes", f"modes[{i}] must be {n}×{d}, got shape {m.shape}.")
+        if not np.all(np.isfinite(m)):
+            raise InvalidInput("invalid_modes", f"modes[{i}] holds a number that is not finite.")
+        v = m.ravel()
+        norm = np.linalg.norm(v)
+        if norm == 0:
+            raise InvalidInput("invalid_modes", f"modes[{i}] is zero.")
+        residual = zero_mode_residual(frame, m)
+        if residual > MODE_RTOL:
+            raise InvalidInput(
+                "invalid_modes",
+                f"modes[{i}] is not a zero mode of the frame: ‖C m‖/(‖C‖_F‖m‖) = {residual:.2e} > {MODE_RTOL:g}.",
+            )
+        outside = v - span @ (span.T @ v)
+        if np.linalg.norm(outside) <= MODE_RTOL * norm:
+            raise InvalidInput(
+                "invalid_modes",
+                f"modes[{i}] is a combination of the rigid motions and the modes before it.",
+            )
+        span = orthonormal_range(np.column_stack([span, outside]), RTOL)
+    return span
+
+
+def rigidity_margin(
+    frame: Frame,
+    analysis: Analysis,
+    c,
+    modes=(),
+    stiffness: bool = True,
+    solver: str = "clarabel",
+    **solve_options,
+) -> RigidityMargin:
+    """Margin of the design (frame, designed modes) for uniform and, if asked, optimal stiffness."""
+    n_dof = frame.dim * frame.n_nodes
+    span = designed_mode_basis(frame, analysis.rigid_basis, modes)
+    m = span.shape[1] - analysis.rigid_body_modes
+    p = n_dof - span.shape[1]
+    undesigned = max(analysis.nontrivial_zero_modes - m, 0)
+    if p == 0:
+        # Every motion is rigid or designed: there is nothing left to isolate.
+        return RigidityMargin(m, 0, 0, None)
+    if undesigned > 0:
+        # An undesigned zero mode q has K(k)q = 0 for every k: all margins vanish, no SDP needed.
+        zero = 0.0 if stiffness else None
+        return RigidityMargin(m, p, undesigned, 0.0, optimal=zero, optimal_upper_bound=zero)
+    if n_dof > MARGIN_MAX_DOF:
+        raise DomainError(
+            "too_expensive",
+            f"the rigidity margin is computed for up to {MARGIN_MAX_DOF} degrees of freedom; the frame has {n_dof}.",
+        )
+    complement, _, _ = nullspace(span.T)
+    a = c @ complement  # (N_B, p): rows a_e = Pᵀ c_e
+    uniform = float(np.linalg.svd(a, compute_uv=False)[-1] ** 2) if a.shape[0] >= p else 0.0
+    if not stiffness:
+        return RigidityMargin(m, p, 0, uniform)
+    if p > SDP_MAX_DIM:
+        raise DomainError(
+            "too_expensive",
+            f"the stiffness allocation SDP has a {p}×{p} LMI (dN − ρ − M); the limit is {SDP_MAX_DIM}. "
+            "Ask for options.stiffness = false to get the uniform margin alone.",
+        )
+    solution = solve_lmi(
+        stiffness_program(a),
+        solver,
+        # k = 1 is feasible, so a verified optimum below the uniform margin is a failed solve.
+        accept=lambda lo, up: lo >= uniform * (1 - MARGIN_GAP_RTOL) and up - lo <= MARGIN_GAP_RTOL * up,
+        **solve_options,
+    )
+    return RigidityMargin(
+        m, p, 0, uniform, solution.lower, solution.upper, solution.lower / uniform, solution.x, solution
+    )
+
+
+def certify(
+    frame: Frame,
+    modes=None,
+    *,
+    solver: str = "clarabel",
+    stiffness: bool = True,
+    max_iters: int | None = None,
+) -> Certificate:
+    """Self-stress certificate, prestress stability and rigidity margin of ``frame``.
+
+    modes: optional designed modes, each (N, d) (e.g. the ``modes`` of a /v1/design answer);
+    they must be zero modes, independent modulo rigid motions. solver: "clarabel" or "scs"
+    (the other one is the fallback). stiffness: also run the stiffness-allocation SDP.
+    max_iters caps each solver attempt; the time budget of budget.py bounds the whole call.
+    Raises InvalidInput (bad modes/solver), DomainError ``too_expensive`` / ``certificate_failed``.
+    """
+    if solver not in SOLVERS:
+        raise InvalidInput("invalid_solver", f"solver must be one of {', '.join(SOLVERS)}, got {solver!r}.")
+    t0 = time.perf_counter()
+    analysis = analyze(frame)
+    c = compatibility_matrix(frame.normalised_positions(), frame.edges)
+    t1 = time.perf_counter()
+    report_progress(0.2, "analysed the frame")
+    certificate = self_stress_certificate(analysis, c)
+    prestress = prestress_certificate(analysis, frame.edges, solver, max_iters=max_iters)
+    t2 = time.perf_counter()
+    report_progress(0.5, "decided prestress stability")
+    margin = rigidity_margin(frame, analysis, c, modes or (), stiffness, solver, max_iters=max_iters)
+    t3 = time.perf_counter()
+    report_progress(1.0, "computed the rigidity margin")
+    return Certificate(
+        analysis,
+        certificate,
+        prestress,
+        margin,
+        {
+            "analysis": 1e3 * (t1 - t0),
+            "prestress": 1e3 * (t2 - t1),
+            "rigidity_margin": 1e3 * (t3 - t2),
+            "total": 1e3 * (t3 - t0),
+        },
+    )
