@@ -39,7 +39,7 @@ def _patch(
     """Cut m^d cells of the lattice, m chosen so that m^d · (sites per cell) ≈ n."""
     d = lattice.shape[0]
     b = len(basis)
-    m = max(1, int(round((n / b) ** (1.0 / d))))
+    m = max(1, round((n / b) ** (1.0 / d)))
     cells = np.stack(np.meshgrid(*[np.arange(m)] * d, indexing="ij"), axis=-1).reshape(-1, d)
     cell_id = np.arange(len(cells)).reshape((m,) * d)
     positions = ((cells[:, None, :] + basis[None, :, :]) @ lattice).reshape(-1, d)
@@ -75,8 +75,12 @@ def kagome_lattice(n: int, jitter: float = 0.0, seed: int = 0) -> Frame:
     lattice = np.array([[2.0, 0.0], [1.0, _SQRT3]])
     basis = np.array([[0.0, 0.0], [0.5, 0.0], [0.0, 0.5]])
     bonds = [
-        (0, 1, (0, 0)), (0, 2, (0, 0)), (1, 2, (0, 0)),
-        (1, 0, (1, 0)), (2, 0, (0, 1)), (1, 2, (1, -1)),
+        (0, 1, (0, 0)),
+        (0, 2, (0, 0)),
+        (1, 2, (0, 0)),
+        (1, 0, (1, 0)),
+        (2, 0, (0, 1)),
+        (1, 2, (1, -1)),
     ]
     return _patch(n, lattice, basis, bonds, jitter, seed)
 
@@ -87,8 +91,12 @@ def cubic_diagonal_lattice(n: int, jitter: float = 0.0, seed: int = 0) -> Frame:
     Every cube then has six triangulated faces, hence is rigid (Cauchy–Dehn), and so is the patch.
     """
     bonds = [
-        (0, 0, (1, 0, 0)), (0, 0, (0, 1, 0)), (0, 0, (0, 0, 1)),
-        (0, 0, (1, 1, 0)), (0, 0, (0, 1, 1)), (0, 0, (1, 0, 1)),
+        (0, 0, (1, 0, 0)),
+        (0, 0, (0, 1, 0)),
+        (0, 0, (0, 0, 1)),
+        (0, 0, (1, 1, 0)),
+        (0, 0, (0, 1, 1)),
+        (0, 0, (1, 0, 1)),
     ]
     return _patch(n, np.eye(3), np.zeros((1, 3)), bonds, jitter, seed)
 

@@ -12,7 +12,17 @@ from fastapi.responses import JSONResponse
 
 from zeromode.service import __version__
 from zeromode.service.errors import error_body, install_error_handlers
-from zeromode.service.routes import analyze, design, examples, health, jobs, lattice, motion, plot
+from zeromode.service.routes import (
+    analyze,
+    certify,
+    design,
+    examples,
+    health,
+    jobs,
+    lattice,
+    motion,
+    plot,
+)
 from zeromode.service.settings import SETTINGS, Settings
 from zeromode.solver.budget import time_budget
 
@@ -30,7 +40,7 @@ def create_app(settings: Settings = SETTINGS) -> FastAPI:
     )
     install_error_handlers(app)
     app.state.settings = settings  # the job store reads its directory and limits here
-    for module in (health, analyze, design, examples, lattice, plot, motion, jobs):
+    for module in (health, analyze, certify, design, examples, lattice, plot, motion, jobs):
         app.include_router(module.router)
 
     @app.middleware("http")

@@ -224,6 +224,8 @@ class JobStore:
             job = self._queue.get()
             try:
                 self._run(job)
+            except Exception:  # noqa: BLE001 — e.g. the job directory vanished: keep the thread
+                log.exception("job %s could not be recorded", job.state["id"])
             finally:
                 with self._lock:
                     self._active.pop(job.state["id"], None)

@@ -47,8 +47,10 @@ larger LMI is refused with ``too_expensive`` rather than left to run for minutes
 from __future__ import annotations
 
 import time
+import warnings
 from dataclasses import dataclass, field
 
+import cvxpy as cp
 import numpy as np
 import scipy.sparse.linalg as spla
 
@@ -186,8 +188,6 @@ class LmiSolution:
 
 def _solve_once(program: LmiProgram, solver: str, time_limit: float | None, max_iters: int | None):
     """One cvxpy solve; returns (x, Y, status) with x, Y None when the solver gave nothing."""
-    import cvxpy as cp
-
     m, n, _ = program.matrices.shape
     x = cp.Variable(m, nonneg=program.domain == "simplex")
     lam = cp.Variable()
@@ -204,7 +204,10 @@ def _solve_once(program: LmiProgram, solver: str, time_limit: float | None, max_
         options = {"eps_abs": 1e-7, "eps_rel": 1e-7}
     options.update({key: value for key, value in limits.items() if value is not None})
     try:
-        problem.solve(solver=name, **options)
+        with warnings.catch_warnings():
+            # "Solution may be inaccurate": the caller verifies every solution itself.
+            warnings.simplefilter("ignore", UserWarning)
+            problem.solve(solver=name, **options)
     except cp.error.SolverError:
         return None, None, "solver_error"
     status = str(problem.status)
@@ -225,7 +228,9 @@ def solve_lmi(
     solver and its status.
     """
     if solver not in SOLVERS:
-        raise InvalidInput("invalid_solver", f"solver must be one of {', '.join(SOLVERS)}, got {solver!r}.")
+        raise InvalidInput(
+            "invalid_solver", f"solver must be one of {', '.join(SOLVERS)}, got {solver!r}."
+        )
     order = (solver,) + tuple(s for s in SOLVERS if s != solver)
     attempts = []
     for name in order:
@@ -235,7 +240,8 @@ def solve_lmi(
         if x is not None:
             x = program.project(x)
             lower, upper = program.lower_bound(x), program.upper_bound(y)
-            if status in ("optimal", "optimal_inaccurate") and (accept is None or accept(lower, upper)):
+            verified = np.isfinite(upper) and (accept is None or accept(lower, upper))
+            if status in ("optimal", "optimal_inaccurate") and verified:
                 run = SolverRun(name, status, 1e3 * (time.perf_counter() - t0))
                 attempts.append(run)
                 return LmiSolution(x, lower, upper, name, status, run.time_ms, tuple(attempts))
@@ -389,9 +395,13 @@ def prestress_certificate(
     """Decide prestress stability; run the SDP only when there are both flexes and stresses."""
     f, s = analysis.nontrivial_zero_modes, analysis.self_stresses
     if f == 0:
-        return PrestressCertificate(True, "infinitesimal_rigidity", 0, s, None, None, None, PRESTRESS_TOL, None)
+        return PrestressCertificate(
+            True, "infinitesimal_rigidity", 0, s, None, None, None, PRESTRESS_TOL, None
+        )
     if s == 0:
-        return PrestressCertificate(False, "no_self_stress", f, 0, 0.0, 0.0, None, PRESTRESS_TOL, None)
+        return PrestressCertificate(
+            False, "no_self_stress", f, 0, 0.0, 0.0, None, PRESTRESS_TOL, None
+        )
     if f > SDP_MAX_DIM or not analysis.bases_included:
         raise DomainError(
             "too_expensive",
@@ -408,7 +418,15 @@ def prestress_certificate(
     stable = solution.lower > PRESTRESS_TOL
     stress = solution.x @ analysis.stresses if stable else None
     return PrestressCertificate(
-        stable, "sdp", f, s, max(solution.lower, 0.0), solution.upper, stress, PRESTRESS_TOL, solution
+        stable,
+        "sdp",
+        f,
+        s,
+        max(solution.lower, 0.0),
+        solution.upper,
+        stress,
+        PRESTRESS_TOL,
+        solution,
     )
 
 
@@ -488,11 +506,21 @@ def rigidity_margin(
         stiffness_program(a),
         solver,
         # k = 1 is feasible, so a verified optimum below the uniform margin is a failed solve.
-        accept=lambda lo, up: lo >= uniform * (1 - MARGIN_GAP_RTOL) and up - lo <= MARGIN_GAP_RTOL * up,
+        accept=lambda lo, up: (
+            lo >= uniform * (1 - MARGIN_GAP_RTOL) and up - lo <= MARGIN_GAP_RTOL * up
+        ),
         **solve_options,
     )
     return RigidityMargin(
-        m, p, 0, uniform, solution.lower, solution.upper, solution.lower / uniform, solution.x, solution
+        m,
+        p,
+        0,
+        uniform,
+        solution.lower,
+        solution.upper,
+        solution.lower / uniform if uniform > 0 else None,
+        solution.x,
+        solution,
     )
 
 
@@ -513,7 +541,9 @@ def certify(
     Raises InvalidInput (bad modes/solver), DomainError ``too_expensive`` / ``certificate_failed``.
     """
     if solver not in SOLVERS:
-        raise InvalidInput("invalid_solver", f"solver must be one of {', '.join(SOLVERS)}, got {solver!r}.")
+        raise InvalidInput(
+            "invalid_solver", f"solver must be one of {', '.join(SOLVERS)}, got {solver!r}."
+        )
     t0 = time.perf_counter()
     analysis = analyze(frame)
     c = compatibility_matrix(frame.normalised_positions(), frame.edges)
@@ -523,7 +553,9 @@ def certify(
     prestress = prestress_certificate(analysis, frame.edges, solver, max_iters=max_iters)
     t2 = time.perf_counter()
     report_progress(0.5, "decided prestress stability")
-    margin = rigidity_margin(frame, analysis, c, modes or (), stiffness, solver, max_iters=max_iters)
+    margin = rigidity_margin(
+        frame, analysis, c, modes or (), stiffness, solver, max_iters=max_iters
+    )
     t3 = time.perf_counter()
     report_progress(1.0, "computed the rigidity margin")
     return Certificate(

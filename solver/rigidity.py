@@ -199,27 +199,44 @@ def _dense_null_spaces(c: np.ndarray, rtol: float):
 
 
 def _sparse_null_spaces(c: sp.csr_matrix, rtol: float, rigid_dim: int, want_stresses: bool):
-    """Null spaces of a large sparse C without forming it densely.
+    """Rank of a large sparse C (N_B × dN) and, when wanted, bases of N(C) and N(Cᵀ).
 
-    N(C) = N(CᵀC); subspace iteration with (CᵀC + δI)⁻¹ damps every non-null direction by
-    δ/(σ² + δ) per step, so a handful of steps isolate N(C). The block grows until its
-    Ritz values on C show a nonzero singular value, i.e. the whole null space is inside it.
+    dim N(C) − dim N(Cᵀ) = dN − N_B (the Maxwell count) and N(C) holds the ρ rigid motions,
+    so dim N(C) ≥ z₀ = max(dN − N_B, ρ) and dim N(Cᵀ) ≥ z₀ − (dN − N_B). The rank is decided
+    on the side with the smaller bound (zero modes for over-braced frames, self-stresses for
+    under-braced ones such as kagome patches with hundreds of boundary modes), where the
+    subspace-iteration block stays small; the singular values are those of C either way.
+
+    Returns (zero-mode basis dN × z, self-stress basis N_B × s or None, rank, gap). The bases are
+    computed only when ``want_stresses`` and both fit in BASIS_MAX_NUMBERS (as ``analyze``
+    returns them); otherwise the zero-mode basis is an empty dN × 0 array and the stresses None.
     """
     nb, ndof = c.shape
     if nb == 0:
         return np.eye(ndof), np.zeros((0, 0)), 0, RankGap(0.0, 0.0)
     sigma_max = _largest_singular_value(c)
-    null, sig_kept, sig_dropped = _null_by_subspace_iteration(
-        c, sigma_max, rtol, lower_bound=max(ndof - nb, rigid_dim)
-    )
-    rank = ndof - null.shape[1]
-    gap = RankGap(sig_kept, sig_dropped)
-    stresses = None
-    if want_stresses and (nb - rank) * nb <= BASIS_MAX_NUMBERS:
-        stresses, _, _ = _null_by_subspace_iteration(
-            c.T.tocsr(), sigma_max, rtol, lower_bound=nb - rank, exact_dim=nb - rank
+    maxwell = ndof - nb
+    z_bound = max(maxwell, rigid_dim)
+    if z_bound - maxwell < z_bound:
+        stresses, kept, dropped = _null_by_subspace_iteration(
+            c.T.tocsr(), sigma_max, rtol, z_bound - maxwell
         )
-    return null, stresses, rank, gap
+        rank = nb - stresses.shape[1]
+        null = None
+    else:
+        null, kept, dropped = _null_by_subspace_iteration(c, sigma_max, rtol, z_bound)
+        rank = ndof - null.shape[1]
+        stresses = None
+    z, s = ndof - rank, nb - rank
+    if want_stresses and max(z - rigid_dim, 0) * ndof + s * nb <= BASIS_MAX_NUMBERS:
+        if null is None:
+            null, _, _ = _null_by_subspace_iteration(c, sigma_max, rtol, z, exact_dim=z)
+        if stresses is None:
+            stresses, _, _ = _null_by_subspace_iteration(
+                c.T.tocsr(), sigma_max, rtol, s, exact_dim=s
+            )
+        return null, stresses, rank, RankGap(kept, dropped)
+    return np.zeros((ndof, 0)), None, rank, RankGap(kept, dropped)
 
 
 def _largest_singular_value(c: sp.csr_matrix, steps: int = 30) -> float:
@@ -238,43 +255,62 @@ def _null_by_subspace_iteration(
     lower_bound: int,
     exact_dim: int | None = None,
     oversample: int = 8,
-    steps: int = 4,
+    first_steps: int = 2,
+    max_rounds: int = 60,
 ):
-    """Orthonormal basis of N(c) (columns), σ_r of the kept block and σ_{r+1} (largest dropped).
+    """Orthonormal basis of N(c) (columns), the smallest nonzero Ritz singular value and the largest zero one.
 
-    Returns (basis, smallest nonzero Ritz singular value, largest zero one).
+    Shift-invert subspace iteration with (cᵀc + δI)⁻¹, δ = 1e-10 σ_max²: one sparse LU
+    (symmetric minimum-degree order, diagonal pivots: the matrix is positive definite) damps a
+    singular direction σ by δ/(σ² + δ) per step relative to N(c). After each round a
+    Rayleigh–Ritz step on c itself gives the Ritz singular values θ ≥ σ of c on the block
+    (θ ≤ rtol·σ_max counts as zero). A null direction not yet inside the block shows up as a
+    small nonzero θ that keeps falling by δ/(σ² + δ) per step, so the rounds (one step each
+    after the first) stop only when the zero count is unchanged and the smallest nonzero θ moved
+    by less than 10 %. A block whose Ritz values are all zero may miss part of N(c): it keeps its
+    null vectors and takes as many fresh random directions again. ``exact_dim`` (the dimension
+    known from the other side) stops at that many zero Ritz values, after two rounds as well.
     """
     ndof = c.shape[1]
-    m = (c.T @ c).tocsc()
-    delta = 1e-10 * sigma_max**2
-    lu = spla.splu((m + delta * sp.identity(ndof, format="csc")).tocsc())
+    tol = rtol * sigma_max
+    shifted = (c.T @ c + 1e-10 * sigma_max**2 * sp.identity(ndof, format="csc")).tocsc()
+    lu = spla.splu(
+        shifted, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True}
+    )
     rng = np.random.default_rng(0)
-    block = min(ndof, max(lower_bound, 1) + oversample)
-    while True:
+    y = rng.standard_normal((ndof, min(ndof, max(lower_bound, 1) + oversample)))
+    steps, previous = first_steps, None
+    for _ in range(max_rounds):
         check_budget()
-        y = rng.standard_normal((ndof, block))
         for _ in range(steps):
             y, _ = np.linalg.qr(lu.solve(y))
-        # Rayleigh–Ritz on C itself: singular values of C restricted to span(y).
-        # Economic SVD unless C has fewer rows than the block (then V must be completed).
-        _, s_nonzero, vt = np.linalg.svd(c @ y, full_matrices=c.shape[0] < block)
-        s = np.zeros(block)  # when N_B < block, the missing singular values are zero
-        s[: s_nonzero.size] = s_nonzero
-        order = np.argsort(s, kind="stable")
-        s, vt = s[order], vt[order]
-        zero = s <= rtol * sigma_max
-        z = int(np.count_nonzero(zero)) if exact_dim is None else exact_dim
-        if z < block or block == ndof:
-            basis = y @ vt[:z].T
-            basis, _ = np.linalg.qr(basis)
-            kept = float(s[z]) if z < block else 0.0
-            dropped = float(s[z - 1]) if z > 0 else 0.0
-            return basis, kept, dropped
-        if block >= 20000:
-            raise DomainError(
-                "too_expensive", "the frame has more than 20000 independent zero modes."
-            )
-        block = min(ndof, 2 * block)
-
-
-
+        # Rayleigh–Ritz on c itself: singular values of c restricted to span(y), ascending.
+        # Economic SVD unless c has fewer rows than the block (then W must be completed).
+        k = y.shape[1]
+        _, s_nonzero, wt = np.linalg.svd(c @ y, full_matrices=c.shape[0] < k)
+        theta = np.zeros(k)  # when c has fewer rows than k, the missing singular values are zero
+        theta[: s_nonzero.size] = s_nonzero
+        order = np.argsort(theta, kind="stable")
+        theta, ritz = theta[order], y @ wt[order].T
+        z = int(np.count_nonzero(theta <= tol))
+        if z == k and exact_dim is None and k < ndof:
+            if z >= 20000:
+                raise DomainError(
+                    "too_expensive", "the frame has more than 20000 independent zero modes."
+                )
+            fresh = rng.standard_normal((ndof, min(z, ndof - z)))
+            y = np.hstack([ritz, fresh - ritz @ (ritz.T @ fresh)])
+            steps, previous = first_steps, None
+            continue
+        if exact_dim is not None:
+            done = previous is not None and z >= exact_dim
+        else:
+            settled = previous is not None and z == previous[0] and theta[z] >= 0.9 * previous[1]
+            done = z == k or settled
+        if done:
+            break
+        y, steps, previous = ritz, 1, (z, theta[min(z, k - 1)])
+    z = z if exact_dim is None else exact_dim
+    kept = float(theta[z]) if z < theta.size else 0.0
+    dropped = float(theta[z - 1]) if z > 0 else 0.0
+    return ritz[:, :z], kept, dropped

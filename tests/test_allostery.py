@@ -16,6 +16,7 @@ import pytest
 from fastapi.testclient import TestClient
 from rigidity_reference import compatibility_matrix, kernel, normalised
 from test_multimode import check_frame_modes
+
 from zeromode.service.app import create_app
 from zeromode.solver.allostery import design_allosteric
 from zeromode.solver.errors import DomainError, InvalidInput
@@ -31,7 +32,9 @@ def driven_response(positions, edges, source, source_motion) -> np.ndarray:
     rows = (np.asarray(source)[:, None] * d + np.arange(d)).ravel()
     coef, *_ = np.linalg.lstsq(null[rows], np.ravel(source_motion), rcond=None)
     assert np.linalg.matrix_rank(null[rows], tol=1e-8) == null.shape[1], "response not unique"
-    assert np.linalg.norm(null[rows] @ coef - np.ravel(source_motion)) <= 1e-9 * np.linalg.norm(source_motion)
+    assert np.linalg.norm(null[rows] @ coef - np.ravel(source_motion)) <= 1e-9 * np.linalg.norm(
+        source_motion
+    )
     return (null @ coef).reshape(n, d)
 
 
@@ -64,10 +67,14 @@ def test_driving_the_source_moves_the_target_as_prescribed(d, distance):
     error = np.linalg.norm(response[target] - u_tgt) / np.linalg.norm(u_tgt)
     assert error <= 1e-9
     # The report agrees with the response computed here.
-    assert np.allclose(result.achieved_target_motion, response[target], rtol=0, atol=1e-9 * np.linalg.norm(u_tgt))
+    assert np.allclose(
+        result.achieved_target_motion, response[target], rtol=0, atol=1e-9 * np.linalg.norm(u_tgt)
+    )
     assert result.target_error <= 1e-9
     assert abs(result.distance - np.linalg.norm(x_tgt.mean(0) - x_src.mean(0))) <= 1e-12
-    print(f"\nd={d} distance={result.distance:.2f}: N={len(x)} (relays {len(result.relays)}), N_B={len(edges)}, error {error:.1e}")
+    print(
+        f"\nd={d} distance={result.distance:.2f}: N={len(x)} (relays {len(result.relays)}), N_B={len(edges)}, error {error:.1e}"
+    )
 
 
 def test_linear_response_scales_with_the_drive():
@@ -77,7 +84,9 @@ def test_linear_response_scales_with_the_drive():
     frame = result.design.frame
     target = list(result.target)
     for factor in (2.0, -1.0):
-        response = driven_response(frame.positions, frame.edges, list(result.source), factor * u_src)
+        response = driven_response(
+            frame.positions, frame.edges, list(result.source), factor * u_src
+        )
         assert np.allclose(response[target], factor * u_tgt, atol=1e-9 * np.linalg.norm(u_tgt))
 
 

@@ -15,7 +15,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from rigidity_reference import compatibility_matrix, normalised, random_rotation, rigid_generators
-from test_multimode import check_frame_modes, mode_residual, outside_fraction
+from test_multimode import check_frame_modes, outside_fraction
+
 from zeromode.solver.coupling import Module, couple, moves_rigidly
 from zeromode.solver.design import design
 from zeromode.solver.errors import DomainError
@@ -27,7 +28,9 @@ SQUARE = np.array([[1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0], [1.0, -1.0]])
 def shifted(module: Module, shift, mode_shift=None) -> Module:
     """A copy moved by ``shift``; its mode changes by ``mode_shift`` (an affine field's change)."""
     extra = 0.0 if mode_shift is None else mode_shift
-    return Module(Frame.build(module.frame.positions + shift, module.frame.edges), module.mode + extra)
+    return Module(
+        Frame.build(module.frame.positions + shift, module.frame.edges), module.mode + extra
+    )
 
 
 @pytest.fixture(scope="module")
@@ -81,7 +84,9 @@ def test_coupling_fails_when_merged_nodes_do_not_coincide(outward_square):
     assert "coincide" in err.value.message
 
 
-BLOCK = np.array([[-1, 1, 0], [-1, -1, 0], [1, 1, 0], [1, -1, 0], [0, 0, 1], [0, 0, -1]], dtype=float)
+BLOCK = np.array(
+    [[-1, 1, 0], [-1, -1, 0], [1, 1, 0], [1, -1, 0], [0, 0, 1], [0, 0, -1]], dtype=float
+)
 AFFINE = np.array([1.0, 0.5, 0.5])  # u = diag(1, β, γ)·x, β = γ = 0.5
 
 

@@ -25,6 +25,7 @@ import pytest
 import scipy.sparse as sps
 from rigidity_reference import compatibility_matrix, normalised, numerical_rank, rigid_generators
 from test_multimode import check_frame_modes, mode_residual, pyrigi_report
+
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.lattice import auxetic_chain_3d, auxetic_sheet
 
@@ -92,16 +93,26 @@ def test_sheets_one_nontrivial_mode_for_every_size(poisson):
         assert zero_modes_and_stresses(x, edges) == (4, 2 * (nx - 1) * (ny - 1))
         cm = compatibility_matrix(normalised(x), edges)
         assert mode_residual(cm, lat.mode) <= 1e-12
-        assert numerical_rank(np.column_stack([rigid_generators(normalised(x)), lat.mode.ravel()])) == 4
-        # Module nodes at centre ± (c, 0), each joined to the four corners of its module.
+        assert (
+            numerical_rank(np.column_stack([rigid_generators(normalised(x)), lat.mode.ravel()]))
+            == 4
+        )
+        # Corners move with diag(1, β)·x; module nodes sit at centre ± (c, 0) and move with
+        # diag(1, β)·centre ∓ (c, 0).
+        beta = np.array([1.0, -poisson])
+        assert np.allclose(lat.mode[:n_corner], x[:n_corner] * beta, atol=1e-12)
         inner = x[n_corner:]
-        centres = 0.5 * (inner[0::2] + inner[1::2])
-        assert np.allclose(np.abs(inner[0::2] - centres)[:, 0], c, atol=1e-12)
-        assert np.allclose(inner[:, 1], np.repeat(centres[:, 1], 2), atol=1e-12)
+        centres = np.repeat(0.5 * (inner[0::2] + inner[1::2]), 2, axis=0)
+        offset = inner - centres
+        assert np.allclose(np.abs(offset[:, 0]), c, atol=1e-12) and np.allclose(offset[:, 1], 0)
+        assert np.allclose(lat.mode[n_corner:], centres * beta - offset, atol=1e-12)
         sets = sheet_boundary(lat, ny, h)
-        assert {k: sorted(v) for k, v in lat.boundary.items()} == {k: sorted(v.tolist()) for k, v in sets.items()}
+        assert {k: sorted(v) for k, v in lat.boundary.items()} == {
+            k: sorted(v.tolist()) for k, v in sets.items()
+        }
         ex, ey = strains(x, lat.mode, sets, finite=False)
         assert abs(-ey / ex - poisson) <= 1e-9 and abs(lat.poisson_ratio - poisson) <= 1e-9
+        assert lat.poisson_ratio < 0
 
 
 @pytest.mark.parametrize(("nx", "ny"), [(1, 1), (1, 2), (2, 1), (2, 2)])
@@ -164,7 +175,9 @@ def test_poisson_ratio_invariant_under_sheet_and_cell_size():
                 assert abs(-ey / ex - ref_secant[name]) <= 1e-9
 
 
-@pytest.mark.parametrize(("cell", "possible", "impossible"), [((1.0, 1.0), 0.9, 1.5), ((1.0, 2.0), 0.2, 0.3)])
+@pytest.mark.parametrize(
+    ("cell", "possible", "impossible"), [((1.0, 1.0), 0.9, 1.5), ((1.0, 2.0), 0.2, 0.3)]
+)
 def test_impossible_ratio_has_no_module(cell, possible, impossible):
     """The module exists iff ν < w²/h² (derivation above): the conic meets the symmetry axis."""
     w, h = cell
@@ -209,7 +222,9 @@ def test_3d_chain(chains, n):
         "bottom": ports[np.isclose(py, py.min())],
         "top": ports[np.isclose(py, py.max())],
     }
-    assert {k: set(v) for k, v in lat.boundary.items()} == {k: set(v.tolist()) for k, v in sets.items()}
+    assert {k: set(v) for k, v in lat.boundary.items()} == {
+        k: set(v.tolist()) for k, v in sets.items()
+    }
     ex, ey = strains(x, lat.mode, sets, finite=False)
     assert abs(-ey / ex + 0.5) <= 1e-9 and abs(lat.poisson_ratio + 0.5) <= 1e-9
     assert set(lat.states) == {"expanded", "contracted"}

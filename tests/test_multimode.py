@@ -32,6 +32,7 @@ import scipy.sparse.linalg as spla
 import sympy as sp
 from pyrigi import Framework, Graph
 from rigidity_reference import compatibility_matrix, normalised, numerical_rank, rigid_generators
+
 from zeromode.solver.design import design
 from zeromode.solver.errors import DomainError
 from zeromode.solver.multimode import common_positions, conic_intersections, spatial_quadric
@@ -53,7 +54,10 @@ def pyrigi_report(positions, edges) -> tuple[np.ndarray, int, int]:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         flexes = framework.inf_flexes(
-            include_trivial=True, numerical=True, tolerance=RANK_RTOL, vertex_order=list(range(len(x)))
+            include_trivial=True,
+            numerical=True,
+            tolerance=RANK_RTOL,
+            vertex_order=list(range(len(x))),
         )
         nontrivial = framework.nontrivial_inf_flexes(numerical=True, tolerance=RANK_RTOL)
         stresses = framework.stresses(numerical=True, tolerance=RANK_RTOL)
@@ -92,7 +96,9 @@ def check_frame_modes(positions, edges, modes, use_pyrigi: bool = True) -> dict:
     assert d * n - rank == target, "zero modes"
     assert len(edges) - rank == 0, "self-stresses"
     # The requested motions are independent of each other and of the rigid motions.
-    together = np.column_stack([rigid_generators(normalised(positions))] + [mo.ravel() for mo in modes])
+    together = np.column_stack(
+        [rigid_generators(normalised(positions))] + [mo.ravel() for mo in modes]
+    )
     assert numerical_rank(together, 1e-8) == target
     if use_pyrigi:
         flexes, nontrivial, stresses = pyrigi_report(positions, edges)
@@ -129,7 +135,7 @@ def check_design(result, x: np.ndarray, motions: np.ndarray, use_pyrigi: bool = 
 def augmented(xs: np.ndarray, us: np.ndarray, p: np.ndarray) -> np.ndarray:
     """[x_Si − p | (x_Si − p)·u_Si] (k × (d+1)) on normalised positions and motions: its rank is
     ≤ d exactly when an unspecified node at p can carry the motion on all k bars."""
-    centre, radius = xs.mean(axis=0), np.sqrt(np.mean(np.sum((xs - xs.mean(axis=0)) ** 2, axis=1)))
+    radius = np.sqrt(np.mean(np.sum((xs - xs.mean(axis=0)) ** 2, axis=1)))
     v = us - us.mean(axis=0)
     speed = np.sqrt(np.mean(np.sum(v**2, axis=1)))
     diff = (xs - p) / radius
@@ -233,7 +239,11 @@ KNOWN_PAIRS = {
         conic(np.array([[0, 0.5], [0.5, 0]]), np.zeros(2), -1.0),
         conic(np.eye(2), np.zeros(2), -4.0),
         np.array(
-            [[s * np.sqrt(2 + r * np.sqrt(3)), s / np.sqrt(2 + r * np.sqrt(3))] for s in (1, -1) for r in (1, -1)]
+            [
+                [s * np.sqrt(2 + r * np.sqrt(3)), s / np.sqrt(2 + r * np.sqrt(3))]
+                for s in (1, -1)
+                for r in (1, -1)
+            ]
         ),
     ),
     # Disjoint: unit circle and the circle of radius 1 about (5, 0); nested ellipses.
@@ -280,7 +290,9 @@ def test_conic_intersections_known_pairs(name):
 def test_conic_intersections_small_conics_far_from_the_origin():
     shift, scale = (3.0, -7.0), 1e-3
     for name, (q1, q2, expected) in KNOWN_PAIRS.items():
-        found = conic_intersections(moved(q1, shift, scale), moved(q2, shift, scale), np.random.default_rng(0))
+        found = conic_intersections(
+            moved(q1, shift, scale), moved(q2, shift, scale), np.random.default_rng(0)
+        )
         assert same_points(found / scale, (np.asarray(shift) + scale * expected) / scale), name
 
 
@@ -321,8 +333,12 @@ def exact_real_points(q1: np.ndarray, q2: np.ndarray) -> np.ndarray | None:
         return None
     f, g = (
         sp.Poly(
-            int(q[0, 0]) * X**2 + 2 * int(q[0, 1]) * X * Y + int(q[1, 1]) * Y**2
-            + 2 * int(q[0, 2]) * X + 2 * int(q[1, 2]) * Y + int(q[2, 2]),
+            int(q[0, 0]) * X**2
+            + 2 * int(q[0, 1]) * X * Y
+            + int(q[1, 1]) * Y**2
+            + 2 * int(q[0, 2]) * X
+            + 2 * int(q[1, 2]) * Y
+            + int(q[2, 2]),
             X,
             Y,
         )
@@ -338,7 +354,9 @@ def exact_real_points(q1: np.ndarray, q2: np.ndarray) -> np.ndarray | None:
         x0 = float(root.evalf(30))
         # One common point per simple root; it is real, since a complex y would bring its
         # conjugate with the same abscissa (a double root).
-        ys = np.roots([float(v) for v in sp.Poly(f.as_expr().subs(X, root.evalf(30)), Y).all_coeffs()])
+        ys = np.roots(
+            [float(v) for v in sp.Poly(f.as_expr().subs(X, root.evalf(30)), Y).all_coeffs()]
+        )
         gy = [abs(complex(g.as_expr().subs({X: root.evalf(30), Y: complex(y)}))) for y in ys]
         points.append([x0, ys[int(np.argmin(gy))].real])
     return np.array(points).reshape(-1, 2)
@@ -349,7 +367,7 @@ def test_conic_intersections_match_sympy_on_random_integer_conics():
     seen = {}
     for _ in range(60):
         q1, q2 = (rng.integers(-4, 5, (3, 3)) for _ in range(2))
-        q1, q2 = q1 + q1.T, q2 + q2.T  # even off-diagonal entries keep 2·q_ij integer
+        q1, q2 = q1 + q1.T, q2 + q2.T  # symmetric integer matrices
         expected = exact_real_points(q1, q2)
         if expected is None:
             continue
@@ -359,7 +377,9 @@ def test_conic_intersections_match_sympy_on_random_integer_conics():
             assert max(on_conic(q1, found).max(), on_conic(q2, found).max()) <= 1e-12
         seen[len(expected)] = seen.get(len(expected), 0) + 1
     # The sample exercised every real count a generic pair can have.
-    print(f"random integer conic pairs by number of real common points: {dict(sorted(seen.items()))}")
+    print(
+        f"random integer conic pairs by number of real common points: {dict(sorted(seen.items()))}"
+    )
     assert {0, 2, 4} <= set(seen), seen
 
 
@@ -416,7 +436,9 @@ def test_two_motion_designs_2d_k3():
         p4 = fourth_intersection(x, motions[0], motions[1])
         quadrics = [spatial_quadric(solution_space(x, u)) for u in motions]
         norm = quadrics[0].space.norm
-        found = norm.positions_out(conic_intersections(quadrics[0].q_hat, quadrics[1].q_hat, np.random.default_rng(seed)))
+        found = norm.positions_out(
+            conic_intersections(quadrics[0].q_hat, quadrics[1].q_hat, np.random.default_rng(seed))
+        )
         assert same_points(found, np.vstack([x, p4]), 1e-7), seed
         try:
             result = design(x, motions, seed=seed)
@@ -424,7 +446,11 @@ def test_two_motion_designs_2d_k3():
             assert err.code == "no_solution" and err.message
             continue
         check_design(result, x, motions)
-        assert (result.unspecified_nodes, result.frame.n_edges, result.analysis.maxwell_count) == (1, 3, 5)
+        assert (result.unspecified_nodes, result.frame.n_edges, result.analysis.maxwell_count) == (
+            1,
+            3,
+            5,
+        )
         assert np.linalg.norm(result.frame.positions[3] - p4) <= 1e-9 * max(1.0, np.linalg.norm(p4))
         built += 1
     assert built >= 20, built
@@ -443,12 +469,13 @@ def test_refusal_message_tells_the_true_reason_2d_k3():
     for seed in range(30):
         x, motions = random_target(2, 3, seed, 2)
         p4 = fourth_intersection(x, motions[0], motions[1])
-        assert np.all(np.isfinite(p4)) and off_position_set(x, motions[0], p4) <= 1e-9
+        assert np.all(np.isfinite(p4))
+        assert max(off_position_set(x, u, p4) for u in motions) <= 1e-9
         try:
             design(x, motions, seed=seed)
         except DomainError as err:
             refused.append((seed, err.message))
-    assert refused  # targets whose only placement is far away or close to a specified node
+    # The refused targets have their only placement far away or close to a specified node.
     for seed, message in refused:
         assert "no real point" not in message, (seed, message)
 
@@ -476,7 +503,9 @@ CORNER_TETRAHEDRON = np.array([[0.0, 0, 0], [2, 0, 0], [0, 2, 0], [0, 0, 2]])
 def test_paper_fig4_two_motions_three_nodes_2d():
     """Fig. 4a–c: three specified nodes, two motions (outward from the centroid and a shear
     u = (y, 0)) → one unspecified node at the conics' common point, N_D = 5."""
-    motions = np.stack([TRIANGLE - TRIANGLE.mean(axis=0), np.column_stack([TRIANGLE[:, 1], np.zeros(3)])])
+    motions = np.stack(
+        [TRIANGLE - TRIANGLE.mean(axis=0), np.column_stack([TRIANGLE[:, 1], np.zeros(3)])]
+    )
     result = design(TRIANGLE, motions, seed=0)
     counts = check_design(result, TRIANGLE, motions)
     assert result.unspecified_nodes == 1 and result.analysis.maxwell_count == 5
@@ -500,16 +529,20 @@ def test_paper_fig4_two_motions_four_nodes_3d():
 
 
 def test_tangent_conics_have_no_common_point_and_no_design():
-    """Two motions of the same three nodes whose bars at node 0 have the same strain-rate ratio
-    (1 : 1) give conics tangent at x_S0 (module docstring): by sympy's exact resultant their only
-    real common points are the specified nodes, so no unspecified node carries both motions."""
+    """Two motions of the same three nodes whose bars at node 0 (the docstring's x_S1) have the
+    same strain-rate ratio (1 : 1) give conics tangent there (module docstring): by sympy's exact
+    resultant their only real common points are the specified nodes, so no unspecified node
+    carries both motions."""
     x = np.array([[0, 0], [3, 1], [1, 2]])
     motions = np.array([[[0, 0], [0, 1], [1, 0]], [[0, 0], [0, 1], [-1, 1]]])
     strains = [[(x[i] - x[0]) @ (u[i] - u[0]) for i in (1, 2)] for u in motions]
     assert strains[0] == strains[1] == [1, 1]
 
     def exact_conic(u):
-        rows = [[a - X, b - Y, (a - X) * p + (b - Y) * q] for (a, b), (p, q) in zip(x.tolist(), u.tolist())]
+        rows = [
+            [a - X, b - Y, (a - X) * p + (b - Y) * q]
+            for (a, b), (p, q) in zip(x.tolist(), u.tolist())
+        ]
         return sp.expand(sp.Matrix(rows).det())
 
     f, g = exact_conic(motions[0]), exact_conic(motions[1])

@@ -21,6 +21,7 @@ import numpy as np
 import pytest
 import sympy as sp
 from test_multimode import check_design
+
 from zeromode.solver.design import design
 
 # The greedy placement is not optimal; it must stay within this factor of the counting bound.
@@ -62,7 +63,9 @@ def random_target(d: int, k: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
     return rng.standard_normal((k, d)), rng.standard_normal((1, k, d))
 
 
-@pytest.mark.parametrize(("d", "k"), [(2, 5), (2, 6), (2, 7), (2, 8), (3, 7), (3, 8), (3, 9), (3, 10)])
+@pytest.mark.parametrize(
+    ("d", "k"), [(2, 5), (2, 6), (2, 7), (2, 8), (3, 7), (3, 8), (3, 9), (3, 10)]
+)
 def test_random_large_k_single_motion(d, k):
     lines = []
     for seed in range(3):
@@ -70,7 +73,9 @@ def test_random_large_k_single_motion(d, k):
         result = design(x, motions, seed=seed)
         counts = check_design(result, x, motions)
         check_modules(result, k, d)
-        assert lower_bound(d, k) <= result.unspecified_nodes <= MINIMALITY_FACTOR * lower_bound(d, k)
+        assert (
+            lower_bound(d, k) <= result.unspecified_nodes <= MINIMALITY_FACTOR * lower_bound(d, k)
+        )
         lines.append(report_line(d, k, seed, result, counts))
     print("\n" + "\n".join(lines))
 
@@ -120,8 +125,10 @@ def test_paper_partition_cases(name, x, u):
     counts = check_design(result, xs, us)
     check_modules(result, len(x), d)
     assert result.analysis.maxwell_count == d * (d + 1) // 2 + 1
+    bound = lower_bound(d, len(x))
+    assert bound <= result.unspecified_nodes <= MINIMALITY_FACTOR * bound
     print(
         f"\n{name}: N_U={result.unspecified_nodes}, N_B={counts['bars']}, "
-        f"N_D={result.analysis.maxwell_count}, bound {lower_bound(d, len(x))}, "
+        f"N_D={result.analysis.maxwell_count}, bound {bound}, "
         f"modules={sorted(set(result.anchor_sets))}"
     )

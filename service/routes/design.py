@@ -14,7 +14,10 @@ from zeromode.service.schemas.design import (
     SolutionSpaceRequest,
     SolutionSpaceResponse,
 )
+from zeromode.service.convert import json_safe
 from zeromode.solver.design import design
+from zeromode.solver.errors import InvalidInput
+from zeromode.solver.refine import RefinementFailed, refine
 from zeromode.solver.solution_space import solution_space
 
 router = APIRouter(prefix="/v1", tags=["design"])
@@ -68,4 +71,22 @@ def post_design(request: DesignRequest) -> dict:
         seed=opts.seed,
         n_unspecified=opts.n_unspecified,
     )
-    return design_response(result, t0)
+    body = design_response(result, t0)
+    if opts.refine is not None:
+        if len(request.motions) != 1:
+            raise InvalidInput("invalid_options", "options.refine follows one motion; request a single motion.")
+        r = opts.refine
+        try:
+            refined = refine(
+                result.frame,
+                motion_s=np.asarray(request.motions[0]),
+                amplitude=r.amplitude,
+                K=r.K,
+                tol=r.tol,
+                max_time_s=r.max_time_s,
+            )
+        except RefinementFailed as exc:
+            refined = exc.best
+        body["report"]["refinement"] = json_safe(refined.to_dict())
+    body["report"]["timings_ms"]["total"] = 1e3 * (time.perf_counter() - t0)
+    return body

@@ -8,7 +8,7 @@ import time
 from fastapi import APIRouter
 from fastapi.responses import JSONResponse
 
-from zeromode.service.convert import frame_from_model
+from zeromode.service.convert import frame_from_model, json_safe
 from zeromode.service.errors import error_body
 from zeromode.service.schemas.common import ERROR_RESPONSES
 from zeromode.service.schemas.motion import (
@@ -33,17 +33,6 @@ RESPONSES = {
         ),
     },
 }
-
-
-def _json_safe(value):
-    """Non-finite numbers (an IPOPT iterate that diverged) become null: JSON has no NaN."""
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    if isinstance(value, dict):
-        return {k: _json_safe(v) for k, v in value.items()}
-    if isinstance(value, list):
-        return [_json_safe(v) for v in value]
-    return value
 
 
 @router.post("/motion", response_model=MotionResponse, responses=RESPONSES)
@@ -98,6 +87,6 @@ def post_refine(request: RefineRequest):
     except RefinementFailed as exc:
         return JSONResponse(
             status_code=422,
-            content=error_body(exc.code, exc.message, best=_json_safe(exc.best.to_dict())),
+            content=error_body(exc.code, exc.message, best=json_safe(exc.best.to_dict())),
         )
     return result.to_dict()

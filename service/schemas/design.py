@@ -35,12 +35,32 @@ class SolutionSpaceResponse(BaseModel):
     )
 
 
+class DesignRefineOptions(BaseModel):
+    """Run the nonlinear stage (casadi/IPOPT, as POST /v1/refine) on the linear design."""
+
+    amplitude: float = Field(
+        default=0.1, gt=0, le=1, description="Target displacement a·u_S, a relative to the specified nodes' RMS size."
+    )
+    K: int = Field(default=8, ge=1, le=64, description="Intermediate configurations in the NLP.")
+    tol: float = Field(default=1e-8, gt=0, lt=1, description="IPOPT tolerance.")
+    max_time_s: float = Field(default=5.0, gt=0, le=60, description="IPOPT CPU time limit per solve.")
+
+
 class DesignOptions(BaseModel):
     seed: int = Field(default=0, ge=0, description="Seed for candidate sampling: same request, same answer.")
     n_unspecified: int | None = Field(
         default=None, ge=0, le=64, description="Use exactly this many unspecified nodes (default: as few as possible)."
     )
     certify: bool = Field(default=False, description="Embed SDP certificates in the report.")
+    refine: DesignRefineOptions | None = Field(
+        default=None,
+        description=(
+            "Refine for finite-motion fidelity in the same call (one motion only). `frame` and "
+            "`modes` stay the exact linear design; the refined frame, ε before/after and IPOPT's "
+            "status are in `report.refinement` (status 'refinement_failed' with the best result "
+            "when IPOPT fails)."
+        ),
+    )
 
 
 class DesignRequest(BaseModel):
@@ -64,6 +84,7 @@ class DesignReport(BaseModel):
     mode_residual: float = Field(description="max_i ‖C u_i‖ / (‖C‖_F ‖u_i‖) on the normalised frame.")
     timings_ms: dict[str, float]
     certificate: dict | None = Field(default=None, description="SDP certificates when options.certify.")
+    refinement: dict | None = Field(default=None, description="The /v1/refine result when options.refine.")
 
 
 class DesignResponse(BaseModel):
