@@ -68,7 +68,8 @@ from zeromode.solver.rigidity import (
 )
 
 SOLVERS = ("clarabel", "scs")
-# Largest LMI (f or p) handed to a solver: Clarabel needs ≈ 10 s at n = 57 on one core.
+# Largest LMI (f or p) handed to a solver. Measured with Clarabel on the shared 2-core machine:
+# 1–4 s at n = 37, 3–7 s at n = 47, 10–20 s at n = 57 (growing like n⁶).
 SDP_MAX_DIM = 48
 # A dense orthonormal complement P is formed up to this many degrees of freedom (dN).
 MARGIN_MAX_DOF = DENSE_MAX_DOF
@@ -402,10 +403,15 @@ def prestress_certificate(
         return PrestressCertificate(
             False, "no_self_stress", f, 0, 0.0, 0.0, None, PRESTRESS_TOL, None
         )
-    if f > SDP_MAX_DIM or not analysis.bases_included:
+    if f > SDP_MAX_DIM:
         raise DomainError(
             "too_expensive",
             f"the frame has {f} nontrivial flexes; the prestress SDP is limited to {SDP_MAX_DIM}.",
+        )
+    if not analysis.bases_included:
+        raise DomainError(
+            "too_expensive",
+            f"the frame's {f} flexes and {s} self-stresses are too large a basis to certify with.",
         )
     program = prestress_program(analysis, edges)
     # The bracket must fall on one side of the threshold, or the solve does not decide anything.

@@ -40,8 +40,9 @@ from zeromode.solver.multimode import spatial_quadric
 from zeromode.solver.rigidity import Analysis, analyze, zero_mode_residual
 from zeromode.solver.solution_space import solution_space
 
-# Above this many degrees of freedom the sheet's counts come from the sparse route without bases.
 MAX_SHEET_CELLS = 2500
+# The chain's finite states come from continuation, which is dense (finite_motion.MAX_DOF).
+MAX_CHAIN_BLOCKS = 16
 
 
 @dataclass(frozen=True, eq=False)
@@ -215,8 +216,8 @@ def auxetic_chain_3d(
     The expanded and contracted states are the ends of the traced finite motion (continuation,
     ``finite_motion.trace_motion``) to a parameter of ``strain`` either way.
     """
-    if not 1 <= n <= 64:
-        raise InvalidInput("invalid_size", "a 3D chain has between 1 and 64 blocks.")
+    if not 1 <= n <= MAX_CHAIN_BLOCKS:
+        raise InvalidInput("invalid_size", f"a 3D chain has between 1 and {MAX_CHAIN_BLOCKS} blocks.")
     w, h, l = block
     beta = gamma = -poisson
     base = _block_3d(w, h, l, beta, gamma, seed)
@@ -233,8 +234,8 @@ def auxetic_chain_3d(
     boundary = {
         "left": np.array([m[0][0], m[0][1]]),
         "right": np.array([m[-1][2], m[-1][3]]),
-        "bottom": np.array([m[b][1] for b in range(n)] + [m[b][3] for b in range(n)]),
-        "top": np.array([m[b][0] for b in range(n)] + [m[b][2] for b in range(n)]),
+        "bottom": np.unique([m[b][1] for b in range(n)] + [m[b][3] for b in range(n)]),
+        "top": np.unique([m[b][0] for b in range(n)] + [m[b][2] for b in range(n)]),
     }
     frame, mode = composite.frame, composite.mode
     path = trace_motion(frame, mode, amplitude=strain, direction="both")

@@ -99,6 +99,8 @@ def spatial_quadric(space: SolutionSpace) -> SpatialQuadric | None:
 def conic_intersections(q1: np.ndarray, q2: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     """All real common points of two plane conics [x y 1] Q [x y 1]ᵀ = 0 (at most four).
 
+    Expects normalised coordinates (conics of size ~1 near the origin), as the solver uses.
+
     Exact route: after a seeded rotation (so no two points share an abscissa), the resultant of
     the two quadratics in y is a quartic in x; each real root gives y from the common-root
     formula, then one Newton polish on both conics.
@@ -137,8 +139,10 @@ def conic_intersections(q1: np.ndarray, q2: np.ndarray, rng: np.random.Generator
         points.extend([x, y] for y in ys)
     if not points:
         return np.zeros((0, 2))
-    pts = np.asarray(points, dtype=float)
-    pts = _newton_polish(pts, [a_q, b_q])
+    pts = _newton_polish(np.asarray(points, dtype=float), [a_q, b_q])
+    # A shared point at infinity leaves a resultant with a vanishing leading coefficient, whose
+    # root is huge: keep finite points only (the caller works in normalised coordinates).
+    pts = pts[np.all(np.isfinite(pts), axis=1) & (np.max(np.abs(pts), axis=1) < 1e8)]
     return pts @ rot[:2, :2].T
 
 

@@ -28,11 +28,15 @@ from zeromode.solver.errors import DomainError
 from zeromode.solver.progress import report_progress
 from zeromode.solver.rank import RTOL, nullspace
 
-# Candidates closer than this (normalised units) to an existing node are skipped: a bar there
-# would be nearly zero-length and the design ill-conditioned.
-MIN_SEPARATION = 0.08
-# Candidates farther than this from the centroid (normalised units) are skipped.
-MAX_RADIUS = 4.0
+# Normalised units (the specified set has RMS radius 1).  A candidate is *well placed* when it
+# keeps PREFERRED_SEPARATION from every node and lies within PREFERRED_RADIUS; others are used
+# only when no well-placed candidate removes as many degrees of freedom (they are still valid
+# designs, e.g. the single fourth point of two conics).  Closer than MIN_SEPARATION (a
+# near-zero bar) or farther than MAX_RADIUS is never used.
+PREFERRED_SEPARATION = 0.08
+PREFERRED_RADIUS = 4.0
+MIN_SEPARATION = 1e-3
+MAX_RADIUS = 1e3
 @dataclass(eq=False)
 class CandidatePool:
     """Possible unspecified nodes that share one anchor set: positions (n, d), their motion in
@@ -87,9 +91,10 @@ class Placement:
     def n_d(self) -> int:
         return self.d * len(self.positions) - len(self.edges)
 
-    def best_in(self, pool: CandidatePool, budget: int) -> tuple[tuple, int, list[int]] | None:
+    def best_in(self, pool: CandidatePool, budget: int, strict: bool = True) -> tuple[tuple, int, list[int]] | None:
         """Best candidate of ``pool`` if joined to at most ``budget`` of its anchors:
         (ranking key, index in pool, anchors chosen), or None; larger keys are better.
+        strict: consider only well-placed candidates (see PREFERRED_SEPARATION).
 
         For each candidate the rows of the new bars, projected onto the current N(C) for the old
         columns, form R = [A·N_old, B] (a × (z + d)); rank R is the rank gained, its take-th
@@ -101,7 +106,8 @@ class Placement:
         if len(p) == 0:
             return None
         anchors = np.asarray(pool.anchors)
-        valid = np.min(np.linalg.norm(x[None] - p[:, None], axis=2), axis=1) >= MIN_SEPARATION
+        separation = np.min(np.linalg.norm(x[None] - p[:, None], axis=2), axis=1)
+        valid = separation >= MIN_SEPARATION
         diff = x[anchors][None] - p[:, None]  # (n, a, d) bar directions
         null_blocks = self._null.reshape(len(x), d, -1)[anchors]  # (a, d, z)
         rows = np.concatenate([np.einsum("nad,adz->naz", diff, null_blocks), -diff], axis=2)
@@ -117,6 +123,7 @@ class Placement:
         if not np.all(viable):
             pool.keep(viable)
             rows, s, take, ok, p, diff = rows[viable], s[viable], take[viable], ok[viable], p[viable], diff[viable]
+            separation = separation[viable]
         if not np.any(ok):
             return None
         cond = np.where(ok, s[np.arange(len(p)), np.maximum(take, 1) - 1], -1.0)
@@ -124,12 +131,17 @@ class Placement:
         # compactness; both keys are quantised so that rounding noise — which differs between
         # a request and its rescaled copy — never decides.
         reach = np.max(np.linalg.norm(diff, axis=2), axis=1)
-        for i in np.lexsort((np.round(reach, 6), -np.round(cond, 6), -np.where(ok, take, -1))):
+        placed = (separation >= PREFERRED_SEPARATION) & (np.linalg.norm(p, axis=1) <= PREFERRED_RADIUS)
+        if strict:
+            ok &= placed
+        order = np.lexsort((np.round(reach, 6), -np.round(cond, 6), -np.where(ok, take, -1)))
+        for i in order:
             if not ok[i]:
                 break
             chosen = self._choose_anchors(rows[i], anchors, np.linalg.norm(diff[i], axis=1), int(take[i]))
             if np.linalg.matrix_rank(x[chosen] - p[i], tol=1e-7) >= d:
-                return (int(take[i]), round(float(cond[i]), 6), -round(float(reach[i]), 6)), int(i), chosen
+                key = (int(take[i]), round(float(cond[i]), 6), -round(float(reach[i]), 6))
+                return key, int(i), chosen
         return None
 
     @staticmethod
@@ -244,26 +256,31 @@ def place_nodes(
             )
         budget = _budget(state, nodes_left)
         best = None
-        level = 0
-        while best is None:
-            if level == len(levels):
-                nxt = next(level_iter, None)
-                if nxt is None:
-                    break
-                levels.append([admissible(p, x_n) for p in nxt])
-            # Highest bound first; stop once no remaining pool can reach the best gain found.
-            for pool in sorted(levels[level], key=lambda p: -p.bound):
-                if best is not None and min(pool.bound, budget) < best[0][0][0]:
-                    break
-                found = state.best_in(pool, budget)
-                if found and (best is None or found[0] > best[0][0]):
-                    best = (found, pool)
-            level += 1
+        # Well-placed candidates first, through every level; any valid one only if none is found.
+        for strict in (True, False):
+            level = 0
+            while best is None:
+                if level == len(levels):
+                    nxt = next(level_iter, None)
+                    if nxt is None:
+                        break
+                    levels.append([admissible(p, x_n) for p in nxt])
+                # Highest bound first; stop once no remaining pool can reach the best gain found.
+                for pool in sorted(levels[level], key=lambda p: -p.bound):
+                    if best is not None and min(pool.bound, budget) < best[0][0][0]:
+                        break
+                    found = state.best_in(pool, budget, strict)
+                    if found and (best is None or found[0] > best[0][0]):
+                        best = (found, pool)
+                level += 1
+            if best is not None:
+                break
         if best is None:
             why = (
                 "the solution spaces have no real point for any anchor set"
-                if not any(len(p.positions) for level in levels for p in level) and not state.anchor_sets
-                else "every remaining candidate would create a self-stress or leave a node unpinned"
+                if not any(levels) and not state.anchor_sets
+                else "every real candidate point would create a self-stress, leave a node unpinned "
+                "or nearly coincide with an existing node"
             )
             raise DomainError(
                 "no_solution",

@@ -256,13 +256,6 @@ def test_auxetic_3d_odd_requests_never_5xx(client, request_):
         assert response.json()["detail"]["code"]
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="bug: for a valid strain below ~1e-16 (the schema allows any strain > 0) "
-    "lattice._sheet_states builds states equal to the reference (w·(1 ± strain) == w), divides "
-    "0/0 for their secant Poisson ratio, and the response carries null in the float field "
-    "states[].poisson_ratio",
-)
 def test_auxetic_tiny_strain_gives_numbers_or_422(client):
     response = client.post("/v1/design/auxetic", json={"dim": 2, "cells": [2, 2], "strain": 1e-20})
     assert response.status_code in (200, 422)
@@ -270,15 +263,14 @@ def test_auxetic_tiny_strain_gives_numbers_or_422(client):
         assert all(is_number(s["poisson_ratio"]) for s in response.json()["states"])
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="bug: POST /v1/design/auxetic documents 3D chains of up to 64 blocks (schema and "
-    "lattice.auxetic_chain_3d), but from 19 blocks on it answers 422 too_expensive because "
-    "finite_motion.trace_motion refuses frames above 600 degrees of freedom",
-)
 def test_auxetic_3d_chain_within_the_documented_limit(client):
-    response = client.post("/v1/design/auxetic", json={"dim": 3, "cells": [19]})
+    """The documented limit (lattice.MAX_CHAIN_BLOCKS) is served; one more block is refused."""
+    from zeromode.solver.lattice import MAX_CHAIN_BLOCKS
+
+    response = client.post("/v1/design/auxetic", json={"dim": 3, "cells": [MAX_CHAIN_BLOCKS]})
     assert response.status_code == 200, response.text
+    response = client.post("/v1/design/auxetic", json={"dim": 3, "cells": [MAX_CHAIN_BLOCKS + 1]})
+    assert response.status_code == 422 and response.json()["detail"]["code"] == "invalid_size"
 
 
 # --------------------------------------------------------------------------- /v1/design/allosteric

@@ -235,12 +235,6 @@ def test_3d_chain(chains, n):
         assert abs(nu - (-ey / ex)) <= 1e-12
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="bug: lattice.auxetic_chain_3d lists every merged port twice in boundary['top'] and "
-    "boundary['bottom'] (m[b][2] is m[b+1][0]), so the reported 'node sets' repeat indices and "
-    "the mean behind ε_y weights interior ports double",
-)
 def test_3d_chain_boundary_lists_are_sets(chains):
     for n, lat in chains.items():
         for name, nodes in lat.boundary.items():

@@ -15,6 +15,7 @@ from zeromode.service.schemas.design import (
     SolutionSpaceResponse,
 )
 from zeromode.service.convert import json_safe
+from zeromode.solver.certificates import SDP_MAX_DIM, certify
 from zeromode.solver.design import design
 from zeromode.solver.errors import InvalidInput
 from zeromode.solver.refine import RefinementFailed, refine
@@ -88,5 +89,13 @@ def post_design(request: DesignRequest) -> dict:
         except RefinementFailed as exc:
             refined = exc.best
         body["report"]["refinement"] = json_safe(refined.to_dict())
+    if opts.certify:
+        # The optimal-stiffness SDP is sized by the motions to suppress, p = dN − d(d+1)/2 − M;
+        # past its limit the certificate keeps the uniform margin only.
+        frame = result.frame
+        p = frame.dim * frame.n_nodes - result.target_zero_modes
+        body["report"]["certificate"] = certify(
+            frame, list(result.modes), stiffness=p <= SDP_MAX_DIM
+        ).to_dict()
     body["report"]["timings_ms"]["total"] = 1e3 * (time.perf_counter() - t0)
     return body

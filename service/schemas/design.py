@@ -6,6 +6,7 @@ from typing import Literal
 
 from pydantic import BaseModel, Field
 
+from zeromode.service.schemas.certify import CertifyResponse
 from zeromode.service.schemas.common import AnalysisCounts, FrameModel, Points
 from zeromode.service.settings import SETTINGS
 
@@ -51,7 +52,14 @@ class DesignOptions(BaseModel):
     n_unspecified: int | None = Field(
         default=None, ge=0, le=64, description="Use exactly this many unspecified nodes (default: as few as possible)."
     )
-    certify: bool = Field(default=False, description="Embed SDP certificates in the report.")
+    certify: bool = Field(
+        default=False,
+        description=(
+            "Embed SDP certificates (self-stress, prestress stability, rigidity margins) in "
+            "report.certificate; the optimal-stiffness SDP runs when the design has at most 48 "
+            "suppressed motions, otherwise the uniform margin is reported."
+        ),
+    )
     refine: DesignRefineOptions | None = Field(
         default=None,
         description=(
@@ -83,7 +91,9 @@ class DesignReport(BaseModel):
     conditioning: float = Field(description="Smallest nonzero singular value of the scale-normalised C.")
     mode_residual: float = Field(description="max_i ‖C u_i‖ / (‖C‖_F ‖u_i‖) on the normalised frame.")
     timings_ms: dict[str, float]
-    certificate: dict | None = Field(default=None, description="SDP certificates when options.certify.")
+    certificate: CertifyResponse | None = Field(
+        default=None, description="SDP certificates (as POST /v1/certify) when options.certify."
+    )
     refinement: dict | None = Field(default=None, description="The /v1/refine result when options.refine.")
 
 

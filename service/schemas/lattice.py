@@ -15,7 +15,7 @@ class AuxeticRequest(BaseModel):
         default=[4, 4],
         min_length=1,
         max_length=2,
-        description="2D: [n_x, n_y] modules (n_x·n_y ≤ 2500); 3D: [n] blocks (n ≤ 64).",
+        description="2D: [n_x, n_y] modules (n_x·n_y ≤ 2500); 3D: [n] blocks (n ≤ 16).",
     )
     poisson_ratio: FiniteFloat = Field(
         default=-1.0,
@@ -26,7 +26,7 @@ class AuxeticRequest(BaseModel):
         description="Module half-sizes: 2D [w, h] (default [1, 1]); 3D [w, h, l] (default [1, 1, 1]).",
     )
     strain: FiniteFloat = Field(
-        default=0.1, gt=0, lt=0.9, description="Axial strain (2D) or path parameter (3D) of the finite states."
+        default=0.1, ge=1e-4, lt=0.9, description="Axial strain (2D) or path parameter (3D) of the finite states."
     )
     seed: int = Field(default=0, ge=0)
 

@@ -1,0 +1,108 @@
+"""Schemathesis against the app's own /openapi.json, in process (ASGI, no server).
+
+Every operation gets up to MAX_EXAMPLES generated requests, valid and invalid, besides
+schemathesis's boundary-value examples; derandomized, so every run sends the same requests.
+Two checks on every answer: no 5xx (``not_a_server_error``) and the body matches the schema the
+OpenAPI document declares for its status (``response_schema_conformance``).
+
+Bugs found and not yet fixed are listed in KNOWN_BUGS: the generated cases that hit them are
+set aside (``assume``) so the rest keeps being checked, and each has a strict-xfail regression
+test below, which fails (XPASS) once the bug is fixed: then delete both.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+import tempfile
+import time
+from pathlib import Path
+
+import pytest
+import schemathesis
+from contract_reference import K4_PLANE
+from hypothesis import HealthCheck, Phase, assume, settings
+from schemathesis.checks import not_a_server_error
+from schemathesis.specs.openapi.checks import response_schema_conformance
+
+from zeromode.service.app import create_app
+from zeromode.service.settings import Settings
+
+MAX_EXAMPLES = 40
+JOB_DIR = Path(tempfile.mkdtemp(prefix="zeromode-schemathesis-"))
+# Short budgets keep the heaviest generated requests (and the jobs they start) bounded.
+APP = create_app(Settings(job_dir=str(JOB_DIR), time_budget_s=5.0, job_time_budget_s=5.0))
+schema = schemathesis.openapi.from_asgi("/openapi.json", APP)
+
+
+def _strain_too_small(body) -> bool:
+    strain = body.get("strain") if isinstance(body, dict) else None
+    return isinstance(strain, float) and 0 < strain < 1e-9
+
+
+def _ragged_modes(body) -> bool:
+    modes = body.get("modes") if isinstance(body, dict) else None
+    rows = [r for m in modes if isinstance(m, list) for r in m] if isinstance(modes, list) else []
+    return len({len(r) for r in rows if isinstance(r, list)}) > 1
+
+
+KNOWN_BUGS = {
+    # solver/lattice.py: a strain below float resolution gives ε_x = 0, so the states'
+    # poisson_ratio = −ε_y/ε_x is NaN, answered as null where the schema says number.
+    ("/v1/design/auxetic", "auxetic_tiny_strain"): _strain_too_small,
+    # solver/certificates.py designed_mode_basis: np.asarray on ragged modes raises
+    # ValueError before the shape check, a 500.
+    ("/v1/certify", "certify_ragged_modes"): _ragged_modes,
+}
+
+
+@pytest.fixture(scope="module", autouse=True)
+def job_dir():
+    """Remove the jobs' directory once the jobs that generated requests started have ended."""
+    yield JOB_DIR
+    deadline = time.monotonic() + 30
+    while time.monotonic() < deadline:
+        states = []
+        for path in JOB_DIR.glob("*.json"):
+            try:
+                states.append(json.loads(path.read_text()).get("status"))
+            except (OSError, ValueError):
+                continue
+        if not {"queued", "running"} & set(states):
+            break
+        time.sleep(0.1)
+    shutil.rmtree(JOB_DIR, ignore_errors=True)
+
+
+@schema.parametrize()
+@settings(
+    max_examples=MAX_EXAMPLES,
+    derandomize=True,
+    deadline=None,
+    database=None,
+    phases=[Phase.explicit, Phase.generate],
+    suppress_health_check=list(HealthCheck),
+)
+def test_no_5xx_and_every_answer_matches_its_schema(case):
+    for (path, _), hits in KNOWN_BUGS.items():
+        assume(not (case.operation.path == path and hits(case.body)))
+    case.call_and_validate(checks=[not_a_server_error, response_schema_conformance])
+
+
+# --------------------------------------------------------------------------- known bugs
+@pytest.mark.xfail(strict=True, reason="auxetic_tiny_strain: states[].poisson_ratio is null")
+def test_known_bug_auxetic_tiny_strain(client):
+    response = client.post("/v1/design/auxetic", json={"cells": [2, 2], "strain": 5e-324})
+    assert response.status_code < 500
+    if response.status_code == 200:
+        ratios = [s["poisson_ratio"] for s in response.json()["states"]]
+        assert all(isinstance(v, float) and math.isfinite(v) for v in ratios), ratios
+
+
+@pytest.mark.xfail(strict=True, reason="certify_ragged_modes: a 500 instead of a 422")
+def test_known_bug_certify_ragged_modes(client, require):
+    require("/v1/certify")
+    ragged = [[[0.0, 0.0], [1.0], [0.0, 0.0], [0.0, 0.0]]]
+    response = client.post("/v1/certify", json={"frame": K4_PLANE, "modes": ragged})
+    assert 400 <= response.status_code < 500, response.text[:200]
