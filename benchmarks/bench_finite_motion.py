@@ -1,288 +1,501 @@
-"""Finite-motion benchmark: speed against accuracy of IPOPT refinement, and where methods fail.
+"""Finite-motion benchmark: speed against accuracy of the three routes to a finite motion, and
+where they fail (issue 6, items 6 and 7).
 
-Usage:  .venv/bin/python benchmarks/bench_finite_motion.py [--quick] [--out docs]
+Usage:  .venv/bin/python benchmarks/bench_finite_motion.py [--quick] [--out DIR] [--replot]
+(--quick: ≤ 2 minutes, written to a temp folder unless --out is given)
 
-Part 1 (speed vs accuracy).  For each design (frame, u_S, a) the linear design's ε(a) is
-measured, then refine() runs for every K in KS and tol in TOLS; each run records IPOPT's time,
-the whole refinement's time (both ε measurements and the re-verification included), ε after
-and the status.  Medians over designs are reported per (K, tol).
+Targets.  Every frame is built by the product's own designer, ``design(x_S, u_S, seed=...)``:
+the paper's outward square (example ``outward_2d``) and seeded random targets, 2D with k = 3
+and 3D with k = 4 specified nodes (x_S, u_S standard normal), each at the relative amplitudes
+a = 0.1 and 0.2 (a = RMS displacement of the specified nodes over their RMS size, the
+convention of ``refine.target_displacement``).
 
-Part 2 (where methods fail).  2D designs with k = 3 specified nodes whose motion is
-u_S = (1 − η)·(dilation) + η·(seeded random motion), both scaled to unit RMS, over amplitudes a
-up to 1 (100 % of the specified nodes' size) and randomness η ∈ [0, 1].  Each cell records
-whether continuation of the linear design meets a singular point within parameter a
-(`singular_path`), the linear design's ε, whether refinement fails (`refinement_failed`),
-and ε after.
+Part 1 (speed vs accuracy).  For each (target, a), three methods, each one (wall time, ε) point:
+  * linear design only: time of ``design()`` (median of 3 calls); ε = the finite-motion
+    fidelity ε(a) of the designed frame (``finite_motion.motion_fidelity``, not timed);
+  * linear + continuation: design + ``motion_fidelity`` (``trace_motion`` both ways, then the
+    configuration closest to the target polished on the constraint manifold).  Continuation
+    follows the linear design's own finite motion, so its ε is the linear design's ε; it buys
+    the configurations of that motion, not accuracy;
+  * IPOPT refinement ``refine(frame, u_S, a, K, tol)`` for K in KS and tol in TOLS, its time
+    including the design.  A failed refinement counts with the ε of its best frame.
+Medians per method are marked; the Pareto front (no other median both faster and at least as
+accurate) is drawn through them, and whether refine()'s default (K, tol) lies on it is printed.
+
+Part 2 (where methods fail).  2D k = 3 and 3D k = 4 targets whose motion is
+u_S = (1 − η)·(dilation) + η·(seeded random motion), both of unit RMS, designed by design(),
+over amplitudes a ∈ MAP_AMPLITUDES (up to 100 %) and randomness η ∈ RANDOMNESS.  Each cell
+records whether continuation of the linear design meets a singular point before its closest
+approach to the target (``singular_path``: the closest configuration is the singular end of the
+path, so the target lies beyond it) and whether refinement with the defaults fails
+(``refinement_failed``, or the cell's time bound).  Every run is bounded: IPOPT by
+MAP_IPOPT_S per solve, each cell's continuation and refinement by CELL_BUDGET_S (a
+``time_budget``).
 
 Writes <out>/finite_motion_bench.json and <out>/finite_motion.png (matplotlib, a
-benchmark-only dependency).  The machine may be shared: medians, and ratios, are the figures
-to quote.
+benchmark-only dependency).  The machine may be shared: medians and ratios are the figures to
+quote.  BLAS runs single-threaded so the timings do not fight over the cores.
 """
 
 from __future__ import annotations
 
-import argparse
-import json
-import sys
-import time
-from pathlib import Path
+import os
 
-import numpy as np
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
 
-# Hand-made linear designs live with the tests until zeromode.solver.design provides them;
-# a caller can pass any list of designs to speed_vs_accuracy() and failure_map().
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from mechanisms import bipartite_design, outward_square, random_targets
+import argparse  # noqa: E402
+import inspect  # noqa: E402
+import json  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
 
-from zeromode.solver.errors import DomainError
-from zeromode.solver.finite_motion import motion_fidelity, trace_motion
-from zeromode.solver.refine import RefinementFailed, refine, target_displacement
+import numpy as np  # noqa: E402
+
+from zeromode.service.convert import json_safe  # noqa: E402
+from zeromode.solver.budget import time_budget  # noqa: E402
+from zeromode.solver.design import design  # noqa: E402
+from zeromode.solver.errors import DomainError  # noqa: E402
+from zeromode.solver.examples import example_request  # noqa: E402
+from zeromode.solver.finite_motion import motion_fidelity  # noqa: E402
+from zeromode.solver.refine import RefinementFailed, refine, target_displacement  # noqa: E402
 
 KS = (2, 4, 8, 16)
 TOLS = (1e-4, 1e-6, 1e-8)
-AMPLITUDES = (0.05, 0.1, 0.2, 0.35, 0.5, 0.75, 1.0)
+_DEFAULTS = inspect.signature(refine).parameters
+DEFAULT_K, DEFAULT_TOL = _DEFAULTS["K"].default, _DEFAULTS["tol"].default
+SPEED_AMPLITUDES = (0.1, 0.2)
+RANDOM_SHAPES = ((3, 2), (4, 3))  # (k, d): 2D with 3 specified nodes, 3D with 4
+MAP_AMPLITUDES = (0.05, 0.1, 0.2, 0.35, 0.5, 0.75, 1.0)
 RANDOMNESS = (0.0, 0.25, 0.5, 0.75, 1.0)
+MAP_IPOPT_S = 1.0
+CELL_BUDGET_S = 5.0
+LINEAR, CONTINUATION = "linear design only", "linear + continuation"
 
 
-def default_designs(seeds) -> list[dict]:
-    """The outward square at a = 0.2, random 2D k = 3 and 3D k = 4 designs at a = 0.1."""
-    square = outward_square()
-    designs = [
-        {"name": "outward_2d", "frame": square, "motion": square.positions[:4], "amplitude": 0.2}
+def refine_method(K: int, tol: float) -> str:
+    return f"refine K={K} tol={tol:.0e}"
+
+
+def targets(seeds) -> list[dict]:
+    """The outward square (the paper's Fig. 3b request) and seeded random 2D k = 3 / 3D k = 4."""
+    square = example_request("outward_2d")
+    out = [
+        {
+            "name": "outward_2d",
+            "x_s": np.asarray(square["positions"], float),
+            "u_s": np.asarray(square["motions"][0], float),
+            "seed": square["options"]["seed"],
+        }
     ]
-    for k, d, nu in ((3, 2, 2), (4, 3, 5)):
+    for k, d in RANDOM_SHAPES:
         for seed in seeds:
-            x_s, u_s = random_targets(k, d, seed)
-            designs.append(
-                {
-                    "name": f"random_{d}d_k{k}_s{seed}",
-                    "frame": bipartite_design(x_s, u_s, nu, seed=seed),
-                    "motion": u_s,
-                    "amplitude": 0.1,
-                }
-            )
-    return designs
+            rng = np.random.default_rng(seed)
+            x_s, u_s = rng.standard_normal((k, d)), rng.standard_normal((k, d))
+            out.append({"name": f"random_{d}d_k{k}_s{seed}", "x_s": x_s, "u_s": u_s, "seed": seed})
+    return out
 
 
-def run_refine(frame, motion, amplitude, **options) -> dict:
+def timed_design(x_s, u_s, seed: int, repeats: int = 3):
+    """(Design, median wall time in ms over ``repeats`` identical calls)."""
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        result = design(x_s, u_s, seed=seed)
+        times.append(1e3 * (time.perf_counter() - t0))
+    return result, float(np.median(times))
+
+
+def run_refine(frame, u_s, a: float, **options) -> dict:
+    """One refine() call: status, ε after (the best frame's on failure), wall and IPOPT time."""
     t0 = time.perf_counter()
     try:
-        res, status = refine(frame, motion, amplitude, **options), "ok"
+        res, status = refine(frame, u_s, a, **options), "ok"
     except RefinementFailed as exc:
         res, status = exc.best, exc.code
-    except DomainError as exc:
-        return {
-            "status": exc.code,
-            "message": exc.message,
-            "wall_ms": 1e3 * (time.perf_counter() - t0),
-        }
+    except DomainError as exc:  # the cell's time budget, or a frame refine() does not take
+        return {"status": exc.code, "wall_ms": 1e3 * (time.perf_counter() - t0)}
     return {
         "status": status,
-        "ipopt_status": res.ipopt_status,
-        "iterations": res.iterations,
-        "attempts": res.attempts,
+        "wall_ms": 1e3 * (time.perf_counter() - t0),
         "ipopt_ms": res.ipopt_time_ms,
-        "total_ms": res.time_ms,
+        "attempts": res.attempts,
         "epsilon_before": res.epsilon_before,
         "epsilon_after": res.epsilon_after,
     }
 
 
-def speed_vs_accuracy(designs) -> list[dict]:
+def speed_vs_accuracy(target_list) -> list[dict]:
+    """One row per (target, a, method): wall time (design included) and ε."""
     rows = []
-    for design in designs:
-        for K in KS:
-            for tol in TOLS:
-                row = run_refine(
-                    design["frame"], design["motion"], design["amplitude"], K=K, tol=tol
-                )
-                rows.append({"design": design["name"], "K": K, "tol": tol, **row})
-                print(
-                    f"{design['name']:20s} K={K:2d} tol={tol:.0e}  {row['status']:18s} "
-                    f"eps {row.get('epsilon_before', np.nan):.2e} -> {row.get('epsilon_after', np.nan):.2e}  "
-                    f"ipopt {row.get('ipopt_ms', np.nan):7.1f} ms  total {row.get('total_ms', np.nan):7.1f} ms",
-                    flush=True,
-                )
+    for tgt in target_list:
+        try:
+            made, design_ms = timed_design(tgt["x_s"], tgt["u_s"], tgt["seed"])
+        except DomainError as exc:
+            print(f"{tgt['name']:20s} design failed: {exc.code}", flush=True)
+            rows.append({"target": tgt["name"], "method": "design", "status": exc.code})
+            continue
+        frame = made.frame
+        for a in SPEED_AMPLITUDES:
+            base = {"target": tgt["name"], "amplitude": a}
+            delta, _ = target_displacement(frame, tgt["u_s"], a)
+            t0 = time.perf_counter()
+            fid, path = motion_fidelity(frame, delta)
+            continuation_ms = 1e3 * (time.perf_counter() - t0)
+            rows.append({**base, "method": LINEAR, "status": "ok", "time_ms": design_ms, "epsilon": fid.epsilon})
+            rows.append(
+                {
+                    **base,
+                    "method": CONTINUATION,
+                    "status": path.status,
+                    "time_ms": design_ms + continuation_ms,
+                    "epsilon": fid.epsilon,
+                }
+            )
+            print(
+                f"{tgt['name']:20s} a={a:.2f} design {design_ms:6.1f} ms  continuation "
+                f"{continuation_ms:6.1f} ms  eps_linear {fid.epsilon:.2e} ({path.status})",
+                flush=True,
+            )
+            for K in KS:
+                for tol in TOLS:
+                    run = run_refine(frame, tgt["u_s"], a, K=K, tol=tol)
+                    rows.append(
+                        {
+                            **base,
+                            "method": refine_method(K, tol),
+                            "K": K,
+                            "tol": tol,
+                            "status": run["status"],
+                            "time_ms": design_ms + run["wall_ms"],
+                            "ipopt_ms": run.get("ipopt_ms"),
+                            "epsilon": run.get("epsilon_after", np.nan),
+                        }
+                    )
+                    print(
+                        f"{'':20s} K={K:2d} tol={tol:.0e} {run['status']:17s} "
+                        f"eps {run.get('epsilon_after', np.nan):.2e}  {run['wall_ms']:7.1f} ms",
+                        flush=True,
+                    )
     return rows
 
 
-def mixed_motion(x_s, eta, rng):
+def methods() -> list[str]:
+    return [LINEAR, CONTINUATION] + [refine_method(K, tol) for K in KS for tol in TOLS]
+
+
+def summarise(rows: list[dict]) -> list[dict]:
+    """Median time and ε per method, and which medians are Pareto-optimal (minimise both)."""
+    table = []
+    for m in methods():
+        sel = [r for r in rows if r["method"] == m and np.isfinite(r.get("epsilon") or np.nan)]
+        if not sel:
+            continue
+        table.append(
+            {
+                "method": m,
+                "median_time_ms": float(np.median([r["time_ms"] for r in sel])),
+                "median_epsilon": float(np.median([r["epsilon"] for r in sel])),
+                "max_epsilon": float(np.max([r["epsilon"] for r in sel])),
+                "median_ipopt_ms": float(np.median([r["ipopt_ms"] for r in sel]))
+                if all(r.get("ipopt_ms") is not None for r in sel)
+                else None,
+                "failures": sum(r["status"] not in ("ok", "singular_path") for r in sel),
+                "singular_paths": sum(r["status"] == "singular_path" for r in sel),
+                "runs": len(sel),
+            }
+        )
+    for row in table:
+        row["on_front"] = not any(
+            o["median_time_ms"] <= row["median_time_ms"]
+            and o["median_epsilon"] <= row["median_epsilon"]
+            and (o["median_time_ms"], o["median_epsilon"]) != (row["median_time_ms"], row["median_epsilon"])
+            for o in table
+        )
+    return table
+
+
+def mixed_motion(x_s: np.ndarray, eta: float, rng: np.random.Generator) -> np.ndarray:
     """u_S = (1 − η)·dilation + η·random, each of unit RMS over the specified nodes."""
 
     def unit(u):
         return u / np.sqrt(np.mean(np.sum(u**2, axis=1)))
 
-    dilation = unit(x_s - x_s.mean(axis=0))
-    return (1 - eta) * dilation + eta * unit(rng.standard_normal(x_s.shape))
+    return (1 - eta) * unit(x_s - x_s.mean(axis=0)) + eta * unit(rng.standard_normal(x_s.shape))
 
 
-def failure_map(seeds) -> list[dict]:
+def continuation(frame, delta) -> dict:
+    """The linear design's motion towards x_S + Δ_S: ``status`` is ``singular_path`` when it
+    stops at a singular point before its closest approach to the target (the closest
+    configuration is the singular end), ``ok`` otherwise, or a DomainError's code (e.g. the
+    cell's time budget); with ε of the linear design and the singular points met anywhere on
+    the traced path (both ways, to 3× the linear estimate of the target's parameter)."""
+    try:
+        fid, path = motion_fidelity(frame, delta)
+    except DomainError as exc:
+        return {"status": exc.code}
+    blocked = any(
+        np.sign(sg.parameter) == np.sign(fid.parameter)
+        and abs(sg.parameter) <= abs(fid.parameter) * (1 + 1e-9)
+        for sg in path.singularities
+    )
+    return {
+        "status": "singular_path" if blocked else "ok",
+        "epsilon_linear": fid.epsilon,
+        "singular_points": len(path.singularities),
+    }
+
+
+def failure_map(seeds, amplitudes, randomness) -> list[dict]:
     rows = []
-    for eta in RANDOMNESS:
-        for seed in seeds:
-            rng = np.random.default_rng(1000 + seed)
-            x_s = rng.standard_normal((3, 2))
-            u_s = mixed_motion(x_s, eta, rng)
-            try:
-                frame = bipartite_design(x_s, u_s, 2, seed=seed)
-            except RuntimeError:
-                continue
-            # Continuation of the linear design, both ways, once: a cell at amplitude a counts a
-            # singular point met within |parameter| ≤ a (the path's own units).
-            far = trace_motion(frame, amplitude=max(AMPLITUDES), direction="both")
-            singular_at = [abs(sg.parameter) for sg in far.singularities]
-            for a in AMPLITUDES:
-                delta, _ = target_displacement(frame, u_s, a)
-                fid, path = motion_fidelity(frame, delta)
-                linear = {
-                    "linear_epsilon": fid.epsilon,
-                    "linear_path": path.status,
-                    "continuation": "singular_path" if any(p <= a for p in singular_at) else "ok",
-                }
-                row = run_refine(frame, u_s, a, K=8, tol=1e-8)
-                rows.append({"eta": eta, "seed": seed, "amplitude": a, **linear, **row})
-                print(
-                    f"eta={eta:.2f} seed={seed} a={a:.2f}  continuation {linear['continuation']:13s} "
-                    f"eps_linear {fid.epsilon:.2e}  refine {row['status']:18s} "
-                    f"eps_after {row.get('epsilon_after', np.nan):.2e}",
-                    flush=True,
-                )
+    for k, d in RANDOM_SHAPES:
+        for eta in randomness:
+            for seed in seeds:
+                rng = np.random.default_rng(1000 + seed)
+                x_s = rng.standard_normal((k, d))
+                u_s = mixed_motion(x_s, eta, rng)
+                base = {"dim": d, "k": k, "eta": eta, "seed": seed}
+                try:
+                    frame = design(x_s, u_s, seed=seed).frame
+                except DomainError as exc:
+                    rows.append({**base, "design": exc.code})
+                    continue
+                for a in amplitudes:
+                    delta, _ = target_displacement(frame, u_s, a)
+                    t0 = time.perf_counter()
+                    with time_budget(CELL_BUDGET_S):
+                        cont = continuation(frame, delta)
+                    with time_budget(CELL_BUDGET_S):
+                        ref = run_refine(frame, u_s, a, max_time_s=MAP_IPOPT_S)
+                    rows.append(
+                        {
+                            **base,
+                            "design": "ok",
+                            "amplitude": a,
+                            "continuation": cont["status"],
+                            "epsilon_linear": cont.get("epsilon_linear"),
+                            "singular_points": cont.get("singular_points"),
+                            "refine": ref["status"],
+                            "epsilon_after": ref.get("epsilon_after"),
+                            "wall_ms": 1e3 * (time.perf_counter() - t0),
+                        }
+                    )
+                    print(
+                        f"{d}D k={k} eta={eta:.2f} seed={seed} a={a:.2f}  continuation {cont['status']:13s} "
+                        f"refine {ref['status']:17s} {rows[-1]['wall_ms']:7.0f} ms",
+                        flush=True,
+                    )
     return rows
 
 
-def summarise(speed: list[dict]) -> list[dict]:
-    table = []
-    for K in KS:
-        for tol in TOLS:
-            sel = [r for r in speed if r["K"] == K and r["tol"] == tol and "epsilon_after" in r]
-            if not sel:
-                continue
-            ok = [r for r in sel if r["status"] == "ok"]
-            table.append(
-                {
-                    "K": K,
-                    "tol": tol,
-                    "median_ipopt_ms": float(np.median([r["ipopt_ms"] for r in sel])),
-                    "median_total_ms": float(np.median([r["total_ms"] for r in sel])),
-                    # ε over the successful runs; a failure reports the best frame's ε instead.
-                    "median_epsilon_after": float(
-                        np.median([r["epsilon_after"] for r in ok] or [np.nan])
-                    ),
-                    "max_epsilon_after": float(
-                        np.max([r["epsilon_after"] for r in ok] or [np.nan])
-                    ),
-                    "two_attempts": sum(r.get("attempts", 1) == 2 for r in sel),
-                    "failures": sum(r["status"] != "ok" for r in sel),
-                    "runs": len(sel),
-                }
-            )
-    return table
+def fractions(fail_rows, d, key, bad, amplitudes, randomness) -> tuple[np.ndarray, list]:
+    """Fraction of designed targets per (η, a) cell whose ``key`` is in ``bad``, and 'n/m' notes."""
+    grid = np.full((len(randomness), len(amplitudes)), np.nan)
+    notes = [["" for _ in amplitudes] for _ in randomness]
+    for i, eta in enumerate(randomness):
+        for j, a in enumerate(amplitudes):
+            cell = [r for r in fail_rows if r["dim"] == d and r["eta"] == eta and r.get("amplitude") == a]
+            if cell:
+                hits = sum(r[key] in bad for r in cell)
+                grid[i, j] = hits / len(cell)
+                notes[i][j] = f"{hits}/{len(cell)}"
+    return grid, notes
 
 
-def plot(speed, summary, fail_rows, path: Path) -> None:
+def _front_line(ax, summary, right: float) -> None:
+    """The Pareto front of the medians as a step line (down-right staircase) to ``right``."""
+    front = sorted((r["median_time_ms"], r["median_epsilon"]) for r in summary if r["on_front"])
+    ft, fe = zip(*front)
+    ax.step(list(ft) + [right], list(fe) + [fe[-1]], where="post", color="black", lw=1.3, zorder=2)
+
+
+def _mark_default(ax, summary, offset) -> None:
+    default = next(r for r in summary if r["method"] == refine_method(DEFAULT_K, DEFAULT_TOL))
+    xy = (default["median_time_ms"], default["median_epsilon"])
+    ax.scatter(*xy, s=420, facecolor="none", edgecolor="gold", lw=2.5, zorder=4)
+    ax.annotate(
+        f"default K={DEFAULT_K}, tol={DEFAULT_TOL:.0e}" + ("" if default["on_front"] else " (off the front)"),
+        xy, xytext=offset, textcoords="offset points", fontsize=9,
+        arrowprops={"arrowstyle": "-", "color": "goldenrod"},
+    )
+
+
+def plot(rows, summary, fail_rows, amplitudes, randomness, path: Path) -> None:
+    """Top: speed vs accuracy (all runs; zoom on the refinement medians with their interquartile
+    ranges).  Bottom: the failure maps, singular_path and refinement failures, 2D and 3D."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
 
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(13, 6.8))
-    colours = dict(zip(KS, ("tab:blue", "tab:orange", "tab:green", "tab:red")))
-    markers = dict(zip(TOLS, ("o", "s", "^")))
-    floor = 1e-16
-    for r in speed:
-        if "epsilon_after" in r:
-            ax1.scatter(
-                r["ipopt_ms"],
-                max(r["epsilon_after"], floor),
-                s=14,
-                alpha=0.35,
-                color=colours[r["K"]],
-                marker=markers[r["tol"]],
-            )
+    fig = plt.figure(figsize=(16, 13))
+    outer = fig.add_gridspec(3, 1, height_ratios=(1.55, 0.12, 1), hspace=0.3)
+    top = outer[0].subgridspec(1, 2, width_ratios=(1.15, 1), wspace=0.18)
+    ax, zoom = fig.add_subplot(top[0]), fig.add_subplot(top[1])
+
+    k_colours = dict(zip(KS, ("tab:blue", "tab:orange", "tab:green", "tab:red")))
+    tol_markers = dict(zip(TOLS, ("o", "s", "^")))
+    style = {LINEAR: ("dimgrey", "D"), CONTINUATION: ("tab:purple", "P")}
+    for K in KS:
+        for tol in TOLS:
+            style[refine_method(K, tol)] = (k_colours[K], tol_markers[tol])
+    timed = [r for r in rows if r.get("method") in style and np.isfinite(r.get("epsilon") or np.nan)]
+    right = 1.5 * max(r["time_ms"] for r in timed)
+    for r in timed:
+        colour, marker = style[r["method"]]
+        ax.scatter(r["time_ms"], r["epsilon"], s=12, alpha=0.3, color=colour, marker=marker, lw=0)
+    refined = [r for r in summary if r["method"].startswith("refine")]
     for row in summary:
-        ax1.scatter(
-            row["median_ipopt_ms"],
-            max(row["median_epsilon_after"], floor),
-            s=90,
-            color=colours[row["K"]],
-            marker=markers[row["tol"]],
-            edgecolor="black",
-            label=f"K={row['K']}, tol={row['tol']:.0e} (median)",
-        )
-    before = [r["epsilon_before"] for r in speed if "epsilon_before" in r]
-    ax1.axhline(np.median(before), color="grey", ls="--", lw=1, label="linear design (median ε)")
-    ax1.axhline(1e-6, color="black", ls=":", lw=1, label="target ε = 1e-6")
-    ax1.set_xscale("log")
-    ax1.set_yscale("log")
-    ax1.set_xlabel("IPOPT time per refinement [ms]")
-    ax1.set_ylabel("finite-motion error ε after refinement")
-    ax1.set_title("Speed vs accuracy (each point one design; large: median)")
-    ax1.legend(fontsize=7, ncol=3, loc="upper center", bbox_to_anchor=(0.5, -0.14))
-
-    grid = np.full((len(RANDOMNESS), len(AMPLITUDES)), np.nan)
-    notes = [["" for _ in AMPLITUDES] for _ in RANDOMNESS]
-    for i, eta in enumerate(RANDOMNESS):
-        for j, a in enumerate(AMPLITUDES):
-            cell = [r for r in fail_rows if r["eta"] == eta and r["amplitude"] == a]
-            if not cell:
-                continue
-            grid[i, j] = np.mean([r["status"] != "ok" for r in cell])
-            singular = sum(r["continuation"] != "ok" for r in cell)
-            eps = [
-                r["epsilon_after"]
-                for r in cell
-                if r["status"] == "ok" and r.get("epsilon_after") is not None
-            ]
-            notes[i][j] = f"S{singular}/{len(cell)}\n" + (f"{np.median(eps):.0e}" if eps else "—")
-    im = ax2.imshow(grid, origin="lower", cmap="Reds", vmin=0, vmax=1, aspect="auto")
-    for i in range(len(RANDOMNESS)):
-        for j in range(len(AMPLITUDES)):
-            ax2.text(j, i, notes[i][j], ha="center", va="center", fontsize=7)
-    ax2.set_xticks(range(len(AMPLITUDES)), [f"{a:.0%}" for a in AMPLITUDES])
-    ax2.set_yticks(range(len(RANDOMNESS)), [f"{e:.2f}" for e in RANDOMNESS])
-    ax2.set_xlabel("amplitude a (RMS displacement / RMS size of the specified nodes)")
-    ax2.set_ylabel("target randomness η")
-    ax2.set_title(
-        "Where methods fail (2D, k = 3)\ncolour: refinement_failed fraction; "
-        "S: linear path singular; median ε after"
+        colour, marker = style[row["method"]]
+        targets_ax = (ax, zoom) if row in refined else (ax,)
+        for a in targets_ax:
+            a.scatter(
+                row["median_time_ms"], row["median_epsilon"], s=110, color=colour, marker=marker,
+                edgecolor="black", lw=1.4 if row["on_front"] else 0.5, zorder=3,
+            )
+    for a in (ax, zoom):
+        _front_line(a, summary, right)
+        a.axhline(1e-6, color="black", ls=":", lw=0.8)
+        a.text(0.01, 1e-6, "ε = 1e-6", transform=a.get_yaxis_transform(), va="bottom", fontsize=8)
+        a.set_xscale("log")
+        a.set_yscale("log")
+        a.set_xlabel("wall time per target, design included [ms]")
+    ax.set_xlim(right=right)
+    ax.set_ylabel("finite-motion error ε(a) of the frame's motion")
+    n_targets = len({r["target"] for r in timed})
+    ax.set_title(
+        f"Speed vs accuracy, {n_targets} designed targets × a ∈ {{10 %, 20 %}}\n"
+        "small: one run; large: median per method (bold edge: on the front); line: Pareto front",
+        fontsize=10,
     )
-    fig.colorbar(im, ax=ax2, fraction=0.046)
-    fig.tight_layout()
-    fig.savefig(path, dpi=130)
+    # Zoom: medians of the refinement settings with the interquartile range of the runs.
+    for row in refined:
+        sel = [r for r in timed if r["method"] == row["method"]]
+        t_q = np.percentile([r["time_ms"] for r in sel], (25, 75))
+        e_q = np.percentile([r["epsilon"] for r in sel], (25, 75))
+        colour = style[row["method"]][0]
+        zoom.plot(t_q, [row["median_epsilon"]] * 2, color=colour, lw=0.8, alpha=0.6)
+        zoom.plot([row["median_time_ms"]] * 2, e_q, color=colour, lw=0.8, alpha=0.6)
+        zoom.annotate(
+            row["method"].removeprefix("refine ").replace(" tol=", ", "),
+            (row["median_time_ms"], row["median_epsilon"]), xytext=(9, 7),
+            textcoords="offset points", fontsize=7.5,
+        )
+    t_lo = min(r["median_time_ms"] for r in refined)
+    t_hi = max(r["median_time_ms"] for r in refined)
+    zoom.set_xlim(t_lo / 1.6, t_hi * 1.6)
+    e_lo = min(r["median_epsilon"] for r in refined)
+    e_hi = max(r["median_epsilon"] for r in refined)
+    zoom.set_ylim(e_lo / 30, e_hi * 30)
+    zoom.set_title(
+        "Zoom on the IPOPT refinement medians (K, tol)\nbars: interquartile range of the runs",
+        fontsize=10,
+    )
+    _mark_default(ax, summary, (-150, -40))
+    _mark_default(zoom, summary, (20, -30))
+    handles = [
+        Line2D([], [], color=style[LINEAR][0], marker="D", ls="", label=LINEAR),
+        Line2D([], [], color=style[CONTINUATION][0], marker="P", ls="", ms=8,
+               label=CONTINUATION + " (same ε)"),
+        *[Line2D([], [], color=k_colours[K], marker="o", ls="", label=f"refine K = {K}") for K in KS],
+        *[Line2D([], [], color="grey", marker=tol_markers[t], ls="", label=f"refine tol = {t:.0e}") for t in TOLS],
+        Line2D([], [], color="black", lw=1.3, label="Pareto front of the medians"),
+        Line2D([], [], color="gold", marker="o", mfc="none", ms=12, mew=2.5, ls="", label="refine() defaults"),
+    ]
+    legend_ax = fig.add_subplot(outer[1])
+    legend_ax.axis("off")
+    legend_ax.legend(handles=handles, fontsize=9, ncol=5, loc="center", frameon=False)
+
+    panels = (
+        ("continuation", {"singular_path"}, "continuation meets a\nsingular point (singular_path)"),
+        ("refine", {"refinement_failed", "too_expensive"}, "refine (defaults) fails\n(refinement_failed or over budget)"),
+    )
+    maps = outer[2].subgridspec(1, 4, wspace=0.35)
+    image = None
+    for col, ((k, d), (key, bad, label)) in enumerate(
+        ((shape, panel) for shape in RANDOM_SHAPES for panel in panels)
+    ):
+        axm = fig.add_subplot(maps[col])
+        values, notes = fractions(fail_rows, d, key, bad, amplitudes, randomness)
+        image = axm.imshow(values, origin="lower", cmap="Reds", vmin=0, vmax=1, aspect="auto")
+        for i in range(len(randomness)):
+            for j in range(len(amplitudes)):
+                dark = np.isfinite(values[i, j]) and values[i, j] > 0.6
+                axm.text(j, i, notes[i][j], ha="center", va="center", fontsize=7,
+                         color="white" if dark else "black")
+        axm.set_xticks(range(len(amplitudes)), [f"{a:.0%}" for a in amplitudes], fontsize=7.5, rotation=45)
+        axm.set_yticks(range(len(randomness)), [f"{e:g}" for e in randomness], fontsize=8)
+        axm.set_xlabel("amplitude a", fontsize=9)
+        if col == 0:
+            axm.set_ylabel("target randomness η", fontsize=9)
+        axm.set_title(f"{d}D, k = {k}: {label}", fontsize=9.5)
+    cbar = fig.colorbar(image, ax=fig.axes[3:], fraction=0.02, pad=0.02)
+    cbar.set_label("fraction of designed targets", fontsize=9)
+    fig.savefig(path, dpi=110, bbox_inches="tight")
+
+
+def report(summary) -> None:
+    for row in summary:
+        print(
+            f"{row['method']:26s} median {row['median_time_ms']:8.1f} ms  eps {row['median_epsilon']:.2e} "
+            f"(max {row['max_epsilon']:.1e})  failures {row['failures']}/{row['runs']}"
+            + ("  [front]" if row["on_front"] else "")
+        )
+    default = next(r for r in summary if r["method"] == refine_method(DEFAULT_K, DEFAULT_TOL))
+    print(
+        f"refine() defaults K={DEFAULT_K}, tol={DEFAULT_TOL:.0e} "
+        + ("lie on the Pareto front." if default["on_front"] else "do NOT lie on the Pareto front.")
+    )
 
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="fewer seeds (a smoke run)")
-    parser.add_argument("--out", default=str(Path(__file__).resolve().parents[1] / "docs"))
+    parser.add_argument("--quick", action="store_true", help="fewer targets and cells (≤ 2 min)")
+    parser.add_argument("--out", help="output folder (default docs/; with --quick a temp folder)")
     parser.add_argument("--replot", action="store_true", help="redraw the PNG from the saved JSON")
     args = parser.parse_args(argv)
-    seeds = range(2) if args.quick else range(5)
-    out = Path(args.out)
+    if args.out:
+        out = Path(args.out)
+    elif args.quick:  # a smoke run must not overwrite the committed figures
+        out = Path(tempfile.gettempdir()) / "zeromode_finite_motion"
+    else:
+        out = Path(__file__).resolve().parents[1] / "docs"
     out.mkdir(parents=True, exist_ok=True)
-    if args.replot:  # recompute the summary and redraw from the saved runs
-        data = json.loads((out / "finite_motion_bench.json").read_text())
-        data["summary"] = summarise(data["speed_vs_accuracy"])
-        (out / "finite_motion_bench.json").write_text(json.dumps(data, indent=1))
-        plot(
-            data["speed_vs_accuracy"],
-            data["summary"],
-            data["failure_map"],
-            out / "finite_motion.png",
-        )
-        return 0
-    speed = speed_vs_accuracy(default_designs(seeds))
-    summary = summarise(speed)
-    fail_rows = failure_map(range(2) if args.quick else range(4))
-    for row in summary:
-        print(row)
-    (out / "finite_motion_bench.json").write_text(
-        json.dumps(
-            {"speed_vs_accuracy": speed, "summary": summary, "failure_map": fail_rows}, indent=1
-        )
+    data_file = out / "finite_motion_bench.json"
+    if args.replot:
+        data = json.loads(data_file.read_text())
+    else:
+        t0 = time.perf_counter()
+        if args.quick:
+            seeds, map_seeds = range(2), range(1)
+            amplitudes, randomness = (0.05, 0.2, 0.5, 1.0), (0.0, 0.5, 1.0)
+        else:
+            seeds, map_seeds, amplitudes, randomness = range(5), range(4), MAP_AMPLITUDES, RANDOMNESS
+        rows = speed_vs_accuracy(targets(seeds))
+        fail_rows = failure_map(map_seeds, amplitudes, randomness)
+        data = {
+            "settings": {
+                "KS": KS, "TOLS": TOLS, "default_K": DEFAULT_K, "default_tol": DEFAULT_TOL,
+                "speed_amplitudes": SPEED_AMPLITUDES, "map_amplitudes": amplitudes,
+                "randomness": randomness, "map_ipopt_s": MAP_IPOPT_S, "cell_budget_s": CELL_BUDGET_S,
+                "quick": args.quick,
+            },
+            "speed_vs_accuracy": rows,
+            "failure_map": fail_rows,
+            "runtime_s": time.perf_counter() - t0,
+        }
+    data["summary"] = summarise(data["speed_vs_accuracy"])
+    data_file.write_text(json.dumps(json_safe(data), indent=1))
+    report(data["summary"])
+    settings = data["settings"]
+    plot(
+        data["speed_vs_accuracy"], data["summary"], data["failure_map"],
+        settings["map_amplitudes"], settings["randomness"], out / "finite_motion.png",
     )
-    plot(speed, summary, fail_rows, out / "finite_motion.png")
-    print(f"wrote {out / 'finite_motion_bench.json'} and {out / 'finite_motion.png'}")
+    print(f"wrote {data_file} and {out / 'finite_motion.png'} ({data['runtime_s']:.0f} s of runs)")
     return 0
 
 

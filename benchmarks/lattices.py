@@ -13,8 +13,10 @@ configuration generic) and a ``seed`` for the jitter.
 
 Counts of the perfect lattices (N nodes, m cells per side):
   * triangulated (2D, z = 6): rigid, self-stresses (m − 2)²;
-  * kagome (2D, z = 4 in the bulk, Maxwell-marginal): O(m) zero modes along the boundary
-    plus, without jitter, one zero mode and one self-stress per straight line of bonds;
+  * kagome (2D, z = 4 in the bulk, Maxwell-marginal): O(m) zero modes along the boundary,
+    no self-stress (its straight lines of bonds end on the free boundary);
+  * square (2D, z = 4): without jitter m − 2 self-stresses along each axis (interior lines)
+    and about 2m zero modes (every row and column shears);
   * cubic with face diagonals (3D, z = 12): rigid, about 3N self-stresses;
   * face-centred cubic (3D, z = 12): rigid, about 3N self-stresses.
 """
@@ -64,6 +66,16 @@ def triangulated_lattice(n: int, jitter: float = 0.0, seed: int = 0) -> Frame:
     lattice = np.array([[1.0, 0.0], [0.5, _SQRT3 / 2]])
     bonds = [(0, 0, (1, 0)), (0, 0, (0, 1)), (0, 0, (-1, 1))]
     return _patch(n, lattice, np.zeros((1, 2)), bonds, jitter, seed)
+
+
+def square_lattice(n: int, jitter: float = 0.0, seed: int = 0) -> Frame:
+    """2D square lattice (unit bonds, coordination 4), N = m²: a hard case for rank decisions.
+
+    Without jitter every straight row and column of bonds carries a self-stress and every
+    row and column shears freely, so both null spaces have about 2m dimensions.
+    """
+    bonds = [(0, 0, (1, 0)), (0, 0, (0, 1))]
+    return _patch(n, np.eye(2), np.zeros((1, 2)), bonds, jitter, seed)
 
 
 def kagome_lattice(n: int, jitter: float = 0.0, seed: int = 0) -> Frame:
@@ -121,6 +133,7 @@ def fcc_lattice(n: int, jitter: float = 0.0, seed: int = 0) -> Frame:
 LATTICES = {
     "triangulated": triangulated_lattice,
     "kagome": kagome_lattice,
+    "square": square_lattice,
     "cubic-diagonal": cubic_diagonal_lattice,
     "fcc": fcc_lattice,
 }

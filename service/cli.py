@@ -79,35 +79,15 @@ def cmd_example(args) -> int:
 
 
 def cmd_plot(args) -> int:
-    import numpy as np
-
-    from zeromode.solver.plot import figure_svg
+    from zeromode.service.routes.plot import plot_request_for, render_plot
 
     if not args.output.endswith((".svg", ".png")):
         print("error: the output file must end in .svg or .png.", file=sys.stderr)
         return 2
-    doc = _load_json(args.design)
-    if "frame" in doc:  # a /v1/design response (or a /v1/plot body)
-        frame, modes, targets = _frame_from_json(doc), doc.get("modes"), doc.get("targets")
-        if targets is None and modes and "report" in doc:
-            # A design response's modes equal the requested motions on the specified nodes.
-            targets = [np.asarray(m)[list(frame.specified)] for m in modes]
-    else:  # a /v1/design request: design first
-        from zeromode.solver.design import design
-
-        opts = doc.get("options", {})
-        result = design(
-            doc["positions"], doc["motions"], dim=doc.get("dim"),
-            seed=opts.get("seed", 0), n_unspecified=opts.get("n_unspecified"),
-        )
-        frame, modes, targets = result.frame, result.modes, doc["motions"]
-    has_motion = any(m is not None and len(m) for m in (modes, targets))
-    svg = figure_svg(
-        frame, modes=modes, targets=targets,
-        solution_space=has_motion and bool(frame.specified) and not args.no_solution_space,
-        configurations=doc.get("configurations"), labels=doc.get("labels"),
-        source=doc.get("source", []), target_nodes=doc.get("target_nodes", []), title=args.title,
-    )
+    request = plot_request_for(_load_json(args.design), solution_space=not args.no_solution_space)
+    if args.title is not None:
+        request.title = args.title
+    svg = render_plot(request)
     if args.output.endswith(".svg"):
         with open(args.output, "w") as fh:
             fh.write(svg)
@@ -190,7 +170,8 @@ def build_parser() -> argparse.ArgumentParser:
     ex.add_argument("name", nargs="?")
     ex.set_defaults(func=cmd_example)
     pl = sub.add_parser(
-        "plot", help="draw a /v1/design response or request (designed first) as SVG or PNG"
+        "plot", help="draw a response (or request, designed first) of /v1/design, /v1/design/auxetic or "
+        "/v1/design/allosteric, or a /v1/plot body, as SVG or PNG"
     )
     pl.add_argument("design", help="JSON file (or - for stdin)")
     pl.add_argument("-o", "--output", required=True, help="out.svg or out.png (PNG needs cairosvg)")

@@ -111,9 +111,10 @@ class JobStore:
     def _read(self, path: Path) -> dict[str, Any] | None:
         try:
             with open(path) as fh:
-                return json.load(fh)
+                doc = json.load(fh)
         except (FileNotFoundError, json.JSONDecodeError):
             return None
+        return doc if isinstance(doc, dict) else None
 
     def _save(self, job: _Active, *, force: bool = True) -> None:
         """Write the job's status file (called with ``job.lock`` held)."""
@@ -165,7 +166,7 @@ class JobStore:
         if not _ID.fullmatch(job_id):
             return None
         state = self._read(self._status_path(job_id))
-        if state is None:
+        if state is None or "status" not in state:
             return None
         if state["status"] in ACTIVE and time.time() - state.get("updated", 0.0) > LOST_AFTER_S:
             state.update(
@@ -185,6 +186,12 @@ class JobStore:
     def _make_room(self) -> None:
         """Forget jobs older than the TTL, then the oldest finished ones past max_stored_jobs."""
         now = time.time()
+        for tmp in self.dir.glob(".*.tmp"):  # left by a worker killed in the middle of a write
+            try:
+                if now - tmp.stat().st_mtime > self.settings.job_ttl_s:
+                    tmp.unlink()
+            except FileNotFoundError:
+                continue
         files = []
         for path in self.dir.glob("*.json"):
             job_id = path.name.split(".", 1)[0]
@@ -224,7 +231,7 @@ class JobStore:
             job = self._queue.get()
             try:
                 self._run(job)
-            except Exception:  # noqa: BLE001 — e.g. the job directory vanished: keep the thread
+            except Exception:  # e.g. the job directory vanished: keep the thread alive
                 log.exception("job %s could not be recorded", job.state["id"])
             finally:
                 with self._lock:

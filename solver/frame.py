@@ -106,11 +106,11 @@ class Frame:
             k = int(loops[0])
             raise InvalidInput("self_loop", f"edge {k} = {e[k].tolist()} joins a node to itself.")
         key = np.sort(e, axis=1)
-        _, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
-        repeated = np.flatnonzero(counts[inverse.ravel()] > 1)
-        if repeated.size:
-            k0 = int(repeated[0])
-            k1 = int(next(k for k in repeated[1:] if inverse.ravel()[k] == inverse.ravel()[k0]))
+        flat = key[:, 0] * n + key[:, 1]  # one integer per unordered pair (n ≤ 2**31 here)
+        order = np.argsort(flat, kind="stable")
+        same = np.flatnonzero(flat[order][1:] == flat[order][:-1])
+        if same.size:
+            k0, k1 = sorted((int(order[same[0]]), int(order[same[0] + 1])))
             raise InvalidInput(
                 "duplicate_edge",
                 f"edges {k0} and {k1} both join nodes {key[k0].tolist()}.",

@@ -25,6 +25,7 @@ from functools import lru_cache
 from xml.sax.saxutils import escape
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame, check_positions
@@ -49,6 +50,11 @@ VIEW_3D = (-60.0, 25.0)
 # How much lighter (mixed with white) and smaller the farthest element is than the nearest.
 DEPTH_FADE, DEPTH_SHRINK = 0.45, 0.3
 PANEL_PX, PAD_PX, GAP_PX, MIN_WIDTH_PX = 440.0, 26.0, 18.0, 520.0
+# Panels side by side or stacked, whichever picture's width : height is nearer ASPECT.
+ASPECT = 4 / 3
+# Frames with more nodes carry mode arrows on a spread subsample (ARROW_GRID cells across) and
+# get panels up to BIG_PANEL times larger.
+MAX_ARROW_NODES, ARROW_GRID, BIG_PANEL = 200, 10, 1.6
 # Solution-space geometry is computed inside the nodes' bounding box (in view coordinates) grown
 # by this fraction of its largest screen side on every side — larger than any panel, whose border
 # then clips it — and, in depth, by DEPTH_GROWTH of it, so curves leave the picture sideways.
@@ -312,21 +318,28 @@ def render_svg(
     target_nodes: Sequence[int] = (),
     title: str | None = None,
     view: tuple[float, float] = VIEW_3D,
+    captions: Sequence[str] = (),
+    frame_panel: int = 0,
+    arrow_nodes: Sequence[int] | None = None,
 ) -> str:
     """The picture of a frame as an SVG document (a string).
 
     positions (N, d), edges (N_B, 2), specified: indices of V_S; modes (M, N, d) zero modes drawn
-    as solid arrows; targets (M', k, d) requested motions u_S drawn as hollow arrows, rows in
-    the order of ``specified``; solution: one SolutionDrawing per motion (light to dark blue);
-    configurations: further (N, d) positions of the same bars, drawn side by side without
-    arrows; labels: panel captions (main panel first); source / target_nodes: node indices
-    marked with a purple square / an orange diamond (allosteric frames).  Inputs are trusted:
-    ``figure_svg`` validates raw requests.
+    as solid arrows on ``arrow_nodes`` (default: every node, or ``spread_subsample`` of a frame
+    with more than MAX_ARROW_NODES nodes); targets (M', k, d) requested motions u_S drawn as
+    hollow arrows, rows in the order of ``specified`` (a zero row draws nothing); solution: one
+    SolutionDrawing per motion (light to dark blue); configurations: further (N, d) positions of
+    the same bars, drawn without arrows at one common scale beside the frame, whose panel is
+    number ``frame_panel`` (0: first) — in a row, or in a column when that makes the picture
+    nearer to 4:3 (wide panels); labels / captions: text above / below each panel, in panel
+    order; source / target_nodes: node indices marked with a purple square / an orange diamond
+    (allosteric frames).  Inputs are trusted: ``figure_svg`` validates raw requests.
 
-    Elements carry classes for machines: ``node specified|unspecified`` (circle), ``bar``
-    (line), ``arrow mode|target`` (polygon), ``solution`` (polyline or circle), ``marker
-    source|target`` (polygon), ``legend`` (anything in the legend); nodes, arrows and markers
-    name their node in ``data-node``, bars their index in ``data-edge``.
+    Elements carry classes for machines: ``panel`` (g, id ``panel-<k>`` in panel order), ``node
+    specified|unspecified`` (circle), ``bar`` (line), ``arrow mode|target`` (polygon),
+    ``solution`` (polyline or circle), ``marker source|target`` (polygon), ``label`` and
+    ``caption`` (text), ``legend`` (anything in the legend); nodes, arrows and markers name their
+    node in ``data-node``, bars their index in ``data-edge``.
     """
     x = np.asarray(positions, dtype=float)
     n_nodes, d = x.shape
@@ -340,55 +353,84 @@ def render_svg(
 
     # One map from data to screen for every panel: unit-scaled first so that no coordinate can
     # overflow, then projected; arrows share one length scale.
-    panels = [x] + [np.asarray(c, dtype=float) for c in configurations]
+    panels = [np.asarray(c, dtype=float) for c in configurations]
+    panels.insert(frame_panel, x)
     unit = max(float(np.max(np.abs(p))) for p in panels) or 1.0
     screen = [_project(p / unit, basis) for p in panels]
+    main = screen[frame_panel][0]
     # Unit-scaled coordinates are O(1): a smaller size means a single point (or one spot).
     size = max(float(np.max(np.ptp(s, axis=0))) for s, _ in screen)
     size = size if size > 1e-9 else 1.0
     bar_len = float(np.median(np.linalg.norm(x[e[:, 0]] / unit - x[e[:, 1]] / unit, axis=1))) if len(e) else size
-    arrows = np.concatenate([modes.reshape(-1, d), targets.reshape(-1, d)])
+    if arrow_nodes is None:
+        arrow_nodes = np.arange(n_nodes) if n_nodes <= MAX_ARROW_NODES else spread_subsample(main)
+    arrow_nodes = np.asarray(arrow_nodes, dtype=int)
+    arrows = np.concatenate([modes[:, arrow_nodes].reshape(-1, d), targets.reshape(-1, d)])
     amax = float(np.max(np.abs(arrows), initial=0.0)) or 1.0  # arrows have their own units
     longest = float(np.max(np.linalg.norm(arrows / amax, axis=1), initial=0.0))
-    arrow_scale = min(ARROW_FRACTION * size, ARROW_BARS * bar_len) / longest / amax if longest > 0 else 0.0
-    mode_vec = [_project(m * arrow_scale, basis)[0] for m in modes]
+    # Neighbouring arrows should not run into each other: the cap is measured between the nodes
+    # that carry arrows (a subsample of a big lattice is sparser than its bars).
+    spacing = max(bar_len, _typical_gap(main[arrow_nodes])) if len(arrow_nodes) > 1 else bar_len
+    arrow_scale = min(ARROW_FRACTION * size, ARROW_BARS * spacing) / longest / amax if longest > 0 else 0.0
+    mode_vec = [_project(m * arrow_scale, basis)[0][arrow_nodes] for m in modes]
     target_vec = [_project(t * arrow_scale, basis)[0] for t in targets]
     depth_all = np.concatenate([dp for _, dp in screen])
     d_lo, d_span = float(depth_all.min()), float(np.ptp(depth_all)) or 1.0
 
-    # Panel boxes in screen-data units (nodes, plus arrow tips for the main panel).
+    # Panel boxes in screen-data units (nodes, plus arrow tips for the frame's panel).
     boxes = []
     for k, (s, _) in enumerate(screen):
-        pts = [s] + ([s + v for v in mode_vec] + [s[spec] + v for v in target_vec] if k == 0 else [])
-        allp = np.concatenate(pts)
+        tips = [s[arrow_nodes] + v for v in mode_vec] + [s[spec] + v for v in target_vec]
+        allp = np.concatenate([s] + (tips if k == frame_panel else []))
         boxes.append((allp.min(axis=0), allp.max(axis=0)))
     extent = max(max(float(np.max(hi - lo)) for lo, hi in boxes), 0.3 * size)
     # A flat frame (collinear nodes, a single node) still gets a panel of sensible proportions.
     boxes = [(np.minimum(lo, 0.5 * (lo + hi) - 0.15 * extent), np.maximum(hi, 0.5 * (lo + hi) + 0.15 * extent))
              for lo, hi in boxes]
-    px = PANEL_PX / extent  # pixels per unit
-    spacing = bar_len * px if len(e) else PANEL_PX / (3 * np.sqrt(n_nodes))
-    radius = float(np.clip(0.11 * spacing if len(e) else spacing, 1.6, 6.5))
-    bar_w = float(np.clip(0.42 * radius, 0.6, 2.4))
+    # Big frames get bigger panels (up to BIG_PANEL times) so that their bars stay apart.
+    px = PANEL_PX * float(np.clip(np.sqrt(n_nodes / MAX_ARROW_NODES), 1.0, BIG_PANEL)) / extent  # pixels per unit
+    gap_px = _typical_gap(main) * px if n_nodes > 1 else PANEL_PX
+    bar_px = bar_len * px if len(e) else PANEL_PX / (3 * np.sqrt(n_nodes))
+    # Nodes are a fraction of the bar length, but never so big that near neighbours merge.
+    radius = float(np.clip(min(0.11 * bar_px if len(e) else bar_px, 0.32 * gap_px), 1.0, 6.5))
+    bar_w = float(np.clip(0.42 * radius, 0.45, 2.4))
     shaft = max(0.9, 0.3 * radius)
     head_w, head_l = max(3.6, 0.95 * radius), max(8.0, 2.0 * radius)
 
-    has_labels = any(labels)
-    top = (34.0 if title else 10.0) + (20.0 if has_labels else 0.0)
+    top = 34.0 if title else 10.0
+    label_h = 20.0 if any(labels) else 0.0
+    caption_h = 18.0 if any(captions) else 0.0
     widths = [(hi[0] - lo[0]) * px + 2 * PAD_PX for lo, hi in boxes]
     heights = [(hi[1] - lo[1]) * px + 2 * PAD_PX for lo, hi in boxes]
-    panel_h = max(heights)
-    width = max(sum(widths) + GAP_PX * (len(panels) - 1) + 20.0, MIN_WIDTH_PX)
-    left = (width - sum(widths) - GAP_PX * (len(panels) - 1)) / 2
+    n_panels = len(panels)
+    row_w, row_h = sum(widths) + GAP_PX * (n_panels - 1), max(heights) + label_h + caption_h
+    col_w, col_h = max(widths), sum(heights) + n_panels * (label_h + caption_h) + GAP_PX * (n_panels - 1)
+    column = n_panels > 1 and abs(np.log(col_w / col_h / ASPECT)) < abs(np.log(row_w / row_h / ASPECT))
+    body_w, body_h = (col_w, col_h) if column else (row_w, row_h)
+    width = max(body_w + 20.0, MIN_WIDTH_PX)
+    # Each panel's drawing area (x, y, w, h) in pixels, and its clip box for the solution space.
+    cells, clips = [], []
+    left, y = (width - body_w) / 2, top
+    for k, (w, h) in enumerate(zip(widths, heights)):
+        if column:
+            cells.append(((width - w) / 2, y + label_h, w, h))
+            clips.append((0.0, y + label_h, width, h))
+            y += label_h + h + caption_h + GAP_PX
+        else:
+            cells.append((left, top + label_h + (row_h - label_h - caption_h - h) / 2, w, h))
+            lo_x = left - GAP_PX / 2 if k else 0.0
+            hi_x = left + w + GAP_PX / 2 if k < n_panels - 1 else width
+            clips.append((lo_x, top + label_h, hi_x - lo_x, row_h - label_h - caption_h))
+            left += w + GAP_PX
 
     mode_colours = _ramp(GREEN_LIGHT, GREEN_DARK, max(len(modes), 1), GREEN)
     target_colours = _ramp(GREEN_LIGHT, GREEN_DARK, max(len(targets), 1), GREEN)
     space_colours = _ramp(BLUE_LIGHT, BLUE_DARK, max(len(solution), 1), BLUE_LIGHT)
     legend, legend_h = _legend(
         is_spec, len(e) > 0, modes, targets, solution, mode_colours, target_colours, space_colours,
-        bool(len(source)), bool(len(target_nodes)), width, top + panel_h + 6.0,
+        bool(len(source)), bool(len(target_nodes)), width, top + body_h + 6.0,
     )
-    height = top + panel_h + legend_h + 8.0
+    height = top + body_h + legend_h + 8.0
 
     out = [
         (
@@ -401,46 +443,70 @@ def render_svg(
         out.append(
             f'<text x="{_f(width / 2)}" y="24" text-anchor="middle" font-size="16" fill="#222">{escape(title)}</text>'
         )
-    for k, ((s, depth), (lo, hi)) in enumerate(zip(screen, boxes)):
-        w, h = widths[k], heights[k]
-        y0 = top + (panel_h - h) / 2
+    for k, ((s, depth), (lo, hi), (x0, y0, w, h)) in enumerate(zip(screen, boxes, cells)):
         # Data (screen units, y up) → pixels (y down) inside this panel.
         # Clipped far outside the picture so that every coordinate written is a plain number.
-        to_px = lambda p, lo=lo, hi=hi, left=left, y0=y0: np.clip(
-            np.column_stack([left + PAD_PX + (p[:, 0] - lo[0]) * px, y0 + PAD_PX + (hi[1] - p[:, 1]) * px]),
+        to_px = lambda p, lo=lo, hi=hi, x0=x0, y0=y0: np.clip(
+            np.column_stack([x0 + PAD_PX + (p[:, 0] - lo[0]) * px, y0 + PAD_PX + (hi[1] - p[:, 1]) * px]),
             -1e5, 1e5,
         )
         fade = np.clip((depth - d_lo) / d_span, 0, 1) if basis is not None else np.zeros(n_nodes)
-        clip_lo = left - GAP_PX / 2 if k else 0.0
-        clip_hi = left + w + GAP_PX / 2 if k < len(panels) - 1 else width
         out.append(f'<g class="panel" id="panel-{k}">')
+        cx, cy, cw, ch = clips[k]
         out.append(
             # The solution space may run up to the neighbouring panels (or the picture's edge).
-            f'<clipPath id="clip-{k}"><rect x="{_f(clip_lo)}" y="{_f(top)}" width="{_f(clip_hi - clip_lo)}" '
-            f'height="{_f(panel_h)}"/></clipPath>'
+            f'<clipPath id="clip-{k}"><rect x="{_f(cx)}" y="{_f(cy)}" width="{_f(cw)}" height="{_f(ch)}"/></clipPath>'
         )
         if k < len(labels) and labels[k]:
             out.append(
-                f'<text x="{_f(left + w / 2)}" y="{_f(top - 6)}" text-anchor="middle" font-size="13" '
+                f'<text class="label" x="{_f(x0 + w / 2)}" y="{_f(y0 - 6)}" text-anchor="middle" font-size="13" '
                 f'fill="#333">{escape(labels[k])}</text>'
             )
-        if k == 0:
+        if k < len(captions) and captions[k]:
+            # Under the panel's box (in a row: under the tallest panel, so captions line up).
+            below = y0 + h if column else top + row_h - caption_h
+            out.append(
+                f'<text class="caption" x="{_f(x0 + w / 2)}" y="{_f(below + 12)}" text-anchor="middle" '
+                f'font-size="12" fill="#555">{escape(captions[k])}</text>'
+            )
+        if k == frame_panel:
             out += _solution_layer(solution, space_colours, unit, basis, to_px, d_lo, d_span, radius, k)
         p = to_px(s)
         out += _bar_layer(p, e, fade, bar_w)
-        if k == 0:
+        if k == frame_panel:
             for t, colour in zip(target_vec, target_colours):
                 out += _arrow_layer(p[spec], t * np.array([px, -px]), fade[spec], colour,
                                     shaft + 2.2, head_w + 3.0, head_l + 3.5, True, spec)
             for m, colour in zip(mode_vec, mode_colours):
-                out += _arrow_layer(p, m * np.array([px, -px]), fade, colour, shaft, head_w, head_l, False, range(n_nodes))
+                out += _arrow_layer(p[arrow_nodes], m * np.array([px, -px]), fade[arrow_nodes], colour,
+                                    shaft, head_w, head_l, False, arrow_nodes)
         out += _node_layer(p, is_spec, fade, radius)
         out += _marker_layer(p, source, target_nodes, fade, radius)
         out.append("</g>")
-        left += w + GAP_PX
     out += legend
     out.append("</svg>")
     return "\n".join(out)
+
+
+def spread_subsample(points: np.ndarray, cells: int = ARROW_GRID) -> np.ndarray:
+    """Indices (sorted) of a spread subset of points (n, 2): square cells, ``cells`` across the
+    longer side of the points' bounding box; in each occupied cell the point nearest its centre."""
+    lo = points.min(axis=0)
+    side = float(np.max(np.ptp(points, axis=0))) / cells or 1.0
+    cell = np.minimum(np.floor((points - lo) / side), cells - 1)
+    dist = np.linalg.norm(points - (lo + (cell + 0.5) * side), axis=1)
+    key = cell[:, 0] * cells + cell[:, 1]
+    order = np.lexsort((dist, key))
+    first = np.r_[True, key[order][1:] != key[order][:-1]]
+    return np.sort(order[first])
+
+
+def _typical_gap(points: np.ndarray) -> float:
+    """Median distance from a point (n ≥ 2, any dimension) to its nearest distinct neighbour."""
+    dist, _ = cKDTree(points).query(points, k=2)
+    gap = dist[:, 1]
+    gap = gap[gap > 0]
+    return float(np.median(gap)) if len(gap) else 0.0
 
 
 def _order(fade: np.ndarray) -> np.ndarray:
@@ -612,13 +678,18 @@ def figure_svg(
     target_nodes=(),
     title: str | None = None,
     seed: int = 0,
+    captions=None,
+    frame_panel: int = 0,
+    arrow_nodes=None,
 ) -> str:
-    """Validate a plot request against the frame and render it.
+    """Validate a plot request against the frame and render it (see ``render_svg``).
 
     modes: M arrays N × d; targets: M' arrays k × d (k = len(frame.specified), rows in the
     order of ``specified``); when solution_space is set, the solution space of every requested
-    motion (targets, or else the modes' rows on the specified nodes) is drawn.  Raises
-    InvalidInput naming the first bad field.
+    motion (targets, or else the modes' rows on the specified nodes) is drawn; labels and
+    captions: one per panel at most, in panel order, the frame's panel being number
+    ``frame_panel`` among the 1 + len(configurations).  Raises InvalidInput naming the first
+    bad field.
     """
     n, d = frame.n_nodes, frame.dim
     k = len(frame.specified)
@@ -627,7 +698,10 @@ def figure_svg(
         raise InvalidInput("invalid_targets", "targets need specified nodes in the frame (specified is empty).")
     target_arr = _stack(targets, k, d, "targets", "the specified nodes")
     configs = _stack(configurations, n, d, "configurations", "the frame's nodes")
-    for name, nodes in (("source", source), ("target_nodes", target_nodes)):
+    node_lists = [("source", source), ("target_nodes", target_nodes)]
+    if arrow_nodes is not None:
+        node_lists.append(("arrow_nodes", arrow_nodes))
+    for name, nodes in node_lists:
         if not all(isinstance(i, (int, np.integer)) and not isinstance(i, bool) for i in nodes):
             raise InvalidInput("invalid_nodes", f"{name} must be a list of integer node indices.")
         bad = [i for i in nodes if not 0 <= i < n]
@@ -635,11 +709,15 @@ def figure_svg(
             raise InvalidInput("invalid_nodes", f"{name} names node {bad[0]}, outside 0..{n - 1}.")
         if len(set(nodes)) != len(nodes):
             raise InvalidInput("invalid_nodes", f"{name} lists a node more than once.")
-    labels = list(labels or [])
-    if len(labels) > 1 + len(configs):
-        raise InvalidInput(
-            "invalid_labels", f"{len(labels)} labels for {1 + len(configs)} panels (the frame and its configurations)."
-        )
+    n_panels = 1 + len(configs)
+    labels, captions = list(labels or []), list(captions or [])
+    for name, texts in (("labels", labels), ("captions", captions)):
+        if len(texts) > n_panels:
+            raise InvalidInput(
+                f"invalid_{name}", f"{len(texts)} {name} for {n_panels} panels (the frame and its configurations)."
+            )
+    if isinstance(frame_panel, bool) or not isinstance(frame_panel, (int, np.integer)) or not 0 <= frame_panel < n_panels:
+        raise InvalidInput("invalid_frame_panel", f"frame_panel must be a panel index in 0..{n_panels - 1}.")
     drawings = []
     if solution_space:
         motions = target_arr if len(target_arr) else mode_arr[:, list(frame.specified)]
@@ -660,7 +738,8 @@ def figure_svg(
     return render_svg(
         frame.positions, frame.edges, frame.specified, modes=mode_arr, targets=target_arr,
         solution=drawings, configurations=configs, labels=labels, source=list(source),
-        target_nodes=list(target_nodes), title=title,
+        target_nodes=list(target_nodes), title=title, captions=captions, frame_panel=int(frame_panel),
+        arrow_nodes=None if arrow_nodes is None else list(arrow_nodes),
     )
 
 

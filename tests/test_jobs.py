@@ -2,8 +2,9 @@
 
 A job's result is compared with the answer of the endpoint called directly; failures with the
 code the endpoint itself answers. The job store is a directory shared by uvicorn's worker
-processes: two app instances on one directory, and a live two-worker uvicorn driven by the
-``zeromode job`` command, check that any worker answers for any job.
+processes: two app instances on one directory see each other's jobs, and the ``zeromode job``
+command and the Python client run against a live two-worker uvicorn (the command opens a new
+connection per request, so its polls reach either worker).
 """
 
 from __future__ import annotations
@@ -230,7 +231,7 @@ def test_two_app_instances_on_one_job_dir_see_each_others_jobs(tmp_path):
 def test_stored_jobs_are_bounded_the_oldest_finished_go_first(tmp_path):
     client = app_client(tmp_path, max_stored_jobs=2)
     request = {"frame": SINGULAR_MOTION["frame"]}
-    ids = [submit(client, "/v1/analyze", request) for _ in range(1)]
+    ids = [submit(client, "/v1/analyze", request)]
     for _ in range(3):
         wait(client, ids[-1])
         time.sleep(0.02)  # distinct modification times
@@ -254,6 +255,16 @@ def test_a_worker_with_no_room_answers_429(tmp_path):
     r = client.post("/v1/jobs", json={"endpoint": "/v1/design/auxetic", "request": AUXETIC})
     assert r.status_code == 429
     assert_error(r.json()["detail"], "too_many_jobs")
+
+
+def test_an_unusable_job_directory_is_a_503_naming_it(tmp_path):
+    blocker = tmp_path / "a-file"
+    blocker.write_text("")
+    client = app_client(blocker / "jobs")
+    r = client.post("/v1/jobs", json={"endpoint": "/v1/design/auxetic", "request": AUXETIC})
+    assert r.status_code == 503
+    assert_error(r.json()["detail"], "jobs_unavailable")
+    assert str(blocker / "jobs") in r.json()["detail"]["message"]
 
 
 def test_a_job_whose_worker_stopped_is_reported_lost(client, tmp_path):

@@ -25,6 +25,7 @@ from zeromode.service.settings import SETTINGS
 router = APIRouter(prefix="/v1", tags=["jobs"])
 
 JOB_ENDPOINTS = frozenset(get_args(JobEndpoint))
+UNAVAILABLE = {503: {"model": ErrorResponse, "description": "The job directory cannot be used."}}
 _STORE_LOCK = threading.Lock()
 
 
@@ -49,7 +50,18 @@ def _store(request: Request) -> JobStore:
     state = request.app.state
     with _STORE_LOCK:
         if not hasattr(state, "job_store"):
-            state.job_store = JobStore(getattr(state, "settings", SETTINGS))
+            settings = getattr(state, "settings", SETTINGS)
+            try:
+                state.job_store = JobStore(settings)
+            except OSError as exc:  # the operator's ZEROMODE_JOB_DIR, not the request, is wrong
+                raise HTTPException(
+                    503,
+                    detail={
+                        "code": "jobs_unavailable",
+                        "message": f"the job directory {settings.job_dir} cannot be used "
+                        f"({exc.strerror}).",
+                    },
+                ) from exc
         return state.job_store
 
 
@@ -71,7 +83,11 @@ def _run_route(route: APIRoute, argument: str, body: BaseModel) -> dict[str, Any
     "/jobs",
     status_code=202,
     response_model=JobAccepted,
-    responses={**ERROR_RESPONSES, 429: {"model": ErrorResponse, "description": "Too many jobs."}},
+    responses={
+        **ERROR_RESPONSES,
+        429: {"model": ErrorResponse, "description": "Too many jobs."},
+        **UNAVAILABLE,
+    },
 )
 def submit_job(job: JobRequest, request: Request) -> JSONResponse:
     """Run a long request as a job: the request is validated now (422 with the endpoint's own
@@ -109,7 +125,10 @@ def submit_job(job: JobRequest, request: Request) -> JSONResponse:
 @router.get(
     "/jobs/{job_id}",
     response_model=JobStatus,
-    responses={404: {"model": ErrorResponse, "description": "Unknown or expired job id."}},
+    responses={
+        404: {"model": ErrorResponse, "description": "Unknown or expired job id."},
+        **UNAVAILABLE,
+    },
 )
 def get_job(job_id: str, request: Request) -> dict:
     """Status, progress (0..1) and message of a job; its result when done, its error when failed.

@@ -36,12 +36,37 @@ class PlotRequest(BaseModel):
     configurations: list[Points] | None = Field(
         default=None,
         max_length=MAX_CONFIGURATIONS,
-        description="Further positions of the same frame (N×d each), e.g. expanded and contracted states, drawn side by side.",
+        description=(
+            "Further positions of the same frame (N×d each), e.g. expanded and contracted states, drawn "
+            "at one common scale in a row (or a column, for wide panels)."
+        ),
     )
     labels: list[str] | None = Field(
         default=None,
         max_length=1 + MAX_CONFIGURATIONS,
-        description="Panel captions: the frame first, then one per configuration.",
+        description="Text above each panel, in panel order (the frame's panel is number frame_panel).",
+    )
+    captions: list[str] | None = Field(
+        default=None,
+        max_length=1 + MAX_CONFIGURATIONS,
+        description="Text below each panel, in panel order, e.g. the Poisson ratio of each state.",
+    )
+    frame_panel: int = Field(
+        default=0,
+        ge=0,
+        le=MAX_CONFIGURATIONS,
+        description=(
+            "Where the frame's own panel (the one with arrows) goes among the panels: 0 first (default), "
+            "1 after the first configuration, … — e.g. 1 puts the reference between a contracted and an "
+            "expanded state."
+        ),
+    )
+    arrow_nodes: list[int] | None = Field(
+        default=None,
+        description=(
+            "Nodes that carry mode arrows. Default: every node, or for frames of more than 200 nodes "
+            "the node nearest the centre of each cell of a 10-cell-wide grid over the frame."
+        ),
     )
     source: list[int] = Field(default_factory=list, description="Source nodes (allosteric frames), marked with a purple square.")
     target_nodes: list[int] = Field(

@@ -9,7 +9,6 @@ snake_case codes, and never a 5xx.
 from __future__ import annotations
 
 import json
-from typing import Any
 
 import numpy as np
 import pytest
@@ -137,19 +136,21 @@ def response_schema(openapi: dict, method: str, path: str) -> dict:
     ]
 
 
-def all_property_names(openapi: dict) -> set[str]:
+def reachable_property_names(root: dict, schema: dict, seen: set[str] | None = None) -> set[str]:
+    """Every property name in ``schema`` and the schemas it refers to, at any depth."""
+    seen = set() if seen is None else seen
     names: set[str] = set()
-
-    def walk(schema: Any) -> None:
-        if isinstance(schema, dict):
-            names.update(schema.get("properties", {}))
-            for value in schema.values():
-                walk(value)
-        elif isinstance(schema, list):
-            for value in schema:
-                walk(value)
-
-    walk(openapi)
+    if isinstance(schema, dict):
+        ref = schema.get("$ref")
+        if ref is not None and ref not in seen:
+            seen.add(ref)
+            names |= reachable_property_names(root, resolve(root, schema), seen)
+        names.update(schema.get("properties", {}))
+        for value in schema.values():
+            names |= reachable_property_names(root, value, seen)
+    elif isinstance(schema, list):
+        for value in schema:
+            names |= reachable_property_names(root, value, seen)
     return names
 
 
@@ -163,9 +164,7 @@ def test_health_answers_status_ok_and_the_version(client):
     response = client.get("/health")
     assert response.status_code == 200
     body = response.json()
-    assert body == {"status": "ok", "version": __version__} or (
-        body["status"] == "ok" and body["version"] == __version__
-    )
+    assert body["status"] == "ok" and body["version"] == __version__
     assert isinstance(body["version"], str) and body["version"]
 
 
@@ -212,12 +211,8 @@ def test_openapi_names_the_capability_report_fields(openapi, require):
 
 def test_openapi_names_the_certificates(openapi, require):
     require("/v1/certify")
-    names = " ".join(
-        sorted(all_property_names({"x": response_schema(openapi, "post", "/v1/certify")}))
-    )
-    names += " " + " ".join(
-        sorted(properties(openapi, response_schema(openapi, "post", "/v1/certify")))
-    )
+    schema = response_schema(openapi, "post", "/v1/certify")
+    names = " ".join(sorted(reachable_property_names(openapi, schema)))
     for word in ("stress", "prestress", "margin"):
         assert word in names, names
 
@@ -253,11 +248,10 @@ def test_points_are_row_lists(client):
     assert rows.json()["nodes"] == 4 and rows.json()["dim"] == 2
     columns = {**K4_PLANE, "positions": np.array(K4_PLANE["positions"]).T.tolist()}
     assert_error(client.post("/v1/analyze", json={"frame": columns}), status=None)
-    mode = rows.json()
+    # Answers use row lists too: a mode of the 4-node linkage is 4 rows of 2.
     square = client.post("/v1/analyze", json={"frame": SQUARE_LINKAGE}).json()
     assert len(square["modes"]) == 1 and len(square["modes"][0]) == 4
     assert all(len(row) == 2 for row in square["modes"][0])
-    assert mode["stresses"] and len(mode["stresses"][0]) == 6
 
 
 def test_node_indices_are_0_based(client):
