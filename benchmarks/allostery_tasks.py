@@ -20,9 +20,9 @@ from functools import lru_cache
 
 import numpy as np
 from scipy.spatial import Delaunay, cKDTree
-from zeromode.solver import Frame
 
 from benchmarks.pruning import SpringNetwork
+from zeromode.solver import Frame
 
 DIM = 2
 PACKING_FRACTION = 0.9

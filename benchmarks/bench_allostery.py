@@ -19,18 +19,18 @@ import os
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
-import argparse  # noqa: E402
-import platform  # noqa: E402
-import time  # noqa: E402
-from dataclasses import dataclass  # noqa: E402
-from pathlib import Path  # noqa: E402
+import argparse
+import platform
+import time
+from dataclasses import dataclass
+from pathlib import Path
 
-import numpy as np  # noqa: E402
+import numpy as np
 
-from benchmarks.allostery_tasks import AllosteryTask, make_task, random_network  # noqa: E402
-from benchmarks.pruning import prune_for_allostery  # noqa: E402
-from zeromode.solver.allostery import design_allosteric, response  # noqa: E402
-from zeromode.solver.errors import DomainError  # noqa: E402
+from benchmarks.allostery_tasks import AllosteryTask, make_task, random_network
+from benchmarks.pruning import prune_for_allostery
+from zeromode.solver.allostery import design_allosteric, response
+from zeromode.solver.errors import DomainError
 
 OUT = Path(__file__).resolve().parent.parent / "docs" / "benchmarks" / "allostery_pruning.md"
 

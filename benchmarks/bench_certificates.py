@@ -17,18 +17,18 @@ import os
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
-import argparse  # noqa: E402
-import time  # noqa: E402
-from functools import partial  # noqa: E402
-from pathlib import Path  # noqa: E402
+import argparse
+import time
+from functools import partial
+from pathlib import Path
 
-import numpy as np  # noqa: E402
-from scipy.spatial import Delaunay  # noqa: E402
+import numpy as np
+from scipy.spatial import Delaunay
 
-from zeromode.solver import Frame  # noqa: E402
-from zeromode.solver.certificates import SDP_MAX_DIM, certify  # noqa: E402
-from zeromode.solver.design import design  # noqa: E402
-from zeromode.solver.errors import DomainError  # noqa: E402
+from zeromode.solver import Frame
+from zeromode.solver.certificates import SDP_MAX_DIM, certify
+from zeromode.solver.design import design
+from zeromode.solver.errors import DomainError
 
 OUT = Path(__file__).resolve().parent.parent / "docs" / "benchmarks" / "certificates.md"
 

@@ -14,15 +14,15 @@ import os
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
-import argparse  # noqa: E402
-import time  # noqa: E402
-from pathlib import Path  # noqa: E402
+import argparse
+import time
+from pathlib import Path
 
-import numpy as np  # noqa: E402
+import numpy as np
 
-from zeromode.solver.design import design  # noqa: E402
-from zeromode.solver.errors import DomainError  # noqa: E402
-from zeromode.solver.solution_space import solution_space  # noqa: E402
+from zeromode.solver.design import design
+from zeromode.solver.errors import DomainError
+from zeromode.solver.solution_space import solution_space
 
 
 def random_target(d: int, k: int, modes: int, seed: int) -> tuple[np.ndarray, np.ndarray]:

@@ -44,23 +44,23 @@ import os
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
-import argparse  # noqa: E402
-import inspect  # noqa: E402
-import json  # noqa: E402
-import sys  # noqa: E402
-import tempfile  # noqa: E402
-import time  # noqa: E402
-from pathlib import Path  # noqa: E402
+import argparse
+import inspect
+import json
+import sys
+import tempfile
+import time
+from pathlib import Path
 
-import numpy as np  # noqa: E402
+import numpy as np
 
-from zeromode.service.convert import json_safe  # noqa: E402
-from zeromode.solver.budget import time_budget  # noqa: E402
-from zeromode.solver.design import design  # noqa: E402
-from zeromode.solver.errors import DomainError  # noqa: E402
-from zeromode.solver.examples import example_request  # noqa: E402
-from zeromode.solver.finite_motion import motion_fidelity  # noqa: E402
-from zeromode.solver.refine import RefinementFailed, refine, target_displacement  # noqa: E402
+from zeromode.service.convert import json_safe
+from zeromode.solver.budget import time_budget
+from zeromode.solver.design import design
+from zeromode.solver.errors import DomainError
+from zeromode.solver.examples import example_request
+from zeromode.solver.finite_motion import motion_fidelity
+from zeromode.solver.refine import RefinementFailed, refine, target_displacement
 
 KS = (2, 4, 8, 16)
 TOLS = (1e-4, 1e-6, 1e-8)
@@ -396,18 +396,20 @@ def plot(rows, summary, fail_rows, amplitudes, randomness, path: Path) -> None:
     )
     _mark_default(ax, summary, (-150, -40))
     _mark_default(zoom, summary, (20, -30))
+    # Three legend columns of four: the methods and marks, the K colours, the tol markers.
     handles = [
         Line2D([], [], color=style[LINEAR][0], marker="D", ls="", label=LINEAR),
         Line2D([], [], color=style[CONTINUATION][0], marker="P", ls="", ms=8,
                label=CONTINUATION + " (same ε)"),
-        *[Line2D([], [], color=k_colours[K], marker="o", ls="", label=f"refine K = {K}") for K in KS],
-        *[Line2D([], [], color="grey", marker=tol_markers[t], ls="", label=f"refine tol = {t:.0e}") for t in TOLS],
         Line2D([], [], color="black", lw=1.3, label="Pareto front of the medians"),
         Line2D([], [], color="gold", marker="o", mfc="none", ms=12, mew=2.5, ls="", label="refine() defaults"),
+        *[Line2D([], [], color=k_colours[K], marker="o", ls="", label=f"refine K = {K}") for K in KS],
+        *[Line2D([], [], color="grey", marker=tol_markers[t], ls="", label=f"refine tol = {t:.0e}") for t in TOLS],
+        Line2D([], [], ls="", label=" "),
     ]
     legend_ax = fig.add_subplot(outer[1])
     legend_ax.axis("off")
-    legend_ax.legend(handles=handles, fontsize=9, ncol=5, loc="center", frameon=False)
+    legend_ax.legend(handles=handles, fontsize=9, ncol=3, loc="center", frameon=False)
 
     panels = (
         ("continuation", {"singular_path"}, "continuation meets a\nsingular point (singular_path)"),
@@ -416,7 +418,7 @@ def plot(rows, summary, fail_rows, amplitudes, randomness, path: Path) -> None:
     maps = outer[2].subgridspec(1, 4, wspace=0.35)
     image = None
     for col, ((k, d), (key, bad, label)) in enumerate(
-        ((shape, panel) for shape in RANDOM_SHAPES for panel in panels)
+        (shape, panel) for shape in RANDOM_SHAPES for panel in panels
     ):
         axm = fig.add_subplot(maps[col])
         values, notes = fractions(fail_rows, d, key, bad, amplitudes, randomness)

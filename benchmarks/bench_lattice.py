@@ -15,13 +15,13 @@ import os
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
-import argparse  # noqa: E402
-import time  # noqa: E402
-from pathlib import Path  # noqa: E402
+import argparse
+import time
+from pathlib import Path
 
-import numpy as np  # noqa: E402
+import numpy as np
 
-from zeromode.solver.lattice import auxetic_chain_3d, auxetic_sheet  # noqa: E402
+from zeromode.solver.lattice import auxetic_chain_3d, auxetic_sheet
 
 
 def median_time(fn, repeats: int):
@@ -49,7 +49,7 @@ def main() -> None:
     ]
     previous = None
     for n in sizes:
-        t, lat = median_time(lambda: auxetic_sheet(n, n), 3 if n <= 16 else 1)
+        t, lat = median_time(lambda n=n: auxetic_sheet(n, n), 3 if n <= 16 else 1)
         nodes = lat.frame.n_nodes
         alpha = "" if previous is None else f"{np.log(t / previous[1]) / np.log(nodes / previous[0]):.2f}"
         previous = (nodes, t)
@@ -66,7 +66,7 @@ def main() -> None:
         "|---|---|---|---|---|---|---|",
     ]
     for n in [1, 2, 4, 8] if args.quick else [1, 2, 4, 8, 16]:
-        t, lat = median_time(lambda: auxetic_chain_3d(n), 1)
+        t, lat = median_time(lambda n=n: auxetic_chain_3d(n), 1)
         lines.append(
             f"| {n} | {lat.frame.n_nodes} | {lat.frame.n_edges} | {lat.analysis.self_stresses} | "
             f"{lat.poisson_ratio:.6f} | {lat.max_relative_bar_error:.1e} | {t:.3f} |"

@@ -63,7 +63,7 @@ def start_server(workers: int) -> tuple[subprocess.Popen, str]:
 
 
 def worker_pids(parent: int) -> list[int]:
-    out = subprocess.run(["ps", "-o", "pid=", "--ppid", str(parent)], capture_output=True, text=True)
+    out = subprocess.run(["ps", "-o", "pid=", "--ppid", str(parent)], capture_output=True, text=True, check=False)
     return [parent] + [int(p) for p in out.stdout.split()]
 
 
@@ -161,13 +161,13 @@ def main() -> None:
                     errors += r["errors"]
                 samples.append(rss_mib(pids))
             growth = samples[-1] - samples[1] if len(samples) > 2 else 0.0
-            lines += [
-                "",
+            soak = (
                 f"Soak: {args.soak:.0f} s, {served} requests, {errors} errors; resident memory of the "
                 f"server processes {samples[0]:.0f} MiB at start, {samples[1]:.0f} MiB after the first "
                 f"round, {samples[-1]:.0f} MiB at the end (growth after warm-up {growth:+.1f} MiB; "
-                f"samples: {', '.join(f'{s:.0f}' for s in samples)}).",
-            ]
+                f"samples: {', '.join(f'{s:.0f}' for s in samples)})."
+            )
+            lines += ["", soak]
             print(lines[-1])
         if args.out:
             Path(args.out).write_text("\n".join(lines) + "\n")

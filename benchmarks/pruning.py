@@ -43,6 +43,7 @@ import numpy as np
 import scipy.linalg
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+
 from zeromode.solver import (
     DomainError,
     Frame,

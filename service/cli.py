@@ -10,12 +10,12 @@ import os
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
-import argparse  # noqa: E402
-import json  # noqa: E402
-import sys  # noqa: E402
+import argparse
+import json
+import sys
 
-from zeromode.solver.errors import DomainError  # noqa: E402
-from zeromode.solver.frame import Frame  # noqa: E402
+from zeromode.solver.errors import DomainError
+from zeromode.solver.frame import Frame
 
 
 def _load_json(path: str) -> dict:

@@ -157,7 +157,6 @@ def design(
     check_motions_nonrigid(x, u_all)
     if n_unspecified is not None and n_unspecified < 0:
         raise InvalidInput("invalid_options", "n_unspecified must be non-negative.")
-    d = x.shape[1]
     norm = Normalisation.of(x, u_all[0])
     x_n = norm.positions_in(x)
     u_n = np.stack([norm.motions_in(u) for u in u_all])
@@ -169,7 +168,7 @@ def design(
 
 def _finish(x: np.ndarray, u_all: np.ndarray, norm: Normalisation, state: Placement) -> Design:
     """Map back to the caller's coordinates, keep the specified rows exact, and verify."""
-    k, d = x.shape
+    k = len(x)
     xs = np.asarray(state.positions)
     frame_positions = np.vstack([x, norm.positions_out(xs[k:])]) if len(xs) > k else x.copy()
     modes = np.stack(

@@ -35,9 +35,11 @@ EXAMPLES: dict[str, tuple[str, dict]] = {
         {"dim": 3, "positions": _CUBE, "motions": [_CUBE], "options": {"seed": 0}},
     ),
     "five_node_3d": (
-        "Supplement, 'Avoiding States of Self Stress in 3 Dimensions': the full-set solution "
-        "curve is planar, so joining every node on it to all five specified nodes would create a "
-        "self-stress; the dependent bars are detected and left out; N_D = 7, no self-stress.",
+        (
+            "Supplement, 'Avoiding States of Self Stress in 3 Dimensions': the full-set solution "
+            "curve is planar, so joining every node on it to all five specified nodes would create "
+            "a self-stress; the dependent bars are detected and left out; N_D = 7, no self-stress."
+        ),
         {"dim": 3, "positions": _FIVE, "motions": [_FIVE_U], "options": {"seed": 0}},
     ),
 }

@@ -99,7 +99,7 @@ def _sheet_edges(nx: int, ny: int) -> np.ndarray:
     """Each unspecified node joined to the four corners of its module (8 bars per module)."""
     i, j = np.meshgrid(np.arange(nx), np.arange(ny))
     i, j = i.ravel(), j.ravel()
-    corner = lambda p, q: q * (nx + 1) + p  # noqa: E731
+    corner = lambda p, q: q * (nx + 1) + p
     quad = np.column_stack([corner(i + 1, j + 1), corner(i, j + 1), corner(i, j), corner(i + 1, j)])
     first = (nx + 1) * (ny + 1) + 2 * np.arange(nx * ny)
     return np.vstack(
@@ -143,7 +143,7 @@ def auxetic_sheet(
     if not (w > 0 and h > 0):
         raise InvalidInput("invalid_cell", "cell half-width and half-height must be positive.")
     beta = -poisson
-    corners, _, nodes, node_motions = module_nodes(w, h, beta)
+    _, _, nodes, node_motions = module_nodes(w, h, beta)
     c0 = float(nodes[0, 0])
     positions = _sheet_positions(nx, ny, w, h, c0)
     frame = Frame.build(positions, _sheet_edges(nx, ny))

@@ -24,8 +24,8 @@ from math import comb
 import numpy as np
 from numpy.polynomial import polynomial as poly
 
-from zeromode.solver.placement import CandidatePool, anchor_subsets, coupling_subsets
 from zeromode.solver.errors import DomainError
+from zeromode.solver.placement import CandidatePool, anchor_subsets, coupling_subsets
 from zeromode.solver.solution_space import CONSTRAINT_ATOL, SolutionSpace, solution_space
 
 

@@ -18,8 +18,8 @@ from __future__ import annotations
 
 import itertools
 from collections.abc import Iterator
-from math import comb
 from dataclasses import dataclass
+from math import comb
 
 import numpy as np
 
@@ -234,7 +234,7 @@ def place_nodes(
     preference (e.g. the full specified set first, then subsets); a later level is consulted
     only when no earlier candidate can remove a degree of freedom.
     """
-    k, d = x_n.shape
+    d = x_n.shape[1]
     state = Placement(x_n, u_n, target_zero_modes(d, u_n.shape[0]))
     levels: list[list[CandidatePool]] = []
     level_iter = iter(candidate_levels)

@@ -43,8 +43,10 @@ GREEN_LIGHT, GREEN_DARK, GREEN = "#74c476", "#1b7837", "#31a354"
 BLUE_LIGHT, BLUE_DARK = "#9ecae1", "#3182bd"
 SOURCE, TARGET = "#6a3d9a", "#ff7f00"
 
-# Longest arrow as a fraction of the frame's size, and at most this many median bar lengths.
-ARROW_FRACTION, ARROW_BARS = 0.20, 1.2
+# Longest arrow as a fraction of the frame's size, and at most ARROW_GAPS typical gaps between
+# the nodes that carry arrows: the median distance to the ARROW_NEIGHBOUR-th nearest of them
+# (not the nearest: lattices have close pairs of nodes, whose arrows point apart).
+ARROW_FRACTION, ARROW_GAPS, ARROW_NEIGHBOUR = 0.20, 1.2, 3
 # The view of 3D frames: azimuth about z and elevation above the xy-plane, in degrees.
 VIEW_3D = (-60.0, 25.0)
 # How much lighter (mixed with white) and smaller the farthest element is than the nearest.
@@ -369,9 +371,11 @@ def render_svg(
     amax = float(np.max(np.abs(arrows), initial=0.0)) or 1.0  # arrows have their own units
     longest = float(np.max(np.linalg.norm(arrows / amax, axis=1), initial=0.0))
     # Neighbouring arrows should not run into each other: the cap is measured between the nodes
-    # that carry arrows (a subsample of a big lattice is sparser than its bars).
-    spacing = max(bar_len, _typical_gap(main[arrow_nodes])) if len(arrow_nodes) > 1 else bar_len
-    arrow_scale = min(ARROW_FRACTION * size, ARROW_BARS * spacing) / longest / amax if longest > 0 else 0.0
+    # that carry arrows (a subsample of a big lattice is sparser than its bars), in space, where
+    # the arrows are (a projection brings nodes at different depths together).
+    spacing = _typical_gap(x[arrow_nodes] / unit, ARROW_NEIGHBOUR) if len(arrow_nodes) > 1 else bar_len
+    arrow_len = min(ARROW_FRACTION * size, ARROW_GAPS * spacing) if longest > 0 else 0.0
+    arrow_scale = arrow_len / longest / amax if longest > 0 else 0.0
     mode_vec = [_project(m * arrow_scale, basis)[0][arrow_nodes] for m in modes]
     target_vec = [_project(t * arrow_scale, basis)[0] for t in targets]
     depth_all = np.concatenate([dp for _, dp in screen])
@@ -394,8 +398,9 @@ def render_svg(
     # Nodes are a fraction of the bar length, but never so big that near neighbours merge.
     radius = float(np.clip(min(0.11 * bar_px if len(e) else bar_px, 0.32 * gap_px), 1.0, 6.5))
     bar_w = float(np.clip(0.42 * radius, 0.45, 2.4))
-    shaft = max(0.9, 0.3 * radius)
-    head_w, head_l = max(3.6, 0.95 * radius), max(8.0, 2.0 * radius)
+    # Arrow strokes follow the nodes, but a sparse set of long arrows on a dense frame is thicker.
+    shaft = max(0.9, 0.3 * radius, 0.018 * arrow_len * px)
+    head_w, head_l = max(3.6, 0.95 * radius, 0.06 * arrow_len * px), max(8.0, 2.0 * radius, 0.13 * arrow_len * px)
 
     top = 34.0 if title else 10.0
     label_h = 20.0 if any(labels) else 0.0
@@ -458,8 +463,10 @@ def render_svg(
             f'<clipPath id="clip-{k}"><rect x="{_f(cx)}" y="{_f(cy)}" width="{_f(cw)}" height="{_f(ch)}"/></clipPath>'
         )
         if k < len(labels) and labels[k]:
+            # Over the panel's box (in a row: over the tallest panel, so labels line up).
+            above = y0 if column else top + label_h
             out.append(
-                f'<text class="label" x="{_f(x0 + w / 2)}" y="{_f(y0 - 6)}" text-anchor="middle" font-size="13" '
+                f'<text class="label" x="{_f(x0 + w / 2)}" y="{_f(above - 6)}" text-anchor="middle" font-size="13" '
                 f'fill="#333">{escape(labels[k])}</text>'
             )
         if k < len(captions) and captions[k]:
@@ -501,10 +508,12 @@ def spread_subsample(points: np.ndarray, cells: int = ARROW_GRID) -> np.ndarray:
     return np.sort(order[first])
 
 
-def _typical_gap(points: np.ndarray) -> float:
-    """Median distance from a point (n ≥ 2, any dimension) to its nearest distinct neighbour."""
-    dist, _ = cKDTree(points).query(points, k=2)
-    gap = dist[:, 1]
+def _typical_gap(points: np.ndarray, k: int = 1) -> float:
+    """Median distance from a point (n ≥ 2, any dimension) to its k-th nearest other point
+    (the farthest one when there are fewer), ignoring coincident points."""
+    k = min(k, len(points) - 1)
+    dist, _ = cKDTree(points).query(points, k=k + 1)
+    gap = dist[:, k]
     gap = gap[gap > 0]
     return float(np.median(gap)) if len(gap) else 0.0
 

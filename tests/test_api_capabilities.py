@@ -11,41 +11,14 @@ the allosteric response solved here (test_allostery.driven_response).  No reques
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
-from fastapi.testclient import TestClient
+from api_helpers import COUNT_FIELDS, is_number
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 from rigidity_reference import compatibility_matrix, normalised, numerical_rank
 from test_allostery import driven_response, request_body, sites
 from test_multimode import CORNER_TETRAHEDRON, TRIANGLE, mode_residual
-
-from zeromode.service.app import create_app
-
-COUNT_FIELDS = {
-    "nodes",
-    "edges",
-    "dim",
-    "maxwell_count",
-    "rank",
-    "zero_modes",
-    "rigid_body_modes",
-    "nontrivial_zero_modes",
-    "self_stresses",
-    "rank_gap",
-}
-
-
-@pytest.fixture(scope="module")
-def client() -> TestClient:
-    # Server exceptions become responses, so a 5xx is seen as a status, as a client would.
-    return TestClient(create_app(), raise_server_exceptions=False)
-
-
-def is_number(v) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
 
 def points(value, rows: int | None, d: int) -> np.ndarray:

@@ -13,36 +13,13 @@ import math
 
 import numpy as np
 import pytest
-from fastapi.testclient import TestClient
+from api_helpers import COUNT_FIELDS, is_number
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from zeromode.service.app import create_app
 
 SQUARE = [[1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0], [1.0, -1.0]]
 CUBE = [[i, j, k] for i in (-1.0, 1.0) for j in (-1.0, 1.0) for k in (-1.0, 1.0)]
 KINDS = {1: "points", 2: "conic", 3: "quadric_surface"}
-COUNT_FIELDS = {
-    "nodes",
-    "edges",
-    "dim",
-    "maxwell_count",
-    "rank",
-    "zero_modes",
-    "rigid_body_modes",
-    "nontrivial_zero_modes",
-    "self_stresses",
-    "rank_gap",
-}
-
-
-@pytest.fixture(scope="module")
-def client() -> TestClient:
-    # Server exceptions become responses, so a 5xx is seen as a status, as a client would.
-    return TestClient(create_app(), raise_server_exceptions=False)
-
-
-def is_number(v) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
 
 def matrix(value, rows: int, cols: int) -> np.ndarray:

@@ -7,6 +7,7 @@ import time
 import numpy as np
 from fastapi import APIRouter
 
+from zeromode.service.convert import json_safe
 from zeromode.service.schemas.common import ERROR_RESPONSES
 from zeromode.service.schemas.design import (
     DesignRequest,
@@ -14,7 +15,6 @@ from zeromode.service.schemas.design import (
     SolutionSpaceRequest,
     SolutionSpaceResponse,
 )
-from zeromode.service.convert import json_safe
 from zeromode.solver.certificates import SDP_MAX_DIM, certify
 from zeromode.solver.design import design
 from zeromode.solver.errors import InvalidInput

@@ -15,10 +15,13 @@ from zeromode.service.schemas.lattice import AuxeticRequest
 from zeromode.service.schemas.plot import PlotRequest
 from zeromode.solver.errors import InvalidInput
 from zeromode.solver.frame import Frame
-from zeromode.solver.plot import figure_svg
+from zeromode.solver.plot import MAX_ARROW_NODES, figure_svg
 from zeromode.solver.rigidity import rigid_motions
 
 router = APIRouter(prefix="/v1", tags=["plot"])
+
+# Arrows per boundary side of a lattice with more than MAX_ARROW_NODES nodes.
+ARROWS_PER_SIDE = 9
 
 
 @router.post(
@@ -58,7 +61,9 @@ def plot_request_for(doc: dict, solution_space: bool = True) -> PlotRequest:
 
     - a /v1/design/auxetic response (``states``, ``poisson_ratio``): contracted state, reference
       with its mode, expanded state, left to right, each captioned with its boundary strain ε_x
-      and Poisson ratio (the reference: the mode's linear ν; the states: the secant ν);
+      and Poisson ratio (the reference: the mode's linear ν; the states: the secant ν); a
+      lattice of more than MAX_ARROW_NODES nodes carries arrows on ARROWS_PER_SIDE nodes of each
+      boundary set only;
     - a /v1/design/allosteric response (``report`` with ``source``, ``target``, ``relays``):
       source and target marked, relays as ordinary unspecified nodes, the mode as solid arrows
       and the achieved target motion (equal to the prescribed one to ``report.target_error``)
@@ -145,7 +150,9 @@ def _auxetic_body(doc: dict) -> dict:
     """Contracted | reference (with the mode) | expanded.  The mode is drawn modulo rigid motions
     (its component orthogonal to the d(d+1)/2 rigid-body motions): any zero mode plus a rigid
     motion is the same deformation, and the 3D chain's mode carries a large one."""
-    from zeromode.solver.lattice import boundary_strains  # (imports the continuation code: only when needed)
+    from zeromode.solver.lattice import (
+        boundary_strains,  # (imports the continuation code: only when needed)
+    )
 
     f = doc["frame"]
     frame = Frame.build(f["positions"], f.get("edges", []), f.get("specified", []), dim=f.get("dim"))
@@ -169,7 +176,7 @@ def _auxetic_body(doc: dict) -> dict:
             eps_x, _ = boundary_strains(frame.positions, x - frame.positions, boundary)
             nu = f"\u03b5\u2093 = {_signed(eps_x)}, " + nu  # ε_x
         captions.append(nu)
-    return {
+    body = {
         "frame": f,
         "modes": modes,
         "configurations": [s["positions"] for _, s in panels if s is not None],
@@ -177,6 +184,14 @@ def _auxetic_body(doc: dict) -> dict:
         "labels": [name for name, _ in panels],
         "captions": captions,
     }
+    if frame.n_nodes > MAX_ARROW_NODES and boundary:
+        # A big sheet: arrows on a few evenly spaced nodes of each boundary set, the sets whose
+        # motion defines ε_x, ε_y and ν (arrows on every node would hide the lattice).
+        body["arrow_nodes"] = sorted(
+            {int(side[i]) for side in boundary.values() if len(side)
+             for i in np.unique(np.round(np.linspace(0, len(side) - 1, min(len(side), ARROWS_PER_SIDE))).astype(int))}
+        )
+    return body
 
 
 def _allosteric_body(doc: dict) -> dict:
