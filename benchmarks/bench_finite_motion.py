@@ -98,28 +98,38 @@ def targets(seeds) -> list[dict]:
     return out
 
 
+def clock() -> np.ndarray:
+    """(wall, CPU) seconds now: CPU time of this process is the load-insensitive companion of
+    the wall time on a shared machine (IPOPT runs in this thread, BLAS single-threaded)."""
+    return np.array([time.perf_counter(), time.process_time()])
+
+
 def timed_design(x_s, u_s, seed: int, repeats: int = 3):
-    """(Design, median wall time in ms over ``repeats`` identical calls)."""
+    """(Design, median (wall, CPU) ms over ``repeats`` identical calls)."""
     times = []
     for _ in range(repeats):
-        t0 = time.perf_counter()
+        t0 = clock()
         result = design(x_s, u_s, seed=seed)
-        times.append(1e3 * (time.perf_counter() - t0))
-    return result, float(np.median(times))
+        times.append(1e3 * (clock() - t0))
+    return result, np.median(times, axis=0)
 
 
 def run_refine(frame, u_s, a: float, **options) -> dict:
-    """One refine() call: status, ε after (the best frame's on failure), wall and IPOPT time."""
-    t0 = time.perf_counter()
+    """One refine() call: status, ε after (the best frame's on failure), wall/CPU/IPOPT time."""
+    t0 = clock()
     try:
-        res, status = refine(frame, u_s, a, **options), "ok"
+        res, status, message = refine(frame, u_s, a, **options), "ok", None
     except RefinementFailed as exc:
-        res, status = exc.best, exc.code
+        res, status, message = exc.best, exc.code, exc.message
     except DomainError as exc:  # the cell's time budget, or a frame refine() does not take
-        return {"status": exc.code, "wall_ms": 1e3 * (time.perf_counter() - t0)}
+        wall, cpu = 1e3 * (clock() - t0)
+        return {"status": exc.code, "message": exc.message, "wall_ms": wall, "cpu_ms": cpu}
+    wall, cpu = 1e3 * (clock() - t0)
     return {
         "status": status,
-        "wall_ms": 1e3 * (time.perf_counter() - t0),
+        "message": message,
+        "wall_ms": wall,
+        "cpu_ms": cpu,
         "ipopt_ms": res.ipopt_time_ms,
         "attempts": res.attempts,
         "epsilon_before": res.epsilon_before,
@@ -128,7 +138,7 @@ def run_refine(frame, u_s, a: float, **options) -> dict:
 
 
 def speed_vs_accuracy(target_list) -> list[dict]:
-    """One row per (target, a, method): wall time (design included) and ε."""
+    """One row per (target, a, method): wall and CPU time (design included) and ε."""
     rows = []
     for tgt in target_list:
         try:
@@ -141,22 +151,26 @@ def speed_vs_accuracy(target_list) -> list[dict]:
         for a in SPEED_AMPLITUDES:
             base = {"target": tgt["name"], "amplitude": a}
             delta, _ = target_displacement(frame, tgt["u_s"], a)
-            t0 = time.perf_counter()
+            t0 = clock()
             fid, path = motion_fidelity(frame, delta)
-            continuation_ms = 1e3 * (time.perf_counter() - t0)
-            rows.append({**base, "method": LINEAR, "status": "ok", "time_ms": design_ms, "epsilon": fid.epsilon})
-            rows.append(
-                {
-                    **base,
-                    "method": CONTINUATION,
-                    "status": path.status,
-                    "time_ms": design_ms + continuation_ms,
-                    "epsilon": fid.epsilon,
-                }
-            )
+            continuation_ms = 1e3 * (clock() - t0)
+            for method, status, spent in (
+                (LINEAR, "ok", design_ms),
+                (CONTINUATION, path.status, design_ms + continuation_ms),
+            ):
+                rows.append(
+                    {
+                        **base,
+                        "method": method,
+                        "status": status,
+                        "time_ms": spent[0],
+                        "cpu_ms": spent[1],
+                        "epsilon": fid.epsilon,
+                    }
+                )
             print(
-                f"{tgt['name']:20s} a={a:.2f} design {design_ms:6.1f} ms  continuation "
-                f"{continuation_ms:6.1f} ms  eps_linear {fid.epsilon:.2e} ({path.status})",
+                f"{tgt['name']:20s} a={a:.2f} design {design_ms[0]:6.1f} ms  continuation "
+                f"{continuation_ms[0]:6.1f} ms  eps_linear {fid.epsilon:.2e} ({path.status})",
                 flush=True,
             )
             for K in KS:
@@ -169,7 +183,9 @@ def speed_vs_accuracy(target_list) -> list[dict]:
                             "K": K,
                             "tol": tol,
                             "status": run["status"],
-                            "time_ms": design_ms + run["wall_ms"],
+                            "message": run["message"],
+                            "time_ms": design_ms[0] + run["wall_ms"],
+                            "cpu_ms": design_ms[1] + run["cpu_ms"],
                             "ipopt_ms": run.get("ipopt_ms"),
                             "epsilon": run.get("epsilon_after", np.nan),
                         }
@@ -187,7 +203,8 @@ def methods() -> list[str]:
 
 
 def summarise(rows: list[dict]) -> list[dict]:
-    """Median time and ε per method, and which medians are Pareto-optimal (minimise both)."""
+    """Median time (wall and CPU) and ε per method, and which medians are Pareto-optimal
+    (minimise both), by wall time (the chart) and by CPU time (insensitive to the load)."""
     table = []
     for m in methods():
         sel = [r for r in rows if r["method"] == m and np.isfinite(r.get("epsilon") or np.nan)]
@@ -197,6 +214,7 @@ def summarise(rows: list[dict]) -> list[dict]:
             {
                 "method": m,
                 "median_time_ms": float(np.median([r["time_ms"] for r in sel])),
+                "median_cpu_ms": float(np.median([r["cpu_ms"] for r in sel])),
                 "median_epsilon": float(np.median([r["epsilon"] for r in sel])),
                 "max_epsilon": float(np.max([r["epsilon"] for r in sel])),
                 "median_ipopt_ms": float(np.median([r["ipopt_ms"] for r in sel]))
@@ -208,13 +226,20 @@ def summarise(rows: list[dict]) -> list[dict]:
             }
         )
     for row in table:
-        row["on_front"] = not any(
-            o["median_time_ms"] <= row["median_time_ms"]
-            and o["median_epsilon"] <= row["median_epsilon"]
-            and (o["median_time_ms"], o["median_epsilon"]) != (row["median_time_ms"], row["median_epsilon"])
-            for o in table
-        )
+        row["on_front"] = _non_dominated(row, table, "median_time_ms")
+        row["on_front_cpu"] = _non_dominated(row, table, "median_cpu_ms")
     return table
+
+
+def _non_dominated(row: dict, table: list[dict], time_key: str) -> bool:
+    """No other median is at least as fast and at least as accurate, and better in one."""
+    mine = (row[time_key], row["median_epsilon"])
+    return not any(
+        o[time_key] <= mine[0]
+        and o["median_epsilon"] <= mine[1]
+        and (o[time_key], o["median_epsilon"]) != mine
+        for o in table
+    )
 
 
 def mixed_motion(x_s: np.ndarray, eta: float, rng: np.random.Generator) -> np.ndarray:
@@ -264,7 +289,7 @@ def failure_map(seeds, amplitudes, randomness) -> list[dict]:
                     continue
                 for a in amplitudes:
                     delta, _ = target_displacement(frame, u_s, a)
-                    t0 = time.perf_counter()
+                    t0 = clock()
                     with time_budget(CELL_BUDGET_S):
                         cont = continuation(frame, delta)
                     with time_budget(CELL_BUDGET_S):
@@ -278,8 +303,9 @@ def failure_map(seeds, amplitudes, randomness) -> list[dict]:
                             "epsilon_linear": cont.get("epsilon_linear"),
                             "singular_points": cont.get("singular_points"),
                             "refine": ref["status"],
+                            "refine_message": ref["message"],
                             "epsilon_after": ref.get("epsilon_after"),
-                            "wall_ms": 1e3 * (time.perf_counter() - t0),
+                            "wall_ms": 1e3 * (clock() - t0)[0],
                         }
                     )
                     print(
@@ -296,7 +322,11 @@ def fractions(fail_rows, d, key, bad, amplitudes, randomness) -> tuple[np.ndarra
     notes = [["" for _ in amplitudes] for _ in randomness]
     for i, eta in enumerate(randomness):
         for j, a in enumerate(amplitudes):
-            cell = [r for r in fail_rows if r["dim"] == d and r["eta"] == eta and r.get("amplitude") == a]
+            cell = [
+                r
+                for r in fail_rows
+                if r["dim"] == d and r["eta"] == eta and r.get("amplitude") == a
+            ]
             if cell:
                 hits = sum(r[key] in bad for r in cell)
                 grid[i, j] = hits / len(cell)
@@ -316,10 +346,47 @@ def _mark_default(ax, summary, offset) -> None:
     xy = (default["median_time_ms"], default["median_epsilon"])
     ax.scatter(*xy, s=420, facecolor="none", edgecolor="gold", lw=2.5, zorder=4)
     ax.annotate(
-        f"default K={DEFAULT_K}, tol={DEFAULT_TOL:.0e}" + ("" if default["on_front"] else " (off the front)"),
-        xy, xytext=offset, textcoords="offset points", fontsize=9,
+        f"default K={DEFAULT_K}, tol={DEFAULT_TOL:.0e}"
+        + ("" if default["on_front"] else " (off the front)"),
+        xy,
+        xytext=offset,
+        textcoords="offset points",
+        fontsize=9,
         arrowprops={"arrowstyle": "-", "color": "goldenrod"},
     )
+
+
+def _label_points(ax, points, labels) -> None:
+    """Label each point at the first of a few offsets whose text overlaps no marker and no
+    label placed before it (display coordinates; the figure is drawn once to measure text)."""
+    from matplotlib.transforms import Bbox
+
+    fig = ax.figure
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    taken = [Bbox.from_bounds(x - 12, y - 12, 24, 24) for x, y in ax.transData.transform(points)]
+    offsets = (
+        (9, 6, "left"),
+        (9, -14, "left"),
+        (-9, 6, "right"),
+        (-9, -14, "right"),
+        (9, 16, "left"),
+    )
+    for xy, label in zip(points, labels):
+        for dx, dy, ha in offsets:
+            text = ax.annotate(
+                label, xy, xytext=(dx, dy), textcoords="offset points", fontsize=7.5, ha=ha
+            )
+            box = text.get_window_extent(renderer)
+            if not any(box.overlaps(t) for t in taken):
+                break
+            text.remove()
+        else:  # every place is taken: keep the first
+            text = ax.annotate(
+                label, xy, xytext=offsets[0][:2], textcoords="offset points", fontsize=7.5
+            )
+            box = text.get_window_extent(renderer)
+        taken.append(box)
 
 
 def plot(rows, summary, fail_rows, amplitudes, randomness, path: Path) -> None:
@@ -342,7 +409,9 @@ def plot(rows, summary, fail_rows, amplitudes, randomness, path: Path) -> None:
     for K in KS:
         for tol in TOLS:
             style[refine_method(K, tol)] = (k_colours[K], tol_markers[tol])
-    timed = [r for r in rows if r.get("method") in style and np.isfinite(r.get("epsilon") or np.nan)]
+    timed = [
+        r for r in rows if r.get("method") in style and np.isfinite(r.get("epsilon") or np.nan)
+    ]
     right = 1.5 * max(r["time_ms"] for r in timed)
     for r in timed:
         colour, marker = style[r["method"]]
@@ -353,8 +422,14 @@ def plot(rows, summary, fail_rows, amplitudes, randomness, path: Path) -> None:
         targets_ax = (ax, zoom) if row in refined else (ax,)
         for a in targets_ax:
             a.scatter(
-                row["median_time_ms"], row["median_epsilon"], s=110, color=colour, marker=marker,
-                edgecolor="black", lw=1.4 if row["on_front"] else 0.5, zorder=3,
+                row["median_time_ms"],
+                row["median_epsilon"],
+                s=110,
+                color=colour,
+                marker=marker,
+                edgecolor="black",
+                lw=1.4 if row["on_front"] else 0.5,
+                zorder=3,
             )
     for a in (ax, zoom):
         _front_line(a, summary, right)
@@ -379,11 +454,6 @@ def plot(rows, summary, fail_rows, amplitudes, randomness, path: Path) -> None:
         colour = style[row["method"]][0]
         zoom.plot(t_q, [row["median_epsilon"]] * 2, color=colour, lw=0.8, alpha=0.6)
         zoom.plot([row["median_time_ms"]] * 2, e_q, color=colour, lw=0.8, alpha=0.6)
-        zoom.annotate(
-            row["method"].removeprefix("refine ").replace(" tol=", ", "),
-            (row["median_time_ms"], row["median_epsilon"]), xytext=(9, 7),
-            textcoords="offset points", fontsize=7.5,
-        )
     t_lo = min(r["median_time_ms"] for r in refined)
     t_hi = max(r["median_time_ms"] for r in refined)
     zoom.set_xlim(t_lo / 1.6, t_hi * 1.6)
@@ -396,15 +466,45 @@ def plot(rows, summary, fail_rows, amplitudes, randomness, path: Path) -> None:
     )
     _mark_default(ax, summary, (-150, -40))
     _mark_default(zoom, summary, (20, -30))
+    _label_points(
+        zoom,
+        [(r["median_time_ms"], r["median_epsilon"]) for r in refined],
+        [r["method"].removeprefix("refine ").replace(" tol=", ", ") for r in refined],
+    )
     # Three legend columns of four: the methods and marks, the K colours, the tol markers.
     handles = [
         Line2D([], [], color=style[LINEAR][0], marker="D", ls="", label=LINEAR),
-        Line2D([], [], color=style[CONTINUATION][0], marker="P", ls="", ms=8,
-               label=CONTINUATION + " (same ε)"),
+        Line2D(
+            [],
+            [],
+            color=style[CONTINUATION][0],
+            marker="P",
+            ls="",
+            ms=8,
+            label=CONTINUATION + " (same ε)",
+        ),
         Line2D([], [], color="black", lw=1.3, label="Pareto front of the medians"),
-        Line2D([], [], color="gold", marker="o", mfc="none", ms=12, mew=2.5, ls="", label="refine() defaults"),
-        *[Line2D([], [], color=k_colours[K], marker="o", ls="", label=f"refine K = {K}") for K in KS],
-        *[Line2D([], [], color="grey", marker=tol_markers[t], ls="", label=f"refine tol = {t:.0e}") for t in TOLS],
+        Line2D(
+            [],
+            [],
+            color="gold",
+            marker="o",
+            mfc="none",
+            ms=12,
+            mew=2.5,
+            ls="",
+            label="refine() defaults",
+        ),
+        *[
+            Line2D([], [], color=k_colours[K], marker="o", ls="", label=f"refine K = {K}")
+            for K in KS
+        ],
+        *[
+            Line2D(
+                [], [], color="grey", marker=tol_markers[t], ls="", label=f"refine tol = {t:.0e}"
+            )
+            for t in TOLS
+        ],
         Line2D([], [], ls="", label=" "),
     ]
     legend_ax = fig.add_subplot(outer[1])
@@ -413,7 +513,11 @@ def plot(rows, summary, fail_rows, amplitudes, randomness, path: Path) -> None:
 
     panels = (
         ("continuation", {"singular_path"}, "continuation meets a\nsingular point (singular_path)"),
-        ("refine", {"refinement_failed", "too_expensive"}, "refine (defaults) fails\n(refinement_failed or over budget)"),
+        (
+            "refine",
+            {"refinement_failed", "too_expensive"},
+            "refine (defaults) fails\n(refinement_failed or over budget)",
+        ),
     )
     maps = outer[2].subgridspec(1, 4, wspace=0.35)
     image = None
@@ -426,9 +530,18 @@ def plot(rows, summary, fail_rows, amplitudes, randomness, path: Path) -> None:
         for i in range(len(randomness)):
             for j in range(len(amplitudes)):
                 dark = np.isfinite(values[i, j]) and values[i, j] > 0.6
-                axm.text(j, i, notes[i][j], ha="center", va="center", fontsize=7,
-                         color="white" if dark else "black")
-        axm.set_xticks(range(len(amplitudes)), [f"{a:.0%}" for a in amplitudes], fontsize=7.5, rotation=45)
+                axm.text(
+                    j,
+                    i,
+                    notes[i][j],
+                    ha="center",
+                    va="center",
+                    fontsize=7,
+                    color="white" if dark else "black",
+                )
+        axm.set_xticks(
+            range(len(amplitudes)), [f"{a:.0%}" for a in amplitudes], fontsize=7.5, rotation=45
+        )
         axm.set_yticks(range(len(randomness)), [f"{e:g}" for e in randomness], fontsize=8)
         axm.set_xlabel("amplitude a", fontsize=9)
         if col == 0:
@@ -441,16 +554,21 @@ def plot(rows, summary, fail_rows, amplitudes, randomness, path: Path) -> None:
 
 def report(summary) -> None:
     for row in summary:
+        ipopt = row["median_ipopt_ms"]
         print(
-            f"{row['method']:26s} median {row['median_time_ms']:8.1f} ms  eps {row['median_epsilon']:.2e} "
-            f"(max {row['max_epsilon']:.1e})  failures {row['failures']}/{row['runs']}"
+            f"{row['method']:26s} median wall {row['median_time_ms']:7.1f} ms  CPU {row['median_cpu_ms']:7.1f} ms"
+            + (f"  IPOPT {ipopt:6.1f} ms" if ipopt is not None else " " * 18)
+            + f"  eps {row['median_epsilon']:.2e} (max {row['max_epsilon']:.1e})  failures {row['failures']}/{row['runs']}"
             + ("  [front]" if row["on_front"] else "")
+            + ("  [CPU front]" if row["on_front_cpu"] else "")
         )
     default = next(r for r in summary if r["method"] == refine_method(DEFAULT_K, DEFAULT_TOL))
-    print(
-        f"refine() defaults K={DEFAULT_K}, tol={DEFAULT_TOL:.0e} "
-        + ("lie on the Pareto front." if default["on_front"] else "do NOT lie on the Pareto front.")
-    )
+    for key, what in (("on_front", "wall-time"), ("on_front_cpu", "CPU-time")):
+        print(
+            f"refine() defaults K={DEFAULT_K}, tol={DEFAULT_TOL:.0e} "
+            + ("lie" if default[key] else "do NOT lie")
+            + f" on the {what} Pareto front of the medians."
+        )
 
 
 def main(argv=None) -> int:
@@ -475,14 +593,25 @@ def main(argv=None) -> int:
             seeds, map_seeds = range(2), range(1)
             amplitudes, randomness = (0.05, 0.2, 0.5, 1.0), (0.0, 0.5, 1.0)
         else:
-            seeds, map_seeds, amplitudes, randomness = range(5), range(4), MAP_AMPLITUDES, RANDOMNESS
+            seeds, map_seeds, amplitudes, randomness = (
+                range(5),
+                range(3),
+                MAP_AMPLITUDES,
+                RANDOMNESS,
+            )
         rows = speed_vs_accuracy(targets(seeds))
         fail_rows = failure_map(map_seeds, amplitudes, randomness)
         data = {
             "settings": {
-                "KS": KS, "TOLS": TOLS, "default_K": DEFAULT_K, "default_tol": DEFAULT_TOL,
-                "speed_amplitudes": SPEED_AMPLITUDES, "map_amplitudes": amplitudes,
-                "randomness": randomness, "map_ipopt_s": MAP_IPOPT_S, "cell_budget_s": CELL_BUDGET_S,
+                "KS": KS,
+                "TOLS": TOLS,
+                "default_K": DEFAULT_K,
+                "default_tol": DEFAULT_TOL,
+                "speed_amplitudes": SPEED_AMPLITUDES,
+                "map_amplitudes": amplitudes,
+                "randomness": randomness,
+                "map_ipopt_s": MAP_IPOPT_S,
+                "cell_budget_s": CELL_BUDGET_S,
                 "quick": args.quick,
             },
             "speed_vs_accuracy": rows,
@@ -494,8 +623,12 @@ def main(argv=None) -> int:
     report(data["summary"])
     settings = data["settings"]
     plot(
-        data["speed_vs_accuracy"], data["summary"], data["failure_map"],
-        settings["map_amplitudes"], settings["randomness"], out / "finite_motion.png",
+        data["speed_vs_accuracy"],
+        data["summary"],
+        data["failure_map"],
+        settings["map_amplitudes"],
+        settings["randomness"],
+        out / "finite_motion.png",
     )
     print(f"wrote {data_file} and {out / 'finite_motion.png'} ({data['runtime_s']:.0f} s of runs)")
     return 0

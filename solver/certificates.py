@@ -445,7 +445,10 @@ def designed_mode_basis(frame: Frame, rigid: np.ndarray, modes) -> np.ndarray:
     n, d = frame.n_nodes, frame.dim
     span = rigid
     for i, mode in enumerate(modes):
-        m = np.asarray(mode, dtype=float)
+        try:
+            m = np.asarray(mode, dtype=float)
+        except (TypeError, ValueError, OverflowError):  # ragged rows or non-numbers
+            raise InvalidInput("invalid_modes", f"modes[{i}] must be an {n}×{d} array of numbers.") from None
         if m.shape != (n, d):
             raise InvalidInput("invalid_modes", f"modes[{i}] must be {n}×{d}, got shape {m.shape}.")
         if not np.all(np.isfinite(m)):

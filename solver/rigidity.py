@@ -266,13 +266,15 @@ def _null_by_subspace_iteration(
     Shift-invert subspace iteration with (cᵀc + δI)⁻¹, δ = 1e-10 σ_max²: one sparse LU
     (symmetric minimum-degree order, diagonal pivots: the matrix is positive definite) damps a
     singular direction σ by δ/(σ² + δ) per step relative to N(c). After each round a
-    Rayleigh–Ritz step on c itself gives the Ritz singular values θ ≥ σ of c on the block
-    (θ ≤ rtol·σ_max counts as zero). A null direction not yet inside the block shows up as a
-    small nonzero θ that keeps falling by δ/(σ² + δ) per step, so the rounds (one step each
-    after the first) stop only when the zero count is unchanged and the smallest nonzero θ moved
-    by less than 10 %. A block whose Ritz values are all zero may miss part of N(c): it keeps its
-    null vectors and takes as many fresh random directions again. ``exact_dim`` (the dimension
-    known from the other side) stops at that many zero Ritz values, after two rounds as well.
+    Rayleigh–Ritz step on c itself gives the Ritz singular values θ ≥ σ of c on the block;
+    Ritz vectors with θ ≤ rtol·σ_max join the null basis and are deflated from the block, which
+    goes on with the rest. A null direction not yet found shows up as a small nonzero θ that
+    keeps falling by δ/(σ² + δ) per step, so the rounds (one step each after the first) stop
+    only when a round finds no new null vector and the smallest θ moved by less than 10 %. A
+    block whose Ritz values are all zero may miss part of N(c): it is replaced by as many fresh
+    random directions as there are null vectors found. A last Rayleigh–Ritz step on the whole
+    null basis decides the count, which by interlacing never exceeds dim N(c). ``exact_dim``
+    (known from the other side) stops once that many null vectors are found, after two rounds.
     """
     ndof = c.shape[1]
     tol = rtol * sigma_max
@@ -281,39 +283,54 @@ def _null_by_subspace_iteration(
         shifted, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True}
     )
     rng = np.random.default_rng(0)
+    null = np.zeros((ndof, 0))
     y = rng.standard_normal((ndof, min(ndof, max(lower_bound, 1) + oversample)))
     steps, previous = first_steps, None
     for _ in range(max_rounds):
         check_budget()
         for _ in range(steps):
-            y, _ = np.linalg.qr(lu.solve(y))
-        # Rayleigh–Ritz on c itself: singular values of c restricted to span(y), ascending.
-        # Economic SVD unless c has fewer rows than the block (then W must be completed).
-        k = y.shape[1]
-        _, s_nonzero, wt = np.linalg.svd(c @ y, full_matrices=c.shape[0] < k)
-        theta = np.zeros(k)  # when c has fewer rows than k, the missing singular values are zero
-        theta[: s_nonzero.size] = s_nonzero
-        order = np.argsort(theta, kind="stable")
-        theta, ritz = theta[order], y @ wt[order].T
+            y = lu.solve(y)
+            y, _ = np.linalg.qr(y - null @ (null.T @ y))
+        theta, ritz = _ritz_pairs(c, y)
         z = int(np.count_nonzero(theta <= tol))
-        if z == k and exact_dim is None and k < ndof:
-            if z >= 20000:
+        null, y = np.hstack([null, ritz[:, :z]]), ritz[:, z:]
+        smallest = float(theta[z]) if z < theta.size else 0.0
+        if exact_dim is not None:
+            if null.shape[1] >= exact_dim and (previous is not None or y.shape[1] == 0):
+                break
+        elif y.shape[1] == 0:
+            if null.shape[1] == ndof:
+                break
+            if null.shape[1] >= 20000:
                 raise DomainError(
                     "too_expensive", "the frame has more than 20000 independent zero modes."
                 )
-            fresh = rng.standard_normal((ndof, min(z, ndof - z)))
-            y = np.hstack([ritz, fresh - ritz @ (ritz.T @ fresh)])
+            fresh = rng.standard_normal((ndof, min(null.shape[1], ndof - null.shape[1])))
+            y = fresh - null @ (null.T @ fresh)
             steps, previous = first_steps, None
             continue
-        if exact_dim is not None:
-            done = previous is not None and z >= exact_dim
-        else:
-            settled = previous is not None and z == previous[0] and theta[z] >= 0.9 * previous[1]
-            done = z == k or settled
-        if done:
+        elif previous is not None and z == 0 and smallest >= 0.9 * previous:
             break
-        y, steps, previous = ritz, 1, (z, theta[min(z, k - 1)])
-    z = z if exact_dim is None else exact_dim
-    kept = float(theta[z]) if z < theta.size else 0.0
+        steps, previous = 1, smallest
+    theta, ritz = _ritz_pairs(c, null)
+    z = int(np.count_nonzero(theta <= tol)) if exact_dim is None else min(exact_dim, theta.size)
+    nonzero = [*theta[z:], smallest] if y.shape[1] else list(theta[z:])
+    kept = float(min(nonzero)) if nonzero else 0.0
     dropped = float(theta[z - 1]) if z > 0 else 0.0
     return ritz[:, :z], kept, dropped
+
+
+def _ritz_pairs(c: sp.csr_matrix, y: np.ndarray):
+    """Ritz singular values θ (ascending) and vectors (columns) of c on span(y), y orthonormal.
+
+    The singular values of c·y are those of its triangular factor R, whose SVD also gives the
+    right singular vectors W (completed with zeros when c has fewer rows than y has columns).
+    """
+    k = y.shape[1]
+    if k == 0:
+        return np.zeros(0), y
+    _, s, wt = np.linalg.svd(np.linalg.qr(c @ y, mode="r"))
+    theta = np.zeros(k)
+    theta[: s.size] = s
+    order = np.argsort(theta, kind="stable")
+    return theta[order], y @ wt[order].T

@@ -2,7 +2,7 @@
 
 from fastapi import APIRouter, HTTPException
 
-from zeromode.service.schemas.common import ERROR_RESPONSES
+from zeromode.service.schemas.common import ErrorResponse
 from zeromode.solver.errors import InvalidInput
 from zeromode.solver.examples import example_description, example_names, example_request
 
@@ -15,7 +15,10 @@ def list_examples() -> list[dict]:
     return [{"name": n, "description": example_description(n)} for n in example_names()]
 
 
-@router.get("/examples/{name}/request", responses=ERROR_RESPONSES)
+@router.get(
+    "/examples/{name}/request",
+    responses={404: {"model": ErrorResponse, "description": "No example of that name."}},
+)
 def get_example_request(name: str) -> dict:
     """The request body of a named example, ready to POST to /v1/design."""
     try:
