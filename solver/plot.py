@@ -51,7 +51,7 @@ ARROW_FRACTION, ARROW_GAPS, ARROW_NEIGHBOUR = 0.20, 1.2, 3
 VIEW_3D = (-60.0, 25.0)
 # How much lighter (mixed with white) and smaller the farthest element is than the nearest.
 DEPTH_FADE, DEPTH_SHRINK = 0.45, 0.3
-PANEL_PX, PAD_PX, GAP_PX, MIN_WIDTH_PX = 440.0, 26.0, 18.0, 520.0
+PANEL_PX, PAD_PX, GAP_PX, MIN_WIDTH_PX, ROW_PX = 440.0, 26.0, 18.0, 520.0, 1100.0
 # Panels side by side or stacked, whichever picture's width : height is nearer ASPECT.
 ASPECT = 4 / 3
 # Frames with more nodes carry mode arrows on a spread subsample (ARROW_GRID cells across) and
@@ -391,8 +391,32 @@ def render_svg(
     # A flat frame (collinear nodes, a single node) still gets a panel of sensible proportions.
     boxes = [(np.minimum(lo, 0.5 * (lo + hi) - 0.15 * extent), np.maximum(hi, 0.5 * (lo + hi) + 0.15 * extent))
              for lo, hi in boxes]
+    top = 34.0 if title else 10.0
+    label_h = 20.0 if any(labels) else 0.0
+    caption_h = 18.0 if any(captions) else 0.0
+    n_panels = len(panels)
+    spans = np.array([hi - lo for lo, hi in boxes])  # (panels, 2) in screen-data units
+
+    def sizes(px: float):
+        """Panel widths and heights in pixels, and the (width, height) of a row and of a column."""
+        w, h = spans[:, 0] * px + 2 * PAD_PX, spans[:, 1] * px + 2 * PAD_PX
+        row = (w.sum() + GAP_PX * (n_panels - 1), h.max() + label_h + caption_h)
+        col = (w.max(), h.sum() + n_panels * (label_h + caption_h) + GAP_PX * (n_panels - 1))
+        return w, h, row, col
+
     # Big frames get bigger panels (up to BIG_PANEL times) so that their bars stay apart.
-    px = PANEL_PX * float(np.clip(np.sqrt(n_nodes / MAX_ARROW_NODES), 1.0, BIG_PANEL)) / extent  # pixels per unit
+    big = float(np.clip(np.sqrt(n_nodes / MAX_ARROW_NODES), 1.0, BIG_PANEL))
+    px = PANEL_PX * big / extent  # pixels per unit
+    _, _, (row_w, row_h), (col_w, col_h) = sizes(px)
+    column = n_panels > 1 and abs(np.log(col_w / col_h / ASPECT)) < abs(np.log(row_w / row_h / ASPECT))
+    if not column:
+        # A row is at most ROW_PX (times big) wide: its text must stay legible when the whole
+        # picture is shown page-wide.
+        px = min(px, (ROW_PX * big - 2 * PAD_PX * n_panels - GAP_PX * (n_panels - 1)) / float(spans[:, 0].sum()))
+    widths, heights, (row_w, row_h), (col_w, col_h) = sizes(px)
+    body_w, body_h = (col_w, col_h) if column else (row_w, row_h)
+    width = max(body_w + 20.0, MIN_WIDTH_PX)
+
     gap_px = _typical_gap(main) * px if n_nodes > 1 else PANEL_PX
     bar_px = bar_len * px if len(e) else PANEL_PX / (3 * np.sqrt(n_nodes))
     # Nodes are a fraction of the bar length, but never so big that near neighbours merge.
@@ -402,17 +426,6 @@ def render_svg(
     shaft = max(0.9, 0.3 * radius, 0.018 * arrow_len * px)
     head_w, head_l = max(3.6, 0.95 * radius, 0.06 * arrow_len * px), max(8.0, 2.0 * radius, 0.13 * arrow_len * px)
 
-    top = 34.0 if title else 10.0
-    label_h = 20.0 if any(labels) else 0.0
-    caption_h = 18.0 if any(captions) else 0.0
-    widths = [(hi[0] - lo[0]) * px + 2 * PAD_PX for lo, hi in boxes]
-    heights = [(hi[1] - lo[1]) * px + 2 * PAD_PX for lo, hi in boxes]
-    n_panels = len(panels)
-    row_w, row_h = sum(widths) + GAP_PX * (n_panels - 1), max(heights) + label_h + caption_h
-    col_w, col_h = max(widths), sum(heights) + n_panels * (label_h + caption_h) + GAP_PX * (n_panels - 1)
-    column = n_panels > 1 and abs(np.log(col_w / col_h / ASPECT)) < abs(np.log(row_w / row_h / ASPECT))
-    body_w, body_h = (col_w, col_h) if column else (row_w, row_h)
-    width = max(body_w + 20.0, MIN_WIDTH_PX)
     # Each panel's drawing area (x, y, w, h) in pixels, and its clip box for the solution space.
     cells, clips = [], []
     left, y = (width - body_w) / 2, top
