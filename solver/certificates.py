@@ -50,7 +50,6 @@ import time
 import warnings
 from dataclasses import dataclass, field
 
-import cvxpy as cp
 import numpy as np
 import scipy.sparse.linalg as spla
 
@@ -189,6 +188,10 @@ class LmiSolution:
 
 def _solve_once(program: LmiProgram, solver: str, time_limit: float | None, max_iters: int | None):
     """One cvxpy solve; returns (x, Y, status) with x, Y None when the solver gave nothing."""
+    # Imported here: cvxpy takes seconds to import, and only the SDP stage needs it, so service
+    # workers that never certify start fast (model no more than the scene needs).
+    import cvxpy as cp
+
     m, n, _ = program.matrices.shape
     x = cp.Variable(m, nonneg=program.domain == "simplex")
     lam = cp.Variable()

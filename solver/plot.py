@@ -391,7 +391,7 @@ def render_svg(
     # A flat frame (collinear nodes, a single node) still gets a panel of sensible proportions.
     boxes = [(np.minimum(lo, 0.5 * (lo + hi) - 0.15 * extent), np.maximum(hi, 0.5 * (lo + hi) + 0.15 * extent))
              for lo, hi in boxes]
-    top = 34.0 if title else 10.0
+    top = 40.0 if title else 10.0
     label_h = 20.0 if any(labels) else 0.0
     caption_h = 18.0 if any(captions) else 0.0
     n_panels = len(panels)
@@ -703,6 +703,7 @@ def figure_svg(
     captions=None,
     frame_panel: int = 0,
     arrow_nodes=None,
+    view: tuple[float, float] = VIEW_3D,
 ) -> str:
     """Validate a plot request against the frame and render it (see ``render_svg``).
 
@@ -710,8 +711,8 @@ def figure_svg(
     order of ``specified``); when solution_space is set, the solution space of every requested
     motion (targets, or else the modes' rows on the specified nodes) is drawn; labels and
     captions: one per panel at most, in panel order, the frame's panel being number
-    ``frame_panel`` among the 1 + len(configurations).  Raises InvalidInput naming the first
-    bad field.
+    ``frame_panel`` among the 1 + len(configurations); view: (azimuth, elevation) in degrees
+    of a 3D frame.  Raises InvalidInput naming the first bad field.
     """
     n, d = frame.n_nodes, frame.dim
     k = len(frame.specified)
@@ -747,7 +748,7 @@ def figure_svg(
             raise InvalidInput(
                 "no_motion", "solution_space needs specified nodes and a motion (targets or modes) to draw."
             )
-        window = Window.around(frame.positions, view_basis(*VIEW_3D) if d == 3 else None)
+        window = Window.around(frame.positions, view_basis(*view) if d == 3 else None)
         x_s = frame.positions[list(frame.specified)]
         for u_s in motions:
             try:
@@ -761,7 +762,7 @@ def figure_svg(
         frame.positions, frame.edges, frame.specified, modes=mode_arr, targets=target_arr,
         solution=drawings, configurations=configs, labels=labels, source=list(source),
         target_nodes=list(target_nodes), title=title, captions=captions, frame_panel=int(frame_panel),
-        arrow_nodes=None if arrow_nodes is None else list(arrow_nodes),
+        arrow_nodes=None if arrow_nodes is None else list(arrow_nodes), view=tuple(view),
     )
 
 

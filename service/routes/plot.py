@@ -22,6 +22,8 @@ router = APIRouter(prefix="/v1", tags=["plot"])
 
 # Arrows per boundary side of a lattice with more than MAX_ARROW_NODES nodes.
 ARROWS_PER_SIDE = 9
+# The view (azimuth, elevation) of a 3D auxetic chain, whose blocks are strung along x.
+CHAIN_VIEW = (-82.0, 22.0)
 
 
 @router.post(
@@ -53,6 +55,7 @@ def render_plot(request: PlotRequest) -> str:
         captions=request.captions,
         frame_panel=request.frame_panel,
         arrow_nodes=request.arrow_nodes,
+        view=request.view,
     )
 
 
@@ -184,6 +187,10 @@ def _auxetic_body(doc: dict) -> dict:
         "labels": [name for name, _ in panels],
         "captions": captions,
     }
+    if frame.dim == 3:
+        # The chain runs along x: seen from nearly −y its blocks stand side by side instead of
+        # overlapping along the default view's diagonal.
+        body["view"] = CHAIN_VIEW
     if frame.n_nodes > MAX_ARROW_NODES and boundary:
         # A big sheet: arrows on a few evenly spaced nodes of each boundary set, the sets whose
         # motion defines ε_x, ε_y and ν (arrows on every node would hide the lattice).

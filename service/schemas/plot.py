@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
-from pydantic import BaseModel, Field
+from pydantic import BaseModel, Field, FiniteFloat
 
 from zeromode.service.schemas.common import FrameModel, Points
+from zeromode.solver.plot import VIEW_3D
 
 MAX_PLOT_MODES = 16
 MAX_CONFIGURATIONS = 8
@@ -71,6 +72,10 @@ class PlotRequest(BaseModel):
     source: list[int] = Field(default_factory=list, description="Source nodes (allosteric frames), marked with a purple square.")
     target_nodes: list[int] = Field(
         default_factory=list, description="Target nodes (allosteric frames), marked with an orange diamond."
+    )
+    view: tuple[FiniteFloat, FiniteFloat] = Field(
+        default=VIEW_3D,
+        description="3D frames: the orthographic view as [azimuth about z, elevation above the xy-plane] in degrees.",
     )
     title: str | None = Field(default=None, max_length=200, description="A title above the picture.")
     seed: int = Field(default=0, ge=0, description="Seed for sampled solution spaces: same request, same picture.")
