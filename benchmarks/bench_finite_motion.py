@@ -70,8 +70,10 @@ SPEED_AMPLITUDES = (0.1, 0.2)
 RANDOM_SHAPES = ((3, 2), (4, 3))  # (k, d): 2D with 3 specified nodes, 3D with 4
 MAP_AMPLITUDES = (0.05, 0.1, 0.2, 0.35, 0.5, 0.75, 1.0)
 RANDOMNESS = (0.0, 0.25, 0.5, 0.75, 1.0)
-MAP_IPOPT_S = 1.0
+MAP_IPOPT_S = 2.0
 CELL_BUDGET_S = 5.0
+# IPOPT statuses of a run stopped by the time bound (a failure the bound, not the method, made).
+TIME_STOPS = ("Maximum_WallTime_Exceeded", "Maximum_CpuTime_Exceeded")
 LINEAR, CONTINUATION = "linear design only", "linear + continuation"
 
 
@@ -304,6 +306,8 @@ def failure_map(seeds, amplitudes, randomness) -> list[dict]:
                             "singular_points": cont.get("singular_points"),
                             "refine": ref["status"],
                             "refine_message": ref["message"],
+                            "refine_time_bound": ref["status"] == "too_expensive"
+                            or any(stop in (ref["message"] or "") for stop in TIME_STOPS),
                             "epsilon_after": ref.get("epsilon_after"),
                             "wall_ms": 1e3 * (clock() - t0)[0],
                         }
@@ -317,7 +321,8 @@ def failure_map(seeds, amplitudes, randomness) -> list[dict]:
 
 
 def fractions(fail_rows, d, key, bad, amplitudes, randomness) -> tuple[np.ndarray, list]:
-    """Fraction of designed targets per (η, a) cell whose ``key`` is in ``bad``, and 'n/m' notes."""
+    """Fraction of designed targets per (η, a) cell whose ``key`` is in ``bad``, and 'n/m'
+    notes with a '*' for each refinement the time bound stopped."""
     grid = np.full((len(randomness), len(amplitudes)), np.nan)
     notes = [["" for _ in amplitudes] for _ in randomness]
     for i, eta in enumerate(randomness):
@@ -330,7 +335,8 @@ def fractions(fail_rows, d, key, bad, amplitudes, randomness) -> tuple[np.ndarra
             if cell:
                 hits = sum(r[key] in bad for r in cell)
                 grid[i, j] = hits / len(cell)
-                notes[i][j] = f"{hits}/{len(cell)}"
+                bound = sum(r[key] in bad and r.get(f"{key}_time_bound", False) for r in cell)
+                notes[i][j] = f"{hits}/{len(cell)}" + "*" * bound
     return grid, notes
 
 
@@ -341,10 +347,13 @@ def _front_line(ax, summary, right: float) -> None:
     ax.step(list(ft) + [right], list(fe) + [fe[-1]], where="post", color="black", lw=1.3, zorder=2)
 
 
-def _mark_default(ax, summary, offset) -> None:
+def _mark_default(ax, summary, offset=None) -> None:
+    """Ring refine()'s default (K, tol) median; with ``offset`` (points) also name it."""
     default = next(r for r in summary if r["method"] == refine_method(DEFAULT_K, DEFAULT_TOL))
     xy = (default["median_time_ms"], default["median_epsilon"])
     ax.scatter(*xy, s=420, facecolor="none", edgecolor="gold", lw=2.5, zorder=4)
+    if offset is None:
+        return
     ax.annotate(
         f"default K={DEFAULT_K}, tol={DEFAULT_TOL:.0e}"
         + ("" if default["on_front"] else " (off the front)"),
@@ -465,7 +474,7 @@ def plot(rows, summary, fail_rows, amplitudes, randomness, path: Path) -> None:
         fontsize=10,
     )
     _mark_default(ax, summary, (-150, -40))
-    _mark_default(zoom, summary, (20, -30))
+    _mark_default(zoom, summary)
     _label_points(
         zoom,
         [(r["median_time_ms"], r["median_epsilon"]) for r in refined],
@@ -549,6 +558,15 @@ def plot(rows, summary, fail_rows, amplitudes, randomness, path: Path) -> None:
         axm.set_title(f"{d}D, k = {k}: {label}", fontsize=9.5)
     cbar = fig.colorbar(image, ax=fig.axes[3:], fraction=0.02, pad=0.02)
     cbar.set_label("fraction of designed targets", fontsize=9)
+    fig.text(
+        0.5,
+        0.075,
+        f"cells: failures / designed targets (seeded); * = a refinement stopped by the "
+        f"{MAP_IPOPT_S:g} s IPOPT bound of this map; refine() defaults K={DEFAULT_K}, "
+        f"tol={DEFAULT_TOL:.0e}",
+        ha="center",
+        fontsize=9,
+    )
     fig.savefig(path, dpi=110, bbox_inches="tight")
 
 

@@ -461,7 +461,7 @@ def designed_mode_basis(frame: Frame, rigid: np.ndarray, modes) -> np.ndarray:
         if norm == 0:
             raise InvalidInput("invalid_modes", f"modes[{i}] is zero.")
         residual = zero_mode_residual(frame, m)
-        if residual > MODE_RTOL:
+        if not residual <= MODE_RTOL:  # also catches NaN
             raise InvalidInput(
                 "invalid_modes",
                 f"modes[{i}] is not a zero mode of the frame: ‖C m‖/(‖C‖_F‖m‖) = {residual:.2e} > {MODE_RTOL:g}.",

@@ -198,7 +198,7 @@ def verify(frame: Frame, modes: np.ndarray, anchor_sets=()) -> Design:
         problems.append(f"{analysis.self_stresses} self-stresses")
     if analysis.rigid_body_modes != d * (d + 1) // 2:
         problems.append("a degenerate configuration")
-    if residual > MODE_RTOL:
+    if not residual <= MODE_RTOL:  # also catches NaN
         problems.append(f"a mode residual of {residual:.1e}")
     if problems:
         raise DomainError(

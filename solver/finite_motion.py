@@ -431,7 +431,7 @@ def _start_direction(frame: Frame, x: np.ndarray, cons: _Constraints, mode) -> n
     if norm == 0:
         raise InvalidInput("invalid_mode", "mode is zero.")
     leak = np.linalg.norm(u - null @ (null.T @ u)) / norm
-    if leak > MODE_RTOL:
+    if not leak <= MODE_RTOL:  # also catches NaN
         raise DomainError(
             "not_a_zero_mode",
             f"mode is not a zero mode of the frame: |C·u| leaves N(C) by {leak:.2e} of |u|.",

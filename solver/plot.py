@@ -8,11 +8,19 @@ unspecified node joined to every specified node (Eqs. 4–6) in light blue — a
 sets that fill a region, dots for isolated points (m ≤ 1).  With several motions the solution
 spaces go from light to dark blue, as in the paper's Fig. 5.
 
-3D frames are drawn in a fixed orthographic view — azimuth −60°, elevation 25°: the isometric
-view from the (1, −1, 1) octant turned by 15° and lowered by 10° — with depth cues: farther
-nodes, bars and arrows are lighter and smaller.  Arrows share one length scale,
-so a designed mode and the motion it was asked to realise coincide on the specified nodes; the
-longest arrow is 20 % of the frame's size (capped at 1.2 bar lengths so lattices stay legible).
+3D frames are drawn in an orthographic view — by default azimuth −60°, elevation 25°: the
+isometric view from the (1, −1, 1) octant turned by 15° and lowered by 10° — with depth cues:
+farther nodes, bars and arrows are lighter and smaller.  Arrows share one length scale, so a
+designed mode and the motion it was asked to realise coincide on the specified nodes; the
+longest arrow is 20 % of the frame's size, capped at 1.2 typical gaps between the nodes that
+carry arrows so that neighbouring arrows do not run into each other.
+
+Several configurations of one frame (a lattice's contracted and expanded states, say) are drawn
+at one common scale in a row, or in a column when the panels are wide, whichever picture is
+nearer 4:3; a row is kept within about 1100 px so that its text stays legible page-wide.  Frames
+of more than 200 nodes get larger panels, smaller nodes and thinner bars (nodes are kept below a
+third of the gap to their nearest neighbour), and mode arrows on a spread subsample only — the
+node nearest the centre of each cell of a 10-cell-wide grid — unless the caller names the nodes.
 
 Everything here is numpy + string formatting: no plotting library, no web imports.
 """
@@ -415,7 +423,8 @@ def render_svg(
         px = min(px, (ROW_PX * big - 2 * PAD_PX * n_panels - GAP_PX * (n_panels - 1)) / float(spans[:, 0].sum()))
     widths, heights, (row_w, row_h), (col_w, col_h) = sizes(px)
     body_w, body_h = (col_w, col_h) if column else (row_w, row_h)
-    width = max(body_w + 20.0, MIN_WIDTH_PX)
+    # Wide enough for the title too (16 px Helvetica averages under 9 px a character).
+    width = max(body_w + 20.0, MIN_WIDTH_PX, 9.0 * len(title or "") + 40.0)
 
     gap_px = _typical_gap(main) * px if n_nodes > 1 else PANEL_PX
     bar_px = bar_len * px if len(e) else PANEL_PX / (3 * np.sqrt(n_nodes))

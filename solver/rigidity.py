@@ -87,13 +87,20 @@ def rigid_motions(positions: np.ndarray, rtol: float = RTOL) -> np.ndarray:
 
 
 def zero_mode_residual(frame: Frame, mode: np.ndarray) -> float:
-    """‖C u‖ / (‖C‖_F ‖u‖) with C of the normalised frame: 0 for an exact zero mode u (N, d)."""
+    """‖C u‖ / (‖C‖_F ‖u‖) with C of the normalised frame: 0 for an exact zero mode u (N, d).
+
+    u is divided by max |u| first, so no magnitude (1e±200) can under- or overflow the norms.
+    """
+    peak = float(np.max(np.abs(mode), initial=0.0))
+    if peak == 0.0 or not np.isfinite(peak):
+        return 0.0 if peak == 0.0 else float("inf")
+    u = mode.ravel() / peak
     dense = frame.dim * frame.n_nodes <= DENSE_MAX_DOF
     c = compatibility_matrix(frame.normalised_positions(), frame.edges, dense=dense)
     if c.shape[0] == 0:
         return 0.0
     c_norm = np.linalg.norm(c) if dense else spla.norm(c)
-    return float(np.linalg.norm(c @ mode.ravel()) / (c_norm * max(np.linalg.norm(mode), 1e-300)))
+    return float(np.linalg.norm(c @ u) / (c_norm * np.linalg.norm(u)))
 
 
 @dataclass(frozen=True, eq=False)
@@ -218,12 +225,10 @@ def _sparse_null_spaces(c: sp.csr_matrix, rtol: float, rigid_dim: int, want_stre
     if nb == 0:
         return np.eye(ndof), np.zeros((0, 0)), 0, RankGap(0.0, 0.0)
     sigma_max = _largest_singular_value(c)
-    maxwell = ndof - nb
-    z_bound = max(maxwell, rigid_dim)
-    if z_bound - maxwell < z_bound:
-        stresses, kept, dropped = _null_by_subspace_iteration(
-            c.T.tocsr(), sigma_max, rtol, z_bound - maxwell
-        )
+    z_bound = max(ndof - nb, rigid_dim)
+    s_bound = z_bound - (ndof - nb)
+    if s_bound < z_bound:
+        stresses, kept, dropped = _null_by_subspace_iteration(c.T.tocsr(), sigma_max, rtol, s_bound)
         rank = nb - stresses.shape[1]
         null = None
     else:
@@ -272,9 +277,10 @@ def _null_by_subspace_iteration(
     keeps falling by δ/(σ² + δ) per step, so the rounds (one step each after the first) stop
     only when a round finds no new null vector and the smallest θ moved by less than 10 %. A
     block whose Ritz values are all zero may miss part of N(c): it is replaced by as many fresh
-    random directions as there are null vectors found. A last Rayleigh–Ritz step on the whole
-    null basis decides the count, which by interlacing never exceeds dim N(c). ``exact_dim``
-    (known from the other side) stops once that many null vectors are found, after two rounds.
+    random directions as there are null vectors found. The whole null basis then takes two more
+    steps and a last Rayleigh–Ritz step decides the count, which by interlacing never exceeds
+    dim N(c). ``exact_dim`` (known from the other side) stops once that many null vectors are
+    found.
     """
     ndof = c.shape[1]
     tol = rtol * sigma_max
@@ -296,7 +302,7 @@ def _null_by_subspace_iteration(
         null, y = np.hstack([null, ritz[:, :z]]), ritz[:, z:]
         smallest = float(theta[z]) if z < theta.size else 0.0
         if exact_dim is not None:
-            if null.shape[1] >= exact_dim and (previous is not None or y.shape[1] == 0):
+            if null.shape[1] >= exact_dim:
                 break
         elif y.shape[1] == 0:
             if null.shape[1] == ndof:
@@ -312,6 +318,9 @@ def _null_by_subspace_iteration(
         elif previous is not None and z == 0 and smallest >= 0.9 * previous:
             break
         steps, previous = 1, smallest
+    for _ in range(first_steps):
+        # Vectors found early were deflated after only a few steps: polish the whole basis.
+        null, _ = np.linalg.qr(lu.solve(null))
     theta, ritz = _ritz_pairs(c, null)
     z = int(np.count_nonzero(theta <= tol)) if exact_dim is None else min(exact_dim, theta.size)
     nonzero = [*theta[z:], smallest] if y.shape[1] else list(theta[z:])

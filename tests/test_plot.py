@@ -341,3 +341,245 @@ def test_cli_png_without_cairosvg_says_so(tmp_path, monkeypatch, capsys):
     assert "cairosvg" in err and err.count("\n") == 0
     assert not (tmp_path / "a.png").exists()
     assert main(["plot", str(req), "-o", str(tmp_path / "a.pdf")]) == 2
+
+
+# --------------------------------------------------------------------------------------------
+# Lattices and allosteric frames: `zeromode plot` on saved /v1/design/auxetic and
+# /v1/design/allosteric responses, and POST /v1/plot drawing the same.
+
+
+def panels(root: ET.Element) -> list[ET.Element]:
+    found = {g.get("id"): g for g in root.iter(SVG + "g") if g.get("class") == "panel"}
+    return [found[f"panel-{k}"] for k in range(len(found))]
+
+
+def text_of(panel: ET.Element, cls: str) -> str:
+    (t,) = with_class(panel, "text", cls)
+    return t.text
+
+
+def numbers(text: str) -> list[float]:
+    import re
+
+    return [float(v) for v in re.findall(r"[+-]?\d+\.\d+", text.replace("\u2212", "-"))]
+
+
+def similarity_scale(page: np.ndarray, x: np.ndarray) -> float:
+    """The scale s of page = c + s·(x, −y) (2D, y flipped); asserts the map is such a similarity."""
+    fit = np.column_stack([np.ones(len(x)), x[:, 0], -x[:, 1]])
+    coef = np.linalg.lstsq(fit, page, rcond=None)[0]  # rows: offset, x, −y; columns: page x, y
+    s = coef[1, 0]
+    assert s > 0 and np.allclose(coef[1:], s * np.eye(2), atol=1e-3 * s)
+    assert np.allclose(fit @ coef, page, atol=0.08)
+    return float(s)
+
+
+def plot_cli(tmp_path, name: str, doc: dict, *extra: str) -> ET.Element:
+    path = tmp_path / f"{name}.json"
+    path.write_text(json.dumps(doc))
+    out = tmp_path / f"{name}.svg"
+    assert main(["plot", str(path), "-o", str(out), *extra]) == 0
+    return parse(out.read_text())
+
+
+@pytest.fixture(scope="module")
+def auxetic(client):
+    resp = client.post("/v1/design/auxetic", json={"dim": 2, "cells": [2, 2], "poisson_ratio": -1.0, "strain": 0.1})
+    assert resp.status_code == 200, resp.text
+    return resp.json()
+
+
+def test_cli_draws_an_auxetic_response_contracted_reference_expanded(tmp_path, auxetic):
+    doc = json.loads(json.dumps(auxetic))
+    x = np.array(doc["frame"]["positions"])
+    edges = np.array(doc["frame"]["edges"])
+    n = len(x)
+    # Give the mode a rigid part (a translation and a rotation, as the 3D chain's mode has): it
+    # is still a zero mode of the same frame, and the picture must show the deformation only.
+    mode = np.array(doc["modes"][0]) + [0.7, -0.4] + 0.5 * (x - x.mean(axis=0)) @ [[0, 1], [-1, 0]]
+    doc["modes"] = [mode.tolist()]
+    root = plot_cli(tmp_path, "auxetic", doc)
+
+    states = {s["name"]: s for s in doc["states"]}
+    expected = [("contracted", np.array(states["contracted"]["positions"])), ("reference", x),
+                ("expanded", np.array(states["expanded"]["positions"]))]
+    groups = panels(root)
+    assert [text_of(g, "label") for g in groups] == [name for name, _ in expected]
+    boundary = doc["report"]["boundary"]
+
+    def width(p):  # distance between the mean positions of the left and right boundary sets
+        return p[boundary["right"], 0].mean() - p[boundary["left"], 0].mean()
+
+    scales, centres_x = [], []
+    for g, (name, pos) in zip(groups, expected):
+        page, _, fills = node_page(g, n)
+        assert len(with_class(g, "line", "bar")) == len(edges) and set(fills) == {BLUE}
+        scales.append(similarity_scale(page, pos))
+        centres_x.append(page[:, 0].mean())
+        caption = numbers(text_of(g, "caption"))
+        if name == "reference":
+            assert caption == pytest.approx([doc["poisson_ratio"]], abs=0.006)
+        else:
+            eps_x = width(pos) / width(x) - 1  # the boundary strain, from the positions
+            assert caption == pytest.approx([eps_x, states[name]["poisson_ratio"]], abs=0.006)
+            assert not with_class(g, "polygon", "arrow")
+    assert np.ptp(scales) < 1e-3 * scales[0] and np.all(np.diff(centres_x) > 0)  # one scale, in a row
+
+    # The reference's arrows: a zero mode of the bars, (x_i − x_j)·(u_i − u_j) = 0, with no
+    # rigid part left (no net translation, no net rotation about the centroid).
+    page, _, _ = node_page(groups[1], n)
+    arrows = arrow_vectors(with_class(groups[1], "polygon", "arrow", "mode"))
+    assert len(arrows) >= n - 1  # only a node that does not move may lack an arrow
+    u = np.zeros((n, 2))
+    for i, (base, vec) in arrows.items():
+        assert np.allclose(base, page[i], atol=0.1)
+        u[i] = vec
+    longest = np.max(np.linalg.norm(u, axis=1))
+    for i, j in edges:
+        if i in arrows and j in arrows:
+            d = page[i] - page[j]
+            assert abs(d @ (u[i] - u[j])) < 1e-2 * np.linalg.norm(d) * longest
+    c = page - page.mean(axis=0)
+    assert np.linalg.norm(u.sum(axis=0)) < 0.02 * n * longest
+    assert abs(np.sum(c[:, 0] * u[:, 1] - c[:, 1] * u[:, 0])) < 0.02 * n * longest * np.max(np.linalg.norm(c, axis=1))
+    # The untouched mode has no rigid part: the raw mode is drawn then, along the same lines.
+    raw = arrow_vectors(with_class(panels(plot_cli(tmp_path, "raw", auxetic))[1], "polygon", "arrow", "mode"))
+    assert all(np.allclose(raw[i][1], arrows[i][1], atol=0.3) for i in raw)
+
+
+def test_api_draws_a_big_sheet_readably_with_arrows_on_its_boundary(tmp_path, client):
+    resp = client.post("/v1/design/auxetic", json={"dim": 2, "cells": [12, 12], "poisson_ratio": -0.5})
+    assert resp.status_code == 200, resp.text
+    doc = resp.json()
+    n = len(doc["frame"]["positions"])
+    assert n > 200
+    root = plot_cli(tmp_path, "big", doc)
+    # POST /v1/plot draws the same picture from the body the CLI builds.
+    from zeromode.service.routes.plot import plot_request_for
+
+    body = plot_request_for(doc).model_dump()
+    assert client.post("/v1/plot", json=body).text == (tmp_path / "big.svg").read_text()
+    assert [len(with_class(g, "circle", "node")) for g in panels(root)] == [n] * 3
+
+    reference = panels(root)[1]
+    page, radius, _ = node_page(reference, n)
+    boundary = set().union(*map(set, doc["report"]["boundary"].values()))
+    arrows = arrow_vectors(with_class(reference, "polygon", "arrow", "mode"))
+    assert set(arrows) <= boundary and 8 <= len(arrows) <= 36
+    for side in doc["report"]["boundary"].values():
+        assert len(set(side) & set(arrows)) >= 3
+    # Readable: a node is smaller than a third of the gap to its nearest neighbour (median),
+    # bars are thinner than nodes, and arrows are many node sizes long.
+    gaps = np.linalg.norm(page[:, None] - page[None], axis=2)
+    np.fill_diagonal(gaps, np.inf)
+    assert radius.max() <= 0.34 * np.median(gaps.min(axis=1))
+    assert max(float(b.get("stroke-width")) for b in with_class(reference, "line", "bar")) < radius.min()
+    assert min(np.linalg.norm(v) for _, v in arrows.values()) > 5 * radius.max()
+
+    # Without arrow_nodes, /v1/plot spreads arrows over the whole frame (a frame > 200 nodes).
+    body.pop("arrow_nodes")
+    spread = panels(parse(client.post("/v1/plot", json=body).text))[1]
+    nodes = sorted(arrow_vectors(with_class(spread, "polygon", "arrow", "mode")))
+    assert 20 <= len(nodes) <= 100
+    to_nearest = np.min(np.linalg.norm(page[:, None] - page[nodes][None], axis=2), axis=1)
+    assert to_nearest.max() < 0.15 * np.max(np.ptp(page, axis=0))
+
+
+@pytest.fixture(scope="module")
+def allosteric_request():
+    return {
+        "dim": 2,
+        "source": {"positions": [[0, -0.5], [0, 0.5]], "motion": [[0, -1], [0, 1]]},
+        "target": {"positions": [[6, -1], [6, 1]], "motion": [[0, 1], [0, -1]]},
+    }
+
+
+@pytest.mark.parametrize("as_request", [False, True], ids=["response", "request"])
+def test_cli_draws_an_allosteric_frame_with_source_and_target_marked(tmp_path, client, allosteric_request, as_request):
+    resp = client.post("/v1/design/allosteric", json=allosteric_request)
+    assert resp.status_code == 200, resp.text
+    doc = resp.json()
+    report, n = doc["report"], len(doc["frame"]["positions"])
+    root = plot_cli(tmp_path, "allosteric", allosteric_request if as_request else doc)
+    (panel,) = panels(root)
+    _, _, fills = node_page(panel, n)
+    source, target, relays = report["source"], report["target"], report["relays"]
+    assert relays and all(fills[i] == BLUE for i in relays)
+    assert all(fills[i] == RED for i in source + target)
+    assert sorted(int(m.get("data-node")) for m in with_class(panel, "polygon", "marker", "source")) == source
+    assert sorted(int(m.get("data-node")) for m in with_class(panel, "polygon", "marker", "target")) == target
+    # Hollow arrows on the target nodes only, along the prescribed motion (y flipped); solid
+    # arrows along the source motion on the source nodes.
+    hollow = arrow_vectors(with_class(panel, "polygon", "arrow", "target"))
+    solid = arrow_vectors(with_class(panel, "polygon", "arrow", "mode"))
+    assert sorted(hollow) == target
+    for nodes, site in ((target, hollow), (source, solid)):
+        motion = allosteric_request["target" if site is hollow else "source"]["motion"]
+        for i, u in zip(nodes, np.array(motion, float)):
+            vec = site[i][1]
+            assert vec @ (u * [1, -1]) / (np.linalg.norm(vec) * np.linalg.norm(u)) > 0.999
+    assert not with_class(panel, "polyline", "solution") and not with_class(panel, "circle", "solution")
+    assert {"source", "target", "requested motion", "zero mode"} <= {t.text for t in root.iter(SVG + "text")}
+
+
+def test_cli_says_which_documents_it_draws(tmp_path, capsys):
+    path = tmp_path / "other.json"
+    path.write_text(json.dumps({"hello": 1}))
+    assert main(["plot", str(path), "-o", str(tmp_path / "x.svg")]) == 2
+    err = capsys.readouterr().err
+    assert "invalid_document" in err and "/v1/design/allosteric" in err
+
+
+def strip_body(length: float, **extra) -> dict:
+    x = np.array([[0, 0], [length, 0], [length, 1], [0, 1]], float)
+    return {"frame": {"dim": 2, "positions": x.tolist(), "edges": [[0, 1], [1, 2], [2, 3], [3, 0], [0, 2]]},
+            "configurations": [(0.9 * x).tolist(), (1.1 * x).tolist()], "frame_panel": 1,
+            "labels": ["small", "frame", "large"], "captions": ["a", "b", "c"], **extra}
+
+
+@pytest.mark.parametrize("length, stacked", [(1.0, False), (5.0, True)])
+def test_api_panels_in_a_row_or_a_column_with_labels_above_and_captions_below(client, length, stacked):
+    resp = client.post("/v1/plot", json=strip_body(length, modes=[[[0, 0], [1, 0], [1, 0], [0, 0]]]))
+    assert resp.status_code == 200, resp.text
+    groups = panels(parse(resp.text))
+    assert [text_of(g, "label") for g in groups] == ["small", "frame", "large"]
+    assert [text_of(g, "caption") for g in groups] == ["a", "b", "c"]
+    # The frame (with its arrows) is the middle panel.
+    assert [len(with_class(g, "polygon", "arrow")) for g in groups] == [0, 2, 0]
+    centres = []
+    for g in groups:
+        page, _, _ = node_page(g, 4)
+        label_y, caption_y = (float(with_class(g, "text", c)[0].get("y")) for c in ("label", "caption"))
+        assert label_y < page[:, 1].min() and caption_y > page[:, 1].max()
+        centres.append(page.mean(axis=0))
+    # Panels are centred across the layout (the frame's panel is widened by its arrows).
+    centres = np.array(centres)
+    along, across = (1, 0) if stacked else (0, 1)
+    assert np.all(np.diff(centres[:, along]) > 50) and abs(centres[2, across] - centres[0, across]) < 1.0
+
+
+def test_api_view_turns_a_3d_frame(client):
+    x = np.array([[0, 0, 0], [2, 0, 0], [0, 1, 0], [0, 0, 1.5], [1, 1, 1]], float)
+    frame = {"dim": 3, "positions": x.tolist(), "edges": [[0, 1], [0, 2], [0, 3], [1, 4], [2, 4], [3, 4]]}
+    for view, fits in (([-90, 0], True), (None, False)):
+        body = {"frame": frame} | ({"view": view} if view else {})
+        page, _, _ = node_page(parse(client.post("/v1/plot", json=body).text), len(x))
+        # Seen from −y at zero elevation: page x ∝ data x, page y ∝ −z.
+        fit = np.column_stack([np.ones(len(x)), x[:, 0], -x[:, 2]])
+        coef = np.linalg.lstsq(fit, page, rcond=None)[0]
+        assert np.allclose(fit @ coef, page, atol=0.1) == fits
+
+
+@pytest.mark.parametrize(
+    "body, code",
+    [
+        ({"frame": FRAME, "frame_panel": 1}, "invalid_frame_panel"),
+        ({"frame": FRAME, "configurations": [FRAME["positions"]], "captions": ["a", "b", "c"]}, "invalid_captions"),
+        ({"frame": FRAME, "arrow_nodes": [0, 7]}, "invalid_nodes"),
+        ({"frame": FRAME, "view": [0, float("inf")]}, "invalid_request"),
+    ],
+)
+def test_api_bad_panel_options_are_422_with_a_code(client, body, code):
+    resp = client.post("/v1/plot", content=json.dumps(body), headers={"content-type": "application/json"})
+    assert resp.status_code == 422
+    assert resp.json()["detail"]["code"] == code
