@@ -277,9 +277,9 @@ def _null_by_subspace_iteration(
     keeps falling by δ/(σ² + δ) per step, so the rounds (one step each after the first) stop
     only when a round finds no new null vector and the smallest θ moved by less than 10 %. A
     block whose Ritz values are all zero may miss part of N(c): it is replaced by as many fresh
-    random directions as there are null vectors found. The whole null basis then takes two more
-    steps and a last Rayleigh–Ritz step decides the count, which by interlacing never exceeds
-    dim N(c). ``exact_dim`` (known from the other side) stops once that many null vectors are
+    random directions as there are null vectors found. The whole block (null vectors and the
+    rest) then takes two more steps and a last Rayleigh–Ritz step on it decides the count,
+    which by interlacing never exceeds dim N(c). ``exact_dim`` (known from the other side) stops once that many null vectors are
     found.
     """
     ndof = c.shape[1]
@@ -300,9 +300,8 @@ def _null_by_subspace_iteration(
         theta, ritz = _ritz_pairs(c, y)
         z = int(np.count_nonzero(theta <= tol))
         null, y = np.hstack([null, ritz[:, :z]]), ritz[:, z:]
-        smallest = float(theta[z]) if z < theta.size else 0.0
         if exact_dim is not None:
-            if null.shape[1] >= exact_dim:
+            if null.shape[1] >= exact_dim or y.shape[1] == 0:
                 break
         elif y.shape[1] == 0:
             if null.shape[1] == ndof:
@@ -315,16 +314,17 @@ def _null_by_subspace_iteration(
             y = fresh - null @ (null.T @ fresh)
             steps, previous = first_steps, None
             continue
-        elif previous is not None and z == 0 and smallest >= 0.9 * previous:
+        elif previous is not None and z == 0 and theta[0] >= 0.9 * previous:
             break
-        steps, previous = 1, smallest
+        steps, previous = 1, theta[z]
+    # Null vectors found early were deflated after a few steps: polish them together with the
+    # rest of the block (which keeps the oversampling), then decide on the whole block.
+    block = np.hstack([null, y])
     for _ in range(first_steps):
-        # Vectors found early were deflated after only a few steps: polish the whole basis.
-        null, _ = np.linalg.qr(lu.solve(null))
-    theta, ritz = _ritz_pairs(c, null)
+        block, _ = np.linalg.qr(lu.solve(block))
+    theta, ritz = _ritz_pairs(c, block)
     z = int(np.count_nonzero(theta <= tol)) if exact_dim is None else min(exact_dim, theta.size)
-    nonzero = [*theta[z:], smallest] if y.shape[1] else list(theta[z:])
-    kept = float(min(nonzero)) if nonzero else 0.0
+    kept = float(theta[z]) if z < theta.size else 0.0
     dropped = float(theta[z - 1]) if z > 0 else 0.0
     return ritz[:, :z], kept, dropped
 
