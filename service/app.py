@@ -6,9 +6,11 @@ import logging
 import secrets
 import uuid
 
-from fastapi import FastAPI, Request
+from fastapi import FastAPI
 from fastapi.middleware.cors import CORSMiddleware
 from fastapi.responses import JSONResponse
+from starlette.datastructures import Headers, MutableHeaders
+from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from zeromode.service import __version__
 from zeromode.service.errors import error_body, install_error_handlers
@@ -29,6 +31,57 @@ from zeromode.solver.budget import time_budget
 log = logging.getLogger("zeromode")
 
 
+class LimitsAndAuth:
+    """Pure ASGI middleware (no per-request task or body streaming, unlike BaseHTTPMiddleware):
+    body-size limit, Content-Length required on bodies, optional API key, the per-request time
+    budget, and a request id echoed in the response and the log."""
+
+    def __init__(self, app: ASGIApp, settings: Settings):
+        self.app = app
+        self.settings = settings
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        settings = self.settings
+        headers = Headers(scope=scope)
+        request_id = headers.get("x-request-id") or uuid.uuid4().hex[:16]
+        length = headers.get("content-length")
+        refusal = None
+        if length is not None and length.isdigit() and int(length) > settings.max_body_bytes:
+            refusal = (413, "body_too_large", f"the request body has {length} bytes; the limit is {settings.max_body_bytes}.")
+        elif length is None and scope["method"] in ("POST", "PUT", "PATCH"):
+            # A chunked body has no Content-Length and would slip past the size limit above.
+            refusal = (411, "length_required", "a request body needs a Content-Length header (no chunked bodies).")
+        elif (
+            settings.api_key
+            and scope["path"].startswith("/v1/")
+            and not secrets.compare_digest(headers.get("x-api-key", ""), settings.api_key)
+        ):
+            refusal = (401, "unauthorized", "a valid X-API-Key header is required.")
+        if refusal is not None:
+            status, code, message = refusal
+            response = JSONResponse(status_code=status, content=error_body(code, message))
+            response.headers["x-request-id"] = request_id
+            log.info("request_id=%s %s %s -> %s", request_id, scope["method"], scope["path"], status)
+            await response(scope, receive, send)
+            return
+        status_seen = []
+
+        async def send_with_id(message: Message) -> None:
+            if message["type"] == "http.response.start":
+                status_seen.append(message["status"])
+                MutableHeaders(scope=message).append("x-request-id", request_id)
+            await send(message)
+
+        with time_budget(settings.time_budget_s):
+            await self.app(scope, receive, send_with_id)
+        log.info(
+            "request_id=%s %s %s -> %s", request_id, scope["method"], scope["path"], status_seen[0] if status_seen else "-"
+        )
+
+
 def create_app(settings: Settings = SETTINGS) -> FastAPI:
     app = FastAPI(
         title="zeromode",
@@ -43,38 +96,7 @@ def create_app(settings: Settings = SETTINGS) -> FastAPI:
     for module in (health, analyze, certify, design, examples, lattice, plot, motion, jobs):
         app.include_router(module.router)
 
-    @app.middleware("http")
-    async def limits_and_auth(request: Request, call_next):
-        request_id = request.headers.get("x-request-id") or uuid.uuid4().hex[:16]
-        length = request.headers.get("content-length")
-        if length is not None and length.isdigit() and int(length) > settings.max_body_bytes:
-            return JSONResponse(
-                status_code=413,
-                content=error_body(
-                    "body_too_large",
-                    f"the request body has {length} bytes; the limit is {settings.max_body_bytes}.",
-                ),
-            )
-        if length is None and request.method in ("POST", "PUT", "PATCH"):
-            # A chunked body has no Content-Length and would slip past the size limit above.
-            return JSONResponse(
-                status_code=411,
-                content=error_body(
-                    "length_required", "a request body needs a Content-Length header (no chunked bodies)."
-                ),
-            )
-        if settings.api_key and request.url.path.startswith("/v1/"):
-            given = request.headers.get("x-api-key", "")
-            if not secrets.compare_digest(given, settings.api_key):
-                return JSONResponse(
-                    status_code=401,
-                    content=error_body("unauthorized", "a valid X-API-Key header is required."),
-                )
-        with time_budget(settings.time_budget_s):
-            response = await call_next(request)
-        response.headers["x-request-id"] = request_id
-        log.info("request_id=%s %s %s -> %s", request_id, request.method, request.url.path, response.status_code)
-        return response
+    app.add_middleware(LimitsAndAuth, settings=settings)
 
     if settings.cors_origins:
         app.add_middleware(

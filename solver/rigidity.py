@@ -32,10 +32,11 @@ from zeromode.solver.errors import DomainError
 from zeromode.solver.frame import Frame
 from zeromode.solver.rank import RTOL, RankGap, complement_within, decide_rank, orthonormal_range
 
-# Dense full SVD up to this many degrees of freedom (dN), sparse subspace iteration above: with
-# bases (the default) the two cost the same near 300–400 on 2D lattices and the sparse route
-# wins from there (4× at 1000); counts alone are 2–100× faster sparse at every size
-# (benchmarks/bench_analysis.py, docs/benchmarks/analysis.md). Below it the exact SVD is kept.
+# Dense full SVD up to this many degrees of freedom (dN), sparse subspace iteration above.
+# Measured (benchmarks/bench_analysis.py): with bases (the default) both cost the same near
+# dN = 400 on 2D lattices and sparse is 1.6–14× faster at 1000; on over-braced 3D lattices,
+# whose stress basis is large, sparse stays 1.2–1.5× slower up to 1000; counts alone are
+# 2–70× faster sparse from dN = 200. Below the crossover the exact SVD is kept.
 DENSE_MAX_DOF = 400
 # Bases are returned only while they stay this small (numbers); counts are always exact.
 BASIS_MAX_NUMBERS = 4_000_000
