@@ -175,9 +175,9 @@ def analyze(frame: Frame, rtol: float = RTOL, method: str = "auto", bases: bool 
     else:
         raise ValueError(f"unknown method {method!r}")
     n, d = frame.n_nodes, frame.dim
-    z_nontrivial = null.shape[1] - rigid.shape[1]
+    z_nontrivial = d * n - rank - rigid.shape[1]
     size = max(z_nontrivial, 0) * d * n + (frame.n_edges - rank) * frame.n_edges
-    include = bases and size <= BASIS_MAX_NUMBERS and stresses is not None
+    include = bases and size <= BASIS_MAX_NUMBERS and stresses is not None and null.shape[1] == d * n - rank
     if include:
         modes = complement_within(null, rigid).T.reshape(-1, n, d)
         stress_basis = stresses.T
