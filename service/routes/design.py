@@ -14,12 +14,15 @@ from zeromode.service.schemas.design import (
     DesignResponse,
     SolutionSpaceRequest,
     SolutionSpaceResponse,
+    TwoConfigurationRequest,
+    TwoConfigurationResponse,
 )
 from zeromode.solver.certificates import SDP_MAX_DIM, certify
 from zeromode.solver.design import design
 from zeromode.solver.errors import InvalidInput
 from zeromode.solver.refine import RefinementFailed, refine
 from zeromode.solver.solution_space import solution_space
+from zeromode.solver.two_configuration import design_two_configurations
 
 router = APIRouter(prefix="/v1", tags=["design"])
 
@@ -99,3 +102,26 @@ def post_design(request: DesignRequest) -> dict:
         ).to_dict()
     body["report"]["timings_ms"]["total"] = 1e3 * (time.perf_counter() - t0)
     return body
+
+
+@router.post("/design/two-configuration", response_model=TwoConfigurationResponse, responses=ERROR_RESPONSES)
+def post_two_configuration(request: TwoConfigurationRequest) -> dict:
+    """A frame whose specified nodes can sit at `initial` and at `final` with every bar keeping
+    its length (the midpoint frame's designed flex, by the averaging principle); whether one
+    continuous motion joins the two configurations is traced and reported."""
+    t0 = time.perf_counter()
+    result = design_two_configurations(request.initial, request.final, dim=request.dim, seed=request.options.seed)
+    frame = result.frame
+    return {
+        "frame": frame.to_dict(),
+        "final_positions": result.final_positions.tolist(),
+        "report": {
+            "analysis": result.analysis_initial.counts(),
+            "unspecified_nodes": frame.n_nodes - len(frame.specified),
+            "bars": frame.n_edges,
+            "max_length_mismatch": result.max_length_mismatch,
+            "epsilon": result.epsilon,
+            "path": result.path_note,
+            "timings_ms": {"total": 1e3 * (time.perf_counter() - t0)},
+        },
+    }

@@ -101,3 +101,28 @@ class DesignResponse(BaseModel):
     frame: FrameModel
     modes: list[Points] = Field(description="M full zero modes, N×d; rows 0..k−1 equal the requested motions.")
     report: DesignReport
+
+
+class TwoConfigurationRequest(BaseModel):
+    dim: Literal[2, 3]
+    initial: Points = Field(min_length=1, max_length=SETTINGS.max_specified, description="x_S, k×d: first configuration.")
+    final: Points = Field(min_length=1, max_length=SETTINGS.max_specified, description="y_S, k×d: second configuration.")
+    options: DesignOptions = Field(default_factory=DesignOptions, description="Only `seed` is used.")
+
+
+class TwoConfigurationReport(BaseModel):
+    analysis: AnalysisCounts = Field(description="Counts of the frame in its first configuration.")
+    unspecified_nodes: int
+    bars: int
+    max_length_mismatch: float = Field(description="max over bars of |l(final) − l(initial)| / l(initial).")
+    epsilon: float | None = Field(
+        description="Finite-motion fidelity of the traced motion from the first configuration to y_S (None if not traced)."
+    )
+    path: str = Field(description="Whether one continuous motion joins the configurations, in one sentence.")
+    timings_ms: dict[str, float]
+
+
+class TwoConfigurationResponse(BaseModel):
+    frame: FrameModel = Field(description="The frame in its first configuration; the first k nodes are at x_S exactly.")
+    final_positions: Points = Field(description="N×d second configuration; the first k rows are y_S exactly.")
+    report: TwoConfigurationReport
