@@ -307,3 +307,18 @@ def test_allosteric_design_drives_the_target(client: Client, require) -> None:
     wanted = np.concatenate([u_src.ravel(), u_tgt.ravel()])
     coef, *_ = np.linalg.lstsq(null[rows], wanted, rcond=None)
     assert np.linalg.norm(null[rows] @ coef - wanted) < 1e-8 * np.linalg.norm(wanted)
+
+
+def test_two_configuration_design_realises_both(client: Client, require) -> None:
+    """Initial and final positions of a square scaled by 1.3: both are exact realisations."""
+    require("/v1/design/two-configuration")
+    x = np.array([[1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0], [1.0, -1.0]])
+    result = client.design_two_configuration(dim=2, initial=x, final=1.3 * x)
+    frame = result.frame
+    assert frame is not None
+    final = np.asarray(result["final_positions"])
+    e = np.asarray(frame.edges)
+    first = np.linalg.norm(frame.positions[e[:, 0]] - frame.positions[e[:, 1]], axis=1)
+    second = np.linalg.norm(final[e[:, 0]] - final[e[:, 1]], axis=1)
+    np.testing.assert_allclose(first, second, rtol=1e-12)
+    np.testing.assert_array_equal(final[:4], 1.3 * x)

@@ -163,6 +163,10 @@ class Client(_BaseClient):
         """POST /v1/design/allosteric with ``fields`` as the request object."""
         return self._send(ep.capability("/v1/design/allosteric", fields))
 
+    def design_two_configuration(self, **fields: Any) -> Result:
+        """POST /v1/design/two-configuration with ``fields`` (dim, initial, final, options)."""
+        return self._send(ep.capability("/v1/design/two-configuration", fields))
+
     def submit_job(self, endpoint: str, request: Mapping[str, Any]) -> str:
         """POST /v1/jobs: run ``endpoint`` (e.g. ``"/v1/design/auxetic"``) with ``request`` as its
         body in the background, under the service's longer job time budget; returns the job id.
@@ -269,6 +273,9 @@ class AsyncClient(_BaseClient):
 
     async def design_allosteric(self, **fields: Any) -> Result:
         return await self._send(ep.capability("/v1/design/allosteric", fields))
+
+    async def design_two_configuration(self, **fields: Any) -> Result:
+        return await self._send(ep.capability("/v1/design/two-configuration", fields))
 
     async def submit_job(self, endpoint: str, request: Mapping[str, Any]) -> str:
         return await self._send(ep.submit_job(endpoint, request))
