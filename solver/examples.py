@@ -51,8 +51,10 @@ EXAMPLES: dict[str, tuple[str, dict]] = {
 EXAMPLES.update(
     {
         "two_mode_2d": (
-            "Fig. 4a–c: three specified nodes, two motions; one unspecified node where the two "
-            "position conics meet (exact resultant), N_D = 5.",
+            (
+                "Fig. 4a–c: three specified nodes, two motions; one unspecified node where the two "
+                "position conics meet (exact resultant), N_D = 5."
+            ),
             {
                 "dim": 2,
                 "positions": [[0.3, -0.5], [-0.9, -1.0], [0.6, 0.8]],
@@ -64,8 +66,10 @@ EXAMPLES.update(
             },
         ),
         "two_mode_3d": (
-            "Fig. 4d–f: four specified nodes, two motions; four unspecified nodes on the curve "
-            "where the two quadric surfaces meet, N_D = 8.",
+            (
+                "Fig. 4d–f: four specified nodes, two motions; four unspecified nodes on the curve "
+                "where the two quadric surfaces meet, N_D = 8."
+            ),
             {
                 "dim": 3,
                 "positions": [[0.7, 0.2, -0.4], [-0.9, 0.9, 0.2], [0.6, 0.8, 0.4], [-0.6, 1.0, -0.4]],
@@ -77,8 +81,10 @@ EXAMPLES.update(
             },
         ),
         "six_node_2d": (
-            "Supplement, partitioned construction in 2D: six specified nodes, no node can join "
-            "them all; modules of four specified nodes couple them, N_D = 4.",
+            (
+                "Supplement, partitioned construction in 2D: six specified nodes, no node can join "
+                "them all; modules of four specified nodes couple them, N_D = 4."
+            ),
             {
                 "dim": 2,
                 "positions": [[0.4, 0.5], [-1.4, -1.0], [0.2, 0.2], [0.1, -0.4], [-1.3, -0.4], [-0.4, -0.8]],
@@ -87,8 +93,10 @@ EXAMPLES.update(
             },
         ),
         "six_node_3d": (
-            "Supplement, partitioned construction in 3D: six specified nodes on an octahedron "
-            "whose full solution space has no real point; modules of five and four nodes, N_D = 7.",
+            (
+                "Supplement, partitioned construction in 3D: six specified nodes on an octahedron "
+                "whose full solution space has no real point; modules of five and four nodes, N_D = 7."
+            ),
             {
                 "dim": 3,
                 "positions": [[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]],
