@@ -87,6 +87,18 @@ def rigid_motions(positions: np.ndarray, rtol: float = RTOL) -> np.ndarray:
     return orthonormal_range(np.column_stack(generators), rtol)
 
 
+def non_rigid_part(positions: np.ndarray, motion: np.ndarray, rtol: float = RTOL) -> np.ndarray:
+    """u − R Rᵀ u: the part of ``motion`` (N, d) orthogonal to every rigid motion of ``positions``.
+
+    R = rigid_motions of the normalised positions (any translation or scale of ``positions``
+    gives the same projector). Returns an (N, d) array; zero exactly when u is rigid.
+    """
+    x = Frame.build(positions, []).normalised_positions()
+    rigid = rigid_motions(x, rtol)
+    u = np.asarray(motion, dtype=float).ravel()
+    return (u - rigid @ (rigid.T @ u)).reshape(x.shape)
+
+
 def zero_mode_residual(frame: Frame, mode: np.ndarray) -> float:
     """‖C u‖ / (‖C‖_F ‖u‖) with C of the normalised frame: 0 for an exact zero mode u (N, d).
 
