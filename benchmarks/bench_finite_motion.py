@@ -54,7 +54,7 @@ from pathlib import Path
 
 import numpy as np
 
-from zeromode.service.convert import json_safe
+from zeromode.service.responses import json_safe
 from zeromode.solver.budget import time_budget
 from zeromode.solver.design import design
 from zeromode.solver.errors import DomainError

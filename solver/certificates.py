@@ -157,9 +157,6 @@ class SolverRun:
     status: str
     time_ms: float
 
-    def to_dict(self) -> dict:
-        return {"solver": self.solver, "status": self.status, "time_ms": self.time_ms}
-
 
 @dataclass(frozen=True, eq=False)
 class LmiSolution:
@@ -175,15 +172,6 @@ class LmiSolution:
     status: str
     time_ms: float
     attempts: tuple[SolverRun, ...]
-
-    def to_dict(self) -> dict:
-        return {
-            "solver": self.solver,
-            "status": self.status,
-            "time_ms": self.time_ms,
-            "size": int(self.x.size),
-            "attempts": [a.to_dict() for a in self.attempts],
-        }
 
 
 def _solve_once(program: LmiProgram, solver: str, time_limit: float | None, max_iters: int | None):
@@ -278,18 +266,6 @@ class SelfStressCertificate:
     largest_zero: float
     equilibrium_residual: float
 
-    def to_dict(self) -> dict:
-        return {
-            "count": self.count,
-            "basis": self.basis.tolist(),
-            "basis_included": self.basis_included,
-            "singular_values": {
-                "smallest_nonzero": self.smallest_nonzero,
-                "largest_zero": self.largest_zero,
-            },
-            "equilibrium_residual": self.equilibrium_residual,
-        }
-
 
 @dataclass(frozen=True, eq=False)
 class PrestressCertificate:
@@ -308,19 +284,6 @@ class PrestressCertificate:
     stress: np.ndarray | None
     threshold: float
     sdp: LmiSolution | None
-
-    def to_dict(self) -> dict:
-        return {
-            "prestress_stable": self.prestress_stable,
-            "decided_by": self.decided_by,
-            "flexes": self.flexes,
-            "stresses": self.stresses,
-            "margin": self.margin,
-            "margin_upper_bound": self.margin_upper_bound,
-            "stress": None if self.stress is None else self.stress.tolist(),
-            "threshold": self.threshold,
-            "sdp": None if self.sdp is None else self.sdp.to_dict(),
-        }
 
 
 @dataclass(frozen=True, eq=False)
@@ -343,19 +306,6 @@ class RigidityMargin:
     stiffness: np.ndarray | None = None
     sdp: LmiSolution | None = None
 
-    def to_dict(self) -> dict:
-        return {
-            "designed_modes": self.designed_modes,
-            "complement_dim": self.complement_dim,
-            "undesigned_zero_modes": self.undesigned_zero_modes,
-            "uniform": self.uniform,
-            "optimal": self.optimal,
-            "optimal_upper_bound": self.optimal_upper_bound,
-            "gain": self.gain,
-            "stiffness": None if self.stiffness is None else self.stiffness.tolist(),
-            "sdp": None if self.sdp is None else self.sdp.to_dict(),
-        }
-
 
 @dataclass(frozen=True, eq=False)
 class Certificate:
@@ -366,15 +316,6 @@ class Certificate:
     prestress: PrestressCertificate
     rigidity_margin: RigidityMargin
     timings_ms: dict = field(default_factory=dict)
-
-    def to_dict(self) -> dict:
-        return {
-            "analysis": self.analysis.counts(),
-            "self_stress": self.self_stress.to_dict(),
-            "prestress": self.prestress.to_dict(),
-            "rigidity_margin": self.rigidity_margin.to_dict(),
-            "timings_ms": dict(self.timings_ms),
-        }
 
 
 def self_stress_certificate(analysis: Analysis, c) -> SelfStressCertificate:
@@ -543,6 +484,7 @@ def certify(
     solver: str = "clarabel",
     stiffness: bool = True,
     max_iters: int | None = None,
+    analysis: Analysis | None = None,
 ) -> Certificate:
     """Self-stress certificate, prestress stability and rigidity margin of ``frame``.
 
@@ -550,6 +492,8 @@ def certify(
     they must be zero modes, independent modulo rigid motions. solver: "clarabel" or "scs"
     (the other one is the fallback). stiffness: also run the stiffness-allocation SDP.
     max_iters caps each solver attempt; the time budget of budget.py bounds the whole call.
+    analysis: the frame's analysis with bases when the caller already has it (the pipeline
+    passes the design's), so it is not recomputed.
     Raises InvalidInput (bad modes/solver), DomainError ``too_expensive`` / ``certificate_failed``.
     """
     if solver not in SOLVERS:
@@ -557,7 +501,8 @@ def certify(
             "invalid_solver", f"solver must be one of {', '.join(SOLVERS)}, got {solver!r}."
         )
     t0 = time.perf_counter()
-    analysis = analyze(frame)
+    if analysis is None:
+        analysis = analyze(frame)
     c = compatibility_matrix(frame.normalised_positions(), frame.edges)
     t1 = time.perf_counter()
     report_progress(0.2, "analysed the frame")

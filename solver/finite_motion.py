@@ -91,15 +91,6 @@ class Singularity:
     sigma: float
     kind: str
 
-    def to_dict(self) -> dict:
-        return {
-            "step": self.step,
-            "parameter": self.parameter,
-            "extra_zero_modes": self.extra_zero_modes,
-            "sigma": self.sigma,
-            "kind": self.kind,
-        }
-
 
 @dataclass(frozen=True, eq=False)
 class MotionPath:
@@ -119,17 +110,6 @@ class MotionPath:
     @property
     def status(self) -> str:
         return "singular_path" if self.singularities else "ok"
-
-    def to_dict(self) -> dict:
-        return {
-            "path": self.positions.tolist(),
-            "parameter": self.parameter.tolist(),
-            "reference_index": self.reference_index,
-            "max_relative_bar_error": self.max_relative_bar_error,
-            "singularities": [s.to_dict() for s in self.singularities],
-            "status": self.status,
-            "steps": int(len(self.parameter) - 1),
-        }
 
 
 class SingularPath(DomainError):
@@ -549,9 +529,6 @@ class Fidelity:
     epsilon: float
     parameter: float
     at_end: bool
-
-    def to_dict(self) -> dict:
-        return {"epsilon": self.epsilon, "parameter": self.parameter, "at_end": self.at_end}
 
 
 def fidelity(path: MotionPath, specified, x_s, u_s, a: float) -> Fidelity:

@@ -167,11 +167,3 @@ class Frame:
         # Divided by max |x| first, so neither the centring nor the RMS overflows or underflows.
         x, r = _centred_rms(unit_scaled(self.positions)[0])
         return x / r if r > 0 else x
-
-    def to_dict(self) -> dict:
-        return {
-            "dim": self.dim,
-            "positions": self.positions.tolist(),
-            "edges": self.edges.tolist(),
-            "specified": list(self.specified),
-        }

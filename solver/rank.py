@@ -24,9 +24,6 @@ class RankGap:
     last_nonzero: float
     first_zero: float
 
-    def to_dict(self) -> dict:
-        return {"last_nonzero": self.last_nonzero, "first_zero": self.first_zero}
-
 
 def decide_rank(singular_values: np.ndarray, rtol: float = RTOL) -> tuple[int, RankGap]:
     """Rank from descending singular values: count σ_i > rtol·σ_1; return it with its gap."""

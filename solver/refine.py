@@ -97,29 +97,6 @@ class Refinement:
     ok: bool
     message: str
 
-    def to_dict(self) -> dict:
-        return {
-            "frame": self.frame.to_dict(),
-            "displacement": self.displacement.tolist(),
-            "amplitude": self.amplitude,
-            "epsilon_before": self.epsilon_before,
-            "epsilon_after": self.epsilon_after,
-            "ipopt_status": self.ipopt_status,
-            "iterations": self.iterations,
-            "K": self.K,
-            "attempts": self.attempts,
-            "time_ms": self.time_ms,
-            "ipopt_time_ms": self.ipopt_time_ms,
-            "path": self.path.tolist(),
-            "max_relative_bar_error": self.max_relative_bar_error,
-            "analysis_reference": None
-            if self.analysis_reference is None
-            else self.analysis_reference.counts(),
-            "analysis_end": None if self.analysis_end is None else self.analysis_end.counts(),
-            "status": "ok" if self.ok else "refinement_failed",
-            "message": self.message,
-        }
-
 
 class RefinementFailed(DomainError):
     """IPOPT did not converge, or its result failed re-verification; ``best`` holds the best
@@ -189,6 +166,7 @@ def refine(
     max_iter: int = 500,
     max_time_s: float = 5.0,
     stay_on_solution_space: bool = False,
+    analysis: Analysis | None = None,
 ) -> Refinement:
     """Move the unspecified nodes so that the finite motion carries x_S to x_S + Δ_S.
 
@@ -197,6 +175,8 @@ def refine(
     K: number of configurations after the reference (≥ 1); if IPOPT's configurations straddle
     two branches (the refined motion misses the target), the solve is retried once with 2K
     (≤ MAX_K).  tol, max_iter, max_time_s: IPOPT's tol, max_iter and max_cpu_time (per solve).
+    analysis: the frame's analysis with bases, when the caller already has it (the pipeline
+    passes the design's), so the reference is not analysed twice.
     Returns a Refinement with ``ok`` True; raises RefinementFailed (code ``refinement_failed``,
     with the best result) otherwise.
     """
@@ -215,7 +195,7 @@ def refine(
             "too_expensive",
             f"the refinement would have {unknowns} unknowns (limit {MAX_UNKNOWNS}); lower K or use a smaller frame.",
         )
-    before = analyze(frame)
+    before = analysis if analysis is not None else analyze(frame)
     if not _single_mode(before):
         raise DomainError(
             "not_single_mode",
@@ -335,8 +315,9 @@ def _attempt(
     eps_after = np.inf
     try:
         refined = Frame.build(path[0], frame.edges, frame.specified, dim=d)
-        an_ref = analyze(refined)
-        an_end = analyze(Frame.build(path[-1], frame.edges, frame.specified, dim=d))
+        # Counts decide the re-verification; the bases are not needed (cheaper on large frames).
+        an_ref = analyze(refined, bases=False)
+        an_end = analyze(Frame.build(path[-1], frame.edges, frame.specified, dim=d), bases=False)
     except DomainError as exc:  # a diverged iterate, or two joined nodes collapsed onto each other
         problems.append(f"the refined frame is invalid ({exc.message})")
     if an_ref is not None and an_end is not None:

@@ -153,21 +153,6 @@ class Analysis:
     def self_stresses(self) -> int:
         return self.edges - self.rank
 
-    def counts(self) -> dict:
-        """The integer fields and the rank gap, as in the /v1/analyze response."""
-        return {
-            "nodes": self.nodes,
-            "edges": self.edges,
-            "dim": self.dim,
-            "maxwell_count": self.maxwell_count,
-            "rank": self.rank,
-            "zero_modes": self.zero_modes,
-            "rigid_body_modes": self.rigid_body_modes,
-            "nontrivial_zero_modes": self.nontrivial_zero_modes,
-            "self_stresses": self.self_stresses,
-            "rank_gap": self.rank_gap.to_dict(),
-        }
-
 
 def analyze(frame: Frame, rtol: float = RTOL, method: str = "auto", bases: bool = True) -> Analysis:
     """Analyse ``frame``: rank of C, zero modes, rigid motions, self-stresses, and their bases.

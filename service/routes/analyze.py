@@ -7,6 +7,7 @@ import time
 from fastapi import APIRouter
 
 from zeromode.service.convert import frame_from_model
+from zeromode.service.responses import analyze_body
 from zeromode.service.schemas.analyze import AnalyzeRequest, AnalyzeResponse
 from zeromode.service.schemas.common import ERROR_RESPONSES
 from zeromode.solver.rigidity import analyze
@@ -21,11 +22,4 @@ def post_analyze(request: AnalyzeRequest) -> dict:
     frame = frame_from_model(request.frame)
     opts = request.options
     result = analyze(frame, rtol=opts.rtol, method=opts.method, bases=opts.bases)
-    return {
-        **result.counts(),
-        "modes": result.modes.tolist(),
-        "stresses": result.stresses.tolist(),
-        "method": result.method,
-        "bases_included": result.bases_included,
-        "timings_ms": {"total": 1e3 * (time.perf_counter() - t0)},
-    }
+    return analyze_body(result, {"total": 1e3 * (time.perf_counter() - t0)})

@@ -5,6 +5,7 @@ from __future__ import annotations
 from fastapi import APIRouter
 
 from zeromode.service.convert import frame_from_model
+from zeromode.service.responses import certificate_body
 from zeromode.service.schemas.certify import CertifyRequest, CertifyResponse
 from zeromode.service.schemas.common import ERROR_RESPONSES
 from zeromode.solver.certificates import certify
@@ -22,6 +23,6 @@ def post_certify(request: CertifyRequest) -> dict:
     limit, or the time budget spent), `invalid_modes`."""
     frame = frame_from_model(request.frame)
     opts = request.options
-    return certify(
+    return certificate_body(certify(
         frame, request.modes, solver=opts.solver, stiffness=opts.stiffness, max_iters=opts.max_iters
-    ).to_dict()
+    ))

@@ -6,6 +6,7 @@ import time
 
 from fastapi import APIRouter
 
+from zeromode.service.responses import allosteric_body, auxetic_body
 from zeromode.service.schemas.allostery import AllostericRequest, AllostericResponse
 from zeromode.service.schemas.common import ERROR_RESPONSES
 from zeromode.service.schemas.lattice import AuxeticRequest, AuxeticResponse
@@ -37,21 +38,7 @@ def post_auxetic(request: AuxeticRequest) -> dict:
         lat = auxetic_chain_3d(
             request.cells[0], poisson=request.poisson_ratio, block=block, strain=request.strain, seed=request.seed
         )
-    return {
-        "frame": lat.frame.to_dict(),
-        "modes": [lat.mode.tolist()],
-        "poisson_ratio": lat.poisson_ratio,
-        "states": [
-            {"name": name, "positions": x.tolist(), "poisson_ratio": nu} for name, (x, nu) in sorted(lat.states.items())
-        ],
-        "report": {
-            "analysis": lat.analysis.counts(),
-            "boundary": lat.boundary,
-            "mode_residual": lat.mode_residual,
-            "max_relative_bar_error": lat.max_relative_bar_error,
-            "timings_ms": {"total": 1e3 * (time.perf_counter() - t0)},
-        },
-    }
+    return auxetic_body(lat, {"total": 1e3 * (time.perf_counter() - t0)})
 
 
 @router.post("/allosteric", response_model=AllostericResponse, responses=ERROR_RESPONSES)
@@ -67,23 +54,4 @@ def post_allosteric(request: AllostericRequest) -> dict:
         seed=request.options.seed,
         relay_spacing=request.options.relay_spacing,
     )
-    d = result.design
-    frame = d.frame.to_dict()
-    frame["specified"] = list(result.source) + list(result.target)
-    return {
-        "frame": frame,
-        "modes": d.modes.tolist(),
-        "report": {
-            "analysis": d.analysis.counts(),
-            "source": list(result.source),
-            "target": list(result.target),
-            "relays": list(result.relays),
-            "achieved_target_motion": result.achieved_target_motion.tolist(),
-            "target_error": result.target_error,
-            "distance": result.distance,
-            "unspecified_nodes": d.frame.n_nodes - len(result.source) - len(result.target),
-            "bars": d.frame.n_edges,
-            "mode_residual": d.mode_residual,
-            "timings_ms": {"total": 1e3 * (time.perf_counter() - t0)},
-        },
-    }
+    return allosteric_body(result, {"total": 1e3 * (time.perf_counter() - t0)})

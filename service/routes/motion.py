@@ -7,8 +7,9 @@ import time
 from fastapi import APIRouter
 from fastapi.responses import JSONResponse
 
-from zeromode.service.convert import frame_from_model, json_safe
+from zeromode.service.convert import frame_from_model
 from zeromode.service.errors import error_body
+from zeromode.service.responses import motion_body, refinement_body
 from zeromode.service.schemas.common import ERROR_RESPONSES
 from zeromode.service.schemas.motion import (
     MotionErrorResponse,
@@ -52,7 +53,7 @@ def post_motion(request: MotionRequest):
         direction=request.direction,
         max_steps=request.max_steps,
     )
-    body = {**path.to_dict(), "timings_ms": {"total": 1e3 * (time.perf_counter() - t0)}}
+    body = motion_body(path, {"total": 1e3 * (time.perf_counter() - t0)})
     if path.singularities and request.on_singularity == "error":
         exc = SingularPath(path)
         return JSONResponse(status_code=422, content=error_body(exc.code, exc.message, best=body))
@@ -86,6 +87,6 @@ def post_refine(request: RefineRequest):
     except RefinementFailed as exc:
         return JSONResponse(
             status_code=422,
-            content=error_body(exc.code, exc.message, best=json_safe(exc.best.to_dict())),
+            content=error_body(exc.code, exc.message, best=refinement_body(exc.best)),
         )
-    return result.to_dict()
+    return refinement_body(result)

@@ -1,0 +1,117 @@
+"""The user's pipeline: analytic design → optional refinement → optional certificates.
+
+This is the one place that chains the stages. Routes, jobs, the CLI and the library call
+``design_pipeline``; nothing else decides which stages a request needs or how large they are.
+
+Stages (each only when asked: model no more than the scene needs):
+  1. design      the quadric construction of the paper (Eqs. 4–7; design.design), verified by
+                 one full rigidity analysis of the designed frame;
+  2. refine      casadi/IPOPT refinement of the unspecified nodes for finite-motion fidelity
+                 (refine.refine), which reuses the design's analysis as its reference and
+                 analyses the refined frame once (plus a counts-only check of its far end);
+  3. certify     self-stress, prestress stability and rigidity margin of the linear design
+                 (certificates.certify), which reuses the design's analysis.
+So a design + refine + certify request runs the full analysis twice: the designed frame and the
+refined frame.
+
+Sizing: the stiffness-allocation SDP has a p × p LMI with p = dN − d(d+1)/2 − M (the motions
+to suppress); past ``SDP_MAX_DIM`` the certificate keeps the uniform margin only.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from zeromode.solver.certificates import SDP_MAX_DIM, Certificate, certify
+from zeromode.solver.design import Design, design
+from zeromode.solver.errors import InvalidInput
+from zeromode.solver.refine import Refinement, RefinementFailed, refine
+
+
+@dataclass(frozen=True)
+class RefineStage:
+    """Options of the refinement stage (see refine.refine): a = amplitude, K configurations,
+    IPOPT tolerance and time limit per solve."""
+
+    amplitude: float = 0.1
+    K: int = 8
+    tol: float = 1e-8
+    max_time_s: float = 5.0
+
+
+@dataclass(frozen=True, eq=False)
+class PipelineResult:
+    """What the pipeline produced.
+
+    design: the verified linear design (its frame and modes are the contract's answer).
+    refinement: the refined frame, or after a failure the best one found (``ok`` False), or
+    None when not asked. certificate: the certificates of the linear design, or None.
+    timings_ms: wall time of each stage that ran and the total.
+    """
+
+    design: Design
+    refinement: Refinement | None
+    certificate: Certificate | None
+    timings_ms: dict[str, float]
+
+
+def stiffness_sdp_fits(design_result: Design) -> bool:
+    """True when the stiffness-allocation LMI (p × p, p = dN − d(d+1)/2 − M) is within SDP_MAX_DIM."""
+    frame = design_result.frame
+    return frame.dim * frame.n_nodes - design_result.target_zero_modes <= SDP_MAX_DIM
+
+
+def design_pipeline(
+    positions,
+    motions,
+    *,
+    dim: int | None = None,
+    seed: int = 0,
+    n_unspecified: int | None = None,
+    refine_stage: RefineStage | None = None,
+    certify_stage: bool = False,
+) -> PipelineResult:
+    """Design, then (if asked) refine and certify; see the module docstring.
+
+    positions: x_S (k, d); motions: M motions, each (k, d). refine_stage follows one motion
+    (M = 1). Raises the DomainErrors of the stages it runs (a failed refinement is not an
+    error: its best result is returned with ``ok`` False).
+    """
+    if refine_stage is not None and len(motions) != 1:
+        raise InvalidInput(
+            "invalid_options", "refinement follows one motion; request a single motion."
+        )
+    t0 = time.perf_counter()
+    result = design(positions, motions, dim=dim, seed=seed, n_unspecified=n_unspecified)
+    timings = {"design": 1e3 * (time.perf_counter() - t0)}
+    refined = None
+    if refine_stage is not None:
+        t1 = time.perf_counter()
+        try:
+            refined = refine(
+                result.frame,
+                motion_s=np.asarray(motions[0], dtype=float),
+                amplitude=refine_stage.amplitude,
+                K=refine_stage.K,
+                tol=refine_stage.tol,
+                max_time_s=refine_stage.max_time_s,
+                analysis=result.analysis,
+            )
+        except RefinementFailed as exc:
+            refined = exc.best
+        timings["refine"] = 1e3 * (time.perf_counter() - t1)
+    certificate = None
+    if certify_stage:
+        t2 = time.perf_counter()
+        certificate = certify(
+            result.frame,
+            list(result.modes),
+            stiffness=stiffness_sdp_fits(result),
+            analysis=result.analysis,
+        )
+        timings["certify"] = 1e3 * (time.perf_counter() - t2)
+    timings["total"] = 1e3 * (time.perf_counter() - t0)
+    return PipelineResult(result, refined, certificate, timings)
