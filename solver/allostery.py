@@ -21,8 +21,10 @@ import numpy as np
 
 from zeromode.solver.design import Design, design
 from zeromode.solver.errors import DomainError, InvalidInput
-from zeromode.solver.frame import check_positions, rms_radius
+from zeromode.solver.frame import check_positions
+from zeromode.solver.normalisation import rms_radius
 from zeromode.solver.rigidity import rigid_motions
+from zeromode.solver.tolerances import DISTINCT_RTOL
 
 
 @dataclass(frozen=True, eq=False)
@@ -109,7 +111,7 @@ def design_allosteric(
         raise InvalidInput("invalid_shape", "each site needs one motion row per node.")
     gaps = np.linalg.norm(x_src[:, None] - x_tgt[None], axis=2)
     size = max(rms_radius(np.vstack([x_src, x_tgt])), 1e-300)
-    if np.min(gaps) <= 1e-9 * size:
+    if np.min(gaps) <= DISTINCT_RTOL * size:
         i, j = np.unravel_index(np.argmin(gaps), gaps.shape)
         raise DomainError(
             "overlapping_sites", f"source node {i} and target node {j} coincide; the sites must be apart."

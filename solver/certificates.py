@@ -65,6 +65,7 @@ from zeromode.solver.rigidity import (
     compatibility_matrix,
     zero_mode_residual,
 )
+from zeromode.solver.tolerances import GIVEN_MODE_RTOL
 
 SOLVERS = ("clarabel", "scs")
 # Largest LMI (f or p) handed to a solver. Measured with Clarabel on the shared 2-core machine:
@@ -77,9 +78,6 @@ MARGIN_MAX_DOF = DENSE_MAX_DOF
 PRESTRESS_TOL = 1e-6
 # A solved margin SDP must close its bracket to this relative gap (else the fallback runs).
 MARGIN_GAP_RTOL = 1e-4
-# A designed mode m is a zero mode when ‖C m‖ ≤ MODE_RTOL · ‖C‖_F · ‖m‖, and independent
-# when its part outside span(rigid motions, earlier modes) exceeds MODE_RTOL · ‖m‖.
-MODE_RTOL = 1e-6
 
 
 # ----------------------------------------------------------------------------- modelling
@@ -402,13 +400,13 @@ def designed_mode_basis(frame: Frame, rigid: np.ndarray, modes) -> np.ndarray:
         if norm == 0:
             raise InvalidInput("invalid_modes", f"modes[{i}] is zero.")
         residual = zero_mode_residual(frame, m)
-        if not residual <= MODE_RTOL:  # also catches NaN
+        if not residual <= GIVEN_MODE_RTOL:  # also catches NaN
             raise InvalidInput(
                 "invalid_modes",
-                f"modes[{i}] is not a zero mode of the frame: ‖C m‖/(‖C‖_F‖m‖) = {residual:.2e} > {MODE_RTOL:g}.",
+                f"modes[{i}] is not a zero mode of the frame: ‖C m‖/(‖C‖_F‖m‖) = {residual:.2e} > {GIVEN_MODE_RTOL:g}.",
             )
         outside = v - span @ (span.T @ v)
-        if np.linalg.norm(outside) <= MODE_RTOL * norm:
+        if np.linalg.norm(outside) <= GIVEN_MODE_RTOL * norm:
             raise InvalidInput(
                 "invalid_modes",
                 f"modes[{i}] is a combination of the rigid motions and the modes before it.",

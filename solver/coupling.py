@@ -18,7 +18,9 @@ import numpy as np
 
 from zeromode.solver.errors import DomainError
 from zeromode.solver.frame import Frame
+from zeromode.solver.normalisation import normalised
 from zeromode.solver.rigidity import Analysis, analyze, rigid_motions
+from zeromode.solver.tolerances import DISTINCT_RTOL, RIGID_RTOL
 
 
 @dataclass(frozen=True, eq=False)
@@ -42,13 +44,11 @@ class Composite:
     node_map: tuple[np.ndarray, ...]
 
 
-def moves_rigidly(positions: np.ndarray, motion: np.ndarray, rtol: float = 1e-8) -> bool:
+def moves_rigidly(positions: np.ndarray, motion: np.ndarray, rtol: float = RIGID_RTOL) -> bool:
     """True when ``motion`` (n, d) restricted to these nodes is a rigid motion of them."""
     if len(positions) < 2:
         return True
-    centred = positions - positions.mean(axis=0)
-    scale = np.sqrt(np.mean(np.sum(centred**2, axis=1))) or 1.0
-    rigid = rigid_motions(centred / scale)
+    rigid = rigid_motions(normalised(positions))
     flat = motion.ravel()
     norm = np.linalg.norm(flat)
     if norm == 0:
@@ -83,7 +83,7 @@ def couple(
     scale = max(float(np.max(np.abs(positions - positions.mean(0)))), 1e-300)
     for (ma, ia), (mb, ib) in merges:
         a, b = offsets[ma] + ia, offsets[mb] + ib
-        if np.linalg.norm(positions[a] - positions[b]) > 1e-9 * scale:
+        if np.linalg.norm(positions[a] - positions[b]) > DISTINCT_RTOL * scale:
             raise DomainError("coupling_failed", f"merged nodes {ma}:{ia} and {mb}:{ib} do not coincide.")
         parent[root(b)] = root(a)
     for m_index, module in enumerate(modules):

@@ -15,26 +15,23 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
-from math import comb
 
 import numpy as np
 
 from zeromode.solver.errors import DomainError, InvalidInput
-from zeromode.solver.frame import Frame, check_positions, unit_scaled
+from zeromode.solver.frame import Frame, check_positions
 from zeromode.solver.multimode import multi_mode_levels
+from zeromode.solver.normalisation import Normalisation, normalised
 from zeromode.solver.placement import (
     CandidatePool,
     Placement,
-    anchor_subsets,
-    coupling_subsets,
+    candidate_levels,
     place_nodes,
     target_zero_modes,
 )
 from zeromode.solver.rigidity import Analysis, analyze, rigid_motions, zero_mode_residual
-from zeromode.solver.solution_space import Normalisation, check_targets, solution_space
-
-# A placed design must satisfy ‖C u‖ ≤ MODE_RTOL·‖C‖‖u‖ on normalised coordinates.
-MODE_RTOL = 1e-10
+from zeromode.solver.solution_space import check_targets, solution_space
+from zeromode.solver.tolerances import DESIGN_MODE_RTOL, DISTINCT_RTOL, RIGID_RTOL
 
 
 @dataclass(frozen=True, eq=False)
@@ -71,7 +68,7 @@ def check_motions_nonrigid(positions: np.ndarray, motions: np.ndarray) -> None:
     scale = np.linalg.norm(flat, axis=0)
     residual = (flat - rigid @ (rigid.T @ flat)) / scale
     norms = np.linalg.norm(residual, axis=0)
-    if np.any(norms <= 1e-9):
+    if np.any(norms <= RIGID_RTOL):
         i = int(np.argmin(norms))
         raise DomainError(
             "rigid_target",
@@ -79,7 +76,7 @@ def check_motions_nonrigid(positions: np.ndarray, motions: np.ndarray) -> None:
             "only non-rigid motions can be designed.",
         )
     s = np.linalg.svd(residual / norms, compute_uv=False)
-    if len(motions) > 1 and s[-1] <= 1e-9 * s[0]:
+    if len(motions) > 1 and s[-1] <= RIGID_RTOL * s[0]:
         raise DomainError(
             "rigid_target", "the requested motions are linearly dependent modulo rigid motions."
         )
@@ -90,12 +87,12 @@ def check_specified_distinct(positions: np.ndarray) -> None:
     k = len(positions)
     if k < 2:
         return
-    y, _ = unit_scaled(positions - positions.mean(axis=0))  # scale-free at any magnitude
+    y = normalised(positions)  # RMS radius 1, or all points equal (then every distance is 0)
     scale = float(np.sqrt(np.mean(np.sum(y**2, axis=1))))
     dist = np.linalg.norm(y[:, None, :] - y[None, :, :], axis=-1)
     np.fill_diagonal(dist, np.inf)
     i, j = np.unravel_index(np.argmin(dist), dist.shape)
-    if scale == 0 or dist[i, j] <= 1e-9 * scale:
+    if scale == 0 or dist[i, j] <= DISTINCT_RTOL * scale:
         raise DomainError(
             "degenerate_specified", f"specified nodes {min(i, j)} and {max(i, j)} coincide."
         )
@@ -104,22 +101,12 @@ def check_specified_distinct(positions: np.ndarray) -> None:
 def single_mode_levels(
     x_n: np.ndarray, u_n: np.ndarray, rng: np.random.Generator, samples: int = 16
 ) -> Iterator[list[CandidatePool]]:
-    """Candidate levels for one motion: the full specified set, then ever smaller anchor subsets
-    (sizes 2d+1 … d+1) whose solution spaces are larger."""
-    k, d = x_n.shape
-    u = u_n[0]
-    yield [p for p in [_pool(x_n, u, tuple(range(k)), rng, samples)] if p is not None]
-    sizes = range(min(k - 1, 2 * d + 1), d, -1)
-    for size in sizes:
-        pools = [_pool(x_n, u, sub, rng, samples) for sub in anchor_subsets(x_n, size)]
-        yield [p for p in pools if p is not None]
-    if comb(k, d + 1) > 64:
-        # Coupling modules, drawn in small batches: a batch is built only if the ones before
-        # it could not remove a degree of freedom.
-        subsets = coupling_subsets(k, sizes, rng, 2 * k)
-        for start in range(0, len(subsets), 16):
-            pools = [_pool(x_n, u, sub, rng, samples) for sub in subsets[start : start + 16]]
-            yield [p for p in pools if p is not None]
+    """Candidate levels for one motion (placement.candidate_levels): anchor sets of up to
+    2d + 1 nodes, each with its solution space sampled (Eqs. 4–6)."""
+    d = x_n.shape[1]
+    return candidate_levels(
+        x_n, 2 * d + 1, rng, lambda subset: _pool(x_n, u_n[0], subset, rng, samples)
+    )
 
 
 def _pool(
@@ -186,7 +173,7 @@ def _finish(x: np.ndarray, u_all: np.ndarray, norm: Normalisation, state: Placem
 
 def verify(frame: Frame, modes: np.ndarray, anchor_sets=()) -> Design:
     """Check a design through a full analysis: exactly d(d+1)/2 + M zero modes, no self-stress,
-    d(d+1)/2 rigid motions, and ‖C u‖ ≤ MODE_RTOL‖C‖‖u‖ for every mode (normalised C)."""
+    d(d+1)/2 rigid motions, and ‖C u‖ ≤ DESIGN_MODE_RTOL‖C‖‖u‖ for every mode (normalised C)."""
     d = frame.dim
     target = target_zero_modes(d, len(modes))
     analysis = analyze(frame)
@@ -198,7 +185,7 @@ def verify(frame: Frame, modes: np.ndarray, anchor_sets=()) -> Design:
         problems.append(f"{analysis.self_stresses} self-stresses")
     if analysis.rigid_body_modes != d * (d + 1) // 2:
         problems.append("a degenerate configuration")
-    if not residual <= MODE_RTOL:  # also catches NaN
+    if not residual <= DESIGN_MODE_RTOL:  # also catches NaN
         problems.append(f"a mode residual of {residual:.1e}")
     if problems:
         raise DomainError(

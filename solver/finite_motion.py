@@ -56,9 +56,11 @@ from scipy.optimize import minimize_scalar
 
 from zeromode.solver.budget import check_budget
 from zeromode.solver.errors import DomainError, InvalidInput
-from zeromode.solver.frame import Frame, check_positions, rms_radius
+from zeromode.solver.frame import Frame, check_positions
+from zeromode.solver.normalisation import Normalisation
 from zeromode.solver.rank import RTOL, complement_within, decide_rank
 from zeromode.solver.rigidity import rigid_motions
+from zeromode.solver.tolerances import GIVEN_MODE_RTOL
 
 # Continuation runs on a dense C (full SVD per step); at 600 degrees of freedom a step costs
 # about 0.1 s, beyond that a path would not fit in a request's time budget.
@@ -73,8 +75,6 @@ MIN_STEP = 1e-9
 # Zero modes at a located singular point are counted with this relative threshold: a branch
 # point can be located only to about √(machine ε) ≈ 1e-8, and σ vanishes linearly there.
 SINGULAR_RTOL = 1e-6
-# A requested mode may leave N(C) by at most this relative amount.
-MODE_RTOL = 1e-6
 BISECTION_STEPS = 60
 
 
@@ -187,11 +187,9 @@ class _Point:
     sign: float
 
 
-def _local_frame(cons: _Constraints, x: np.ndarray, direction: np.ndarray, c=None):
-    """Zero modes of C(x): the unit tangent (projection of ``direction`` onto the nontrivial
-    modes), the complement B, the pivot rows of C and the rank; None if no nontrivial mode has
-    a component along ``direction``."""
-    c = cons.jacobian(x) if c is None else c
+def _zero_modes(c: np.ndarray, x: np.ndarray):
+    """N(C) (dN × z), the rigid motions R (dN × ρ), the nontrivial modes N(C) ⊖ R and rank C,
+    for C = C(x) dense and x normalised (full SVD; the rank decided by rank.decide_rank)."""
     ndof = c.shape[1]
     if c.shape[0]:
         _, s, vt = np.linalg.svd(c, full_matrices=True)
@@ -200,7 +198,16 @@ def _local_frame(cons: _Constraints, x: np.ndarray, direction: np.ndarray, c=Non
         vt, rank = np.eye(ndof), 0
     null = vt[rank:].T
     rigid = rigid_motions(x, RTOL)
-    modes = complement_within(null, rigid)
+    return null, rigid, complement_within(null, rigid), rank
+
+
+def _local_frame(cons: _Constraints, x: np.ndarray, direction: np.ndarray, c=None):
+    """Zero modes of C(x): the unit tangent (projection of ``direction`` onto the nontrivial
+    modes), the complement B, the pivot rows of C and the rank; None if no nontrivial mode has
+    a component along ``direction``."""
+    c = cons.jacobian(x) if c is None else c
+    ndof = c.shape[1]
+    _, rigid, modes, rank = _zero_modes(c, x)
     t = modes @ (modes.T @ direction)
     norm = np.linalg.norm(t)
     if modes.shape[1] == 0 or norm <= 1e-8 * np.linalg.norm(direction):
@@ -381,15 +388,8 @@ def _locate(cons, point: _Point, h: float, y_end: np.ndarray):
 
 def _start_direction(frame: Frame, x: np.ndarray, cons: _Constraints, mode) -> np.ndarray:
     """The unit starting tangent (dN) in normalised coordinates; DomainError if there is none."""
-    c = cons.jacobian(x)
-    n, d = x.shape
-    if c.shape[0]:
-        _, s, vt = np.linalg.svd(c, full_matrices=True)
-        rank, _ = decide_rank(s, RTOL)
-    else:
-        vt, rank = np.eye(n * d), 0
-    null = vt[rank:].T
-    modes = complement_within(null, rigid_motions(x, RTOL))
+    n = x.shape[0]
+    null, _, modes, _ = _zero_modes(cons.jacobian(x), x)
     if mode is None:
         if modes.shape[1] == 0:
             raise DomainError("no_motion", "the frame has no nontrivial zero mode: it cannot move.")
@@ -411,13 +411,13 @@ def _start_direction(frame: Frame, x: np.ndarray, cons: _Constraints, mode) -> n
     if norm == 0:
         raise InvalidInput("invalid_mode", "mode is zero.")
     leak = np.linalg.norm(u - null @ (null.T @ u)) / norm
-    if not leak <= MODE_RTOL:  # also catches NaN
+    if not leak <= GIVEN_MODE_RTOL:  # also catches NaN
         raise DomainError(
             "not_a_zero_mode",
             f"mode is not a zero mode of the frame: |C·u| leaves N(C) by {leak:.2e} of |u|.",
         )
     t = modes @ (modes.T @ u)
-    if np.linalg.norm(t) <= MODE_RTOL * norm:
+    if np.linalg.norm(t) <= GIVEN_MODE_RTOL * norm:
         raise DomainError("rigid_mode", "mode is a rigid motion of the frame; it deforms nothing.")
     return t / np.linalg.norm(t)
 
@@ -451,9 +451,8 @@ def trace_motion(
             "too_expensive",
             f"finite motion is traced for frames of up to {MAX_DOF} degrees of freedom (d·N); this one has {ndof}.",
         )
-    centre = frame.positions.mean(axis=0)
-    radius = rms_radius(frame.positions) or 1.0
-    x0 = (frame.positions - centre) / radius
+    norm = Normalisation.of(frame.positions)
+    x0 = norm.positions_in(frame.positions)
     cons = _Constraints(frame.edges, x0)
     t0 = _start_direction(frame, x0, cons, mode)
 
@@ -492,7 +491,7 @@ def trace_motion(
                 fwd_sing.kind,
             )
         )
-    positions = centre + radius * np.stack(configs)
+    positions = norm.positions_out(np.stack(configs))
     lengths = bar_lengths(frame.positions, frame.edges)
     error = max(relative_bar_error(p, frame.edges, lengths) for p in positions)
     return MotionPath(
@@ -560,9 +559,9 @@ def _polish(path: MotionPath, k: int, distance):
     """Minimise ``distance`` (of a configuration in the path's coordinates) over the curve
     between samples k−1 and k+1; (parameter, distance) or None if the corrector fails."""
     ref = path.positions[path.reference_index]
-    centre, radius = ref.mean(axis=0), rms_radius(ref) or 1.0
-    cons = _Constraints(path.edges, (ref - centre) / radius)
-    xs = (path.positions - centre) / radius
+    norm = Normalisation.of(ref)
+    cons = _Constraints(path.edges, norm.positions_in(ref))
+    xs = norm.positions_in(path.positions)
     lo, hi = max(k - 1, 0), min(k + 1, len(xs) - 1)
     local = _local_frame(cons, xs[k], (xs[hi] - xs[lo]).ravel())
     if local is None:
@@ -575,7 +574,7 @@ def _polish(path: MotionPath, k: int, distance):
 
     def along(s: float) -> float:
         got = _correct(cons, xs[k] + s * sqrt_n * t.reshape(xs[k].shape), t, b, tight=True)
-        return fallback if got is None else distance(centre + radius * got[0])
+        return fallback if got is None else distance(norm.positions_out(got[0]))
 
     res = minimize_scalar(along, bounds=bounds, method="bounded", options={"xatol": 1e-12})
     return float(path.parameter[k] + res.x), float(res.fun)
@@ -593,11 +592,11 @@ def motion_fidelity(frame: Frame, displacement_s: np.ndarray, horizon: float = 0
     """
     spec = np.asarray(frame.specified, dtype=int)
     x_s = frame.positions[spec]
-    radius = rms_radius(frame.positions) or 1.0
-    x0 = (frame.positions - frame.positions.mean(axis=0)) / radius
+    norm = Normalisation.of(frame.positions)
+    x0 = norm.positions_in(frame.positions)
     u = _start_direction(frame, x0, _Constraints(frame.edges, x0), None).reshape(x0.shape)
     # Linear estimate: X_S(τ) ≈ x_S + τ·r·√N·u_S (u unit in dN), fitted to Δ_S in least squares.
-    along = radius * np.sqrt(frame.n_nodes) * u[spec]
+    along = norm.length * np.sqrt(frame.n_nodes) * u[spec]
     tau_lin = abs(float(np.sum(along * displacement_s) / max(np.sum(along * along), 1e-300)))
     amplitude = max(3 * tau_lin, horizon, 0.05)
     step = min(max_step, amplitude / 10)

@@ -13,9 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from zeromode.solver.errors import InvalidInput
-
-# Two joined nodes closer than this fraction of the frame's RMS radius are coincident.
-COINCIDENT_RTOL = 1e-12
+from zeromode.solver.normalisation import normalised, rms_radius, unit_scaled
+from zeromode.solver.tolerances import COINCIDENT_RTOL
 
 
 def _readonly(array: np.ndarray) -> np.ndarray:
@@ -44,26 +43,6 @@ def check_positions(positions, dim: int | None = None, name: str = "positions") 
         i, a = bad[0]
         raise InvalidInput("not_finite", f"{name}[{i}][{a}] is not a finite number.")
     return x
-
-
-def unit_scaled(x: np.ndarray) -> tuple[np.ndarray, float]:
-    """(x / m, m) with m = max |x_ia|, so sums of squares can neither overflow nor underflow."""
-    m = float(np.max(np.abs(x))) if x.size else 0.0
-    return (x / m, m) if m > 0 else (x, 1.0)
-
-
-def _centred_rms(y: np.ndarray) -> tuple[np.ndarray, float]:
-    """Points moved to their centroid, and their RMS distance from it."""
-    y = y - y.mean(axis=0)
-    return y, float(np.sqrt(np.mean(np.sum(y**2, axis=1))))
-
-
-def rms_radius(x: np.ndarray) -> float:
-    """Root-mean-square distance of the points from their centroid (0 for a single point)."""
-    if len(x) == 0:
-        return 0.0
-    y, m = unit_scaled(x)
-    return m * _centred_rms(y)[1]
 
 
 @dataclass(frozen=True, eq=False)
@@ -119,7 +98,7 @@ class Frame:
             # Compared in units of max |x|, which keeps the test scale-free at any magnitude.
             y, _ = unit_scaled(x)
             lengths = np.linalg.norm(y[e[:, 0]] - y[e[:, 1]], axis=1)
-            scale = max(_centred_rms(y)[1], float(np.max(np.abs(y))), np.finfo(float).tiny)
+            scale = max(rms_radius(y), float(np.max(np.abs(y))), np.finfo(float).tiny)
             short = np.flatnonzero(lengths <= COINCIDENT_RTOL * scale)
             if short.size:
                 k = int(short[0])
@@ -164,6 +143,4 @@ class Frame:
 
     def normalised_positions(self) -> np.ndarray:
         """Positions centred at the centroid and divided by the RMS radius (identity scale for one point)."""
-        # Divided by max |x| first, so neither the centring nor the RMS overflows or underflows.
-        x, r = _centred_rms(unit_scaled(self.positions)[0])
-        return x / r if r > 0 else x
+        return normalised(self.positions)

@@ -39,6 +39,7 @@ from zeromode.solver.frame import Frame
 from zeromode.solver.multimode import spatial_quadric
 from zeromode.solver.rigidity import Analysis, analyze, zero_mode_residual
 from zeromode.solver.solution_space import solution_space
+from zeromode.solver.tolerances import ROOT_IMAG_RTOL
 
 MAX_SHEET_CELLS = 2500
 # The chain's finite states come from continuation, which is dense (finite_motion.MAX_DOF).
@@ -73,7 +74,7 @@ def module_nodes(w: float, h: float, beta: float) -> tuple[np.ndarray, np.ndarra
     # q00 x² + 2 q02 x + q22 = 0.
     q = quadric.q_hat
     roots = np.roots([q[0, 0], 2 * q[0, 2], q[2, 2]])
-    real = np.sort(roots[np.abs(roots.imag) <= 1e-9 * (1 + np.abs(roots.real))].real)
+    real = np.sort(roots[np.abs(roots.imag) <= ROOT_IMAG_RTOL * (1 + np.abs(roots.real))].real)
     if len(real) != 2 or np.isclose(real[0], real[1]):
         raise DomainError(
             "no_solution",

@@ -19,14 +19,14 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from dataclasses import dataclass
-from math import comb
 
 import numpy as np
 from numpy.polynomial import polynomial as poly
 
 from zeromode.solver.errors import DomainError
-from zeromode.solver.placement import CandidatePool, anchor_subsets, coupling_subsets
-from zeromode.solver.solution_space import CONSTRAINT_ATOL, SolutionSpace, solution_space
+from zeromode.solver.placement import CandidatePool, candidate_levels
+from zeromode.solver.solution_space import SolutionSpace, solution_space
+from zeromode.solver.tolerances import CONSTRAINT_ATOL, RANK_RTOL
 
 
 @dataclass(frozen=True, eq=False)
@@ -85,7 +85,7 @@ def spatial_quadric(space: SolutionSpace) -> SpatialQuadric | None:
     else:
         return None
     s = np.linalg.svd(p, compute_uv=False)
-    if s[-1] <= 1e-9 * s[0]:
+    if s[-1] <= RANK_RTOL * s[0]:
         return None
     p_inv = np.linalg.inv(p)
     q_tilde = p_inv.T @ space.quadric_n @ p_inv
@@ -219,15 +219,7 @@ def _pool(x_n: np.ndarray, u_n: np.ndarray, subset: tuple[int, ...], rng, sample
 def multi_mode_levels(
     x_n: np.ndarray, u_n: np.ndarray, rng: np.random.Generator, samples: int = 16
 ) -> Iterator[list[CandidatePool]]:
-    """Candidate levels for M ≥ 2 motions: the full specified set, then smaller anchor subsets
-    (down to d + 1 nodes) whose position sets still meet in real points."""
-    k, d = x_n.shape
-    sizes = [k] + list(range(min(k - 1, 2 * d), d, -1))
-    for size in sizes:
-        pools = [_pool(x_n, u_n, sub, rng, samples) for sub in anchor_subsets(x_n, size)]
-        yield [p for p in pools if p is not None]
-    if comb(k, d + 1) > 64:
-        subsets = coupling_subsets(k, range(2 * d, d, -1), rng, 2 * k)
-        for start in range(0, len(subsets), 16):  # small lazy batches, as for one motion
-            pools = [_pool(x_n, u_n, sub, rng, samples) for sub in subsets[start : start + 16]]
-            yield [p for p in pools if p is not None]
+    """Candidate levels for M ≥ 2 motions (placement.candidate_levels): anchor sets of up to
+    2d nodes, whose position sets must still meet in real points."""
+    d = x_n.shape[1]
+    return candidate_levels(x_n, 2 * d, rng, lambda subset: _pool(x_n, u_n, subset, rng, samples))

@@ -17,7 +17,7 @@ dangles.  All coordinates here are the normalised ones of the specified set.
 from __future__ import annotations
 
 import itertools
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from math import comb
 
@@ -27,6 +27,7 @@ from zeromode.solver.budget import check_budget
 from zeromode.solver.errors import DomainError
 from zeromode.solver.progress import report_progress
 from zeromode.solver.rank import RTOL, nullspace
+from zeromode.solver.tolerances import PLACEMENT_RTOL
 
 # Normalised units (the specified set has RMS radius 1).  A candidate is *well placed* when it
 # keeps PREFERRED_SEPARATION from every node and lies within PREFERRED_RADIUS; others are used
@@ -64,7 +65,7 @@ def admissible(pool: CandidatePool, x: np.ndarray) -> CandidatePool:
     if len(p):
         d = p.shape[1]
         diff = x[np.asarray(pool.anchors)][None] - p[:, None]
-        spans = np.linalg.matrix_rank(diff, tol=1e-7) >= d
+        spans = np.linalg.matrix_rank(diff, tol=PLACEMENT_RTOL) >= d
         pool.keep(spans & (np.linalg.norm(p, axis=1) <= MAX_RADIUS))
     return pool
 
@@ -113,7 +114,7 @@ class Placement:
         rows = np.concatenate([np.einsum("nad,adz->naz", diff, null_blocks), -diff], axis=2)
         rows /= np.maximum(np.linalg.norm(rows, axis=2, keepdims=True), 1e-300)
         s = np.linalg.svd(rows, compute_uv=False)  # (n, min(a, z+d))
-        gained = np.count_nonzero(s > 1e-7 * np.maximum(s[:, :1], 1e-300), axis=1)
+        gained = np.count_nonzero(s > PLACEMENT_RTOL * np.maximum(s[:, :1], 1e-300), axis=1)
         take = np.minimum(gained, budget)
         ok = valid & (take > d)
         # Rank gain only falls as bars are added and separation only shrinks, so a candidate
@@ -139,7 +140,7 @@ class Placement:
             if not ok[i]:
                 break
             chosen = self._choose_anchors(rows[i], anchors, np.linalg.norm(diff[i], axis=1), int(take[i]))
-            if np.linalg.matrix_rank(x[chosen] - p[i], tol=1e-7) >= d:
+            if np.linalg.matrix_rank(x[chosen] - p[i], tol=PLACEMENT_RTOL) >= d:
                 key = (int(take[i]), round(float(cond[i]), 6), -round(float(reach[i]), 6))
                 return key, int(i), chosen
         return None
@@ -155,7 +156,7 @@ class Placement:
         for i in np.lexsort((anchors, np.round(lengths, 6))):
             trial = rows[chosen + [int(i)]]
             s = np.linalg.svd(trial, compute_uv=False)
-            if s[-1] > 1e-7 * s[0]:
+            if s[-1] > PLACEMENT_RTOL * s[0]:
                 chosen.append(int(i))
                 if len(chosen) == take:
                     break
@@ -296,4 +297,29 @@ def place_nodes(
         )
     return state
 
+
+def candidate_levels(
+    x_n: np.ndarray,
+    largest_subset: int,
+    rng: np.random.Generator,
+    pool: Callable[[tuple[int, ...]], CandidatePool | None],
+) -> Iterator[list[CandidatePool]]:
+    """Levels of candidate pools for the lazy greedy placement (place_nodes).
+
+    The whole specified set first, then anchor sets of sizes ``largest_subset`` … d + 1 (a
+    smaller set has a larger solution space), then, for large targets (C(k, d+1) > 64),
+    seeded coupling modules in batches of 16: a batch is built only if the ones before it
+    could not remove a degree of freedom. ``pool(subset)`` builds one anchor set's candidates
+    (None when its solution space has no real point). x_n: normalised x_S (k, d).
+    """
+    k, d = x_n.shape
+    sizes = range(min(k - 1, largest_subset), d, -1)
+    for size in [k, *sizes]:
+        pools = [pool(subset) for subset in anchor_subsets(x_n, size)]
+        yield [p for p in pools if p is not None]
+    if comb(k, d + 1) > 64:
+        subsets = coupling_subsets(k, sizes, rng, 2 * k)
+        for start in range(0, len(subsets), 16):
+            pools = [pool(subset) for subset in subsets[start : start + 16]]
+            yield [p for p in pools if p is not None]
 

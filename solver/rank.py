@@ -12,9 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-# σ_i ≤ RTOL·σ_max counts as zero. Designed frames have σ_r/σ_max ≳ 1e-4 and floating-point
-# noise sits near 1e-15, so 1e-9 leaves several decades of margin on both sides.
-RTOL = 1e-9
+from zeromode.solver.tolerances import RANK_RTOL as RTOL
 
 
 @dataclass(frozen=True)

@@ -51,15 +51,16 @@ from zeromode.solver.finite_motion import (
     motion_fidelity,
     relative_bar_error,
 )
-from zeromode.solver.frame import Frame, check_positions, rms_radius
+from zeromode.solver.frame import Frame, check_positions
+from zeromode.solver.normalisation import Normalisation, rms_radius
 from zeromode.solver.rigidity import Analysis, analyze
+from zeromode.solver.tolerances import REACHED_EPS
 
 # Weight of ‖x_U − x_U⁰‖² relative to the straight-path term (see the module docstring).
 DESIGN_WEIGHT = 1e-3
 # Unspecified nodes keep at least this fraction of the design's closest node distance.
 MIN_SEPARATION = 0.25
 # The target counts as reached when ε after ≤ max(REACHED_EPS, REACHED_PER_TOL·tol).
-REACHED_EPS = 1e-6
 REACHED_PER_TOL = 100.0
 # A refinement that misses the target for lack of intermediate configurations is retried once
 # with 2K of them, up to this many.
@@ -266,10 +267,9 @@ def _attempt(
     spec = np.asarray(frame.specified, dtype=int)
     unspec = np.setdiff1d(np.arange(frame.n_nodes), spec)
     n, d = frame.n_nodes, frame.dim
-    centre = frame.positions.mean(axis=0)
-    radius = rms_radius(frame.positions) or 1.0
-    x0 = (frame.positions - centre) / radius
-    target = x0[spec] + delta / radius
+    norm = Normalisation.of(frame.positions)
+    x0 = norm.positions_in(frame.positions)
+    target = x0[spec] + delta / norm.length
     nlp, x_init, lbg, ubg, unpack = _build_nlp(
         x0, frame.edges, spec, unspec, target, K, before.modes[0], stay_on_solution_space
     )
@@ -300,7 +300,7 @@ def _attempt(
     status = str(stats.get("return_status", "unknown"))
     iterations = int(stats.get("iter_count", -1))
     configs = unpack(np.asarray(sol["x"]).ravel())  # (K+1, N, d) normalised
-    path = centre + radius * configs
+    path = norm.positions_out(configs)
     # The ends' specified rows are constants of the NLP: restore them without round-off.
     path[0, spec] = frame.positions[spec]
     path[-1, spec] = frame.positions[spec] + delta

@@ -25,40 +25,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from zeromode.solver.errors import DomainError, InvalidInput
-from zeromode.solver.frame import check_positions, rms_radius
+from zeromode.solver.frame import check_positions
+from zeromode.solver.normalisation import Normalisation
 from zeromode.solver.rank import RTOL, decide_rank
+from zeromode.solver.tolerances import CONSTRAINT_ATOL
 
 KINDS = {0: "points", 1: "points", 2: "conic", 3: "quadric_surface"}
-# A sample (x_U, u_U) is a solution when every normalised bar constraint is below this.
-CONSTRAINT_ATOL = 1e-9
-
-
-@dataclass(frozen=True)
-class Normalisation:
-    """Affine maps x = x0 + L·x', u = u0 + U·u' that make a specified set scale-free."""
-
-    x0: np.ndarray
-    length: float
-    u0: np.ndarray
-    speed: float
-
-    @classmethod
-    def of(cls, positions: np.ndarray, motions: np.ndarray) -> Normalisation:
-        length = rms_radius(positions) or 1.0
-        speed = rms_radius(motions) or float(np.sqrt(np.mean(motions**2))) or 1.0
-        return cls(positions.mean(axis=0), length, motions.mean(axis=0), speed)
-
-    def positions_in(self, x: np.ndarray) -> np.ndarray:
-        return (x - self.x0) / self.length
-
-    def motions_in(self, u: np.ndarray) -> np.ndarray:
-        return (u - self.u0) / self.speed
-
-    def positions_out(self, x: np.ndarray) -> np.ndarray:
-        return self.x0 + self.length * x
-
-    def motions_out(self, u: np.ndarray) -> np.ndarray:
-        return self.u0 + self.speed * u
 
 
 def linear_system(positions: np.ndarray, motions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -185,7 +157,7 @@ def solution_space(positions, motions, dim: int | None = None, rtol: float = RTO
     uu, s, vt = np.linalg.svd(a_n, full_matrices=True)
     rank, _ = decide_rank(s, rtol)
     residual = np.linalg.norm(uu[:, rank:].T @ b_n)
-    if residual > 1e-9 * max(np.linalg.norm(b_n), 1.0):
+    if residual > CONSTRAINT_ATOL * max(np.linalg.norm(b_n), 1.0):
         raise DomainError(
             "no_solution",
             "no unspecified node can join all specified nodes: b is not in the range of Ã "

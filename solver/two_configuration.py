@@ -29,6 +29,7 @@ from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.finite_motion import motion_fidelity
 from zeromode.solver.frame import Frame, check_positions
 from zeromode.solver.rigidity import Analysis, analyze
+from zeromode.solver.tolerances import REACHED_EPS
 
 
 @dataclass(frozen=True, eq=False)
@@ -82,7 +83,7 @@ def design_two_configurations(initial, final, dim: int | None = None, seed: int 
         try:
             fid, _ = motion_fidelity(frame, y - x)
             epsilon = fid.epsilon
-            note = "continuation from the first configuration reaches the second" if epsilon <= 1e-6 else (
+            note = "continuation from the first configuration reaches the second" if epsilon <= REACHED_EPS else (
                 "the two configurations lie on different branches (or beyond a singular point): "
                 "no continuous motion was found between them; /v1/refine can repair the path"
             )

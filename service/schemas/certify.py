@@ -8,7 +8,8 @@ from pydantic import BaseModel, Field
 
 from zeromode.service.schemas.common import AnalysisCounts, FrameModel, Points
 from zeromode.service.settings import SETTINGS
-from zeromode.solver.certificates import MODE_RTOL, PRESTRESS_TOL, SDP_MAX_DIM
+from zeromode.solver.certificates import PRESTRESS_TOL, SDP_MAX_DIM
+from zeromode.solver.tolerances import GIVEN_MODE_RTOL
 
 
 class CertifyOptions(BaseModel):
@@ -39,7 +40,7 @@ class CertifyRequest(BaseModel):
         max_length=SETTINGS.max_motions,
         description=(
             "Designed modes, each N×d (e.g. the modes of a /v1/design answer): zero modes of the "
-            f"frame (‖C m‖ ≤ {MODE_RTOL:g}·‖C‖_F‖m‖), independent modulo rigid motions. The "
+            f"frame (‖C m‖ ≤ {GIVEN_MODE_RTOL:g}·‖C‖_F‖m‖), independent modulo rigid motions. The "
             "rigidity margin isolates the frame's other motions from them."
         ),
     )
