@@ -39,6 +39,6 @@ def check_budget() -> None:
     if deadline is not None and time.monotonic() > deadline[0]:
         raise DomainError(
             "too_expensive",
-            f"the request needs more than the time budget of {deadline[1]:g} s; "
-            "ask for a smaller problem or run it as a job.",
+            f"the computation needs more than its time budget of {deadline[1]:g} s; "
+            "ask for a smaller problem or a larger budget.",
         )

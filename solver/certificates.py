@@ -451,7 +451,7 @@ def rigidity_margin(
         raise DomainError(
             "too_expensive",
             f"the stiffness allocation SDP has a {p}×{p} LMI (dN − ρ − M); the limit is {SDP_MAX_DIM}. "
-            "Ask for options.stiffness = false to get the uniform margin alone.",
+            "Without the stiffness SDP (stiffness = false) the uniform margin alone is computed.",
         )
     solution = solve_lmi(
         stiffness_program(a),

@@ -82,7 +82,7 @@ def design_pipeline(
     """
     if refine_stage is not None and len(motions) != 1:
         raise InvalidInput(
-            "invalid_options", "refinement follows one motion; request a single motion."
+            "invalid_options", "refinement follows one motion; give a single motion."
         )
     t0 = time.perf_counter()
     result = design(positions, motions, dim=dim, seed=seed, n_unspecified=n_unspecified)

@@ -170,7 +170,7 @@ def solution_space(positions, motions, dim: int | None = None, rtol: float = RTO
     if not np.all(np.isfinite(w_tilde)) or not np.all(np.isfinite(quadric_matrix(w_tilde, d))):
         raise InvalidInput(
             "out_of_range",
-            "positions × motions overflow double precision in the caller's units; rescale the request.",
+            "positions × motions overflow double precision in the caller's units; rescale the input.",
         )
     space = SolutionSpace(
         dim=d,
