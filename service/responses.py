@@ -87,15 +87,18 @@ def analyze_body(analysis: Analysis, timings_ms: dict) -> dict:
 # ----------------------------------------------------------------------------- design
 
 
-def solution_space_body(space, positions: np.ndarray, motions: np.ndarray, residual: float) -> dict:
+def solution_space_body(space, samples) -> dict:
     return {
         "nullity": space.nullity,
         "dimension": space.dimension,
         "kind": space.kind,
         "basis": space.w_tilde.tolist(),
         "quadric": space.quadric.tolist(),
-        "samples": [{"position": p.tolist(), "motion": m.tolist()} for p, m in zip(positions, motions)],
-        "max_constraint_residual": residual,
+        "samples": [
+            {"position": p.tolist(), "motion": m.tolist()}
+            for p, m in zip(samples.positions, samples.motions)
+        ],
+        "max_constraint_residual": samples.max_residual,
     }
 
 

@@ -117,6 +117,23 @@ class SolutionSpace:
         return np.einsum("nkd,nkd->nk", xs[None] - xu[:, None], us[None] - uu[:, None])
 
 
+@dataclass(frozen=True, eq=False)
+class SolutionSamples:
+    """Verified real points of a solution space: positions x_U (n, d), motions u_U (n, d), and
+    the largest |normalised bar constraint| among them (0 for no point)."""
+
+    positions: np.ndarray
+    motions: np.ndarray
+    max_residual: float
+
+
+def seeded_samples(space: SolutionSpace, n: int, seed: int) -> SolutionSamples:
+    """Up to n verified solutions of ``space`` drawn with a seeded generator (same seed, same points)."""
+    x_u, u_u = space.sample(n, np.random.default_rng(seed))
+    residual = float(np.abs(space.residuals(x_u, u_u)).max(initial=0.0)) if len(x_u) else 0.0
+    return SolutionSamples(x_u, u_u, residual)
+
+
 def real_roots_on_lines(q: np.ndarray, a0: np.ndarray, delta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Real t with (a0 + tδ, 1)ᵀ Q (a0 + tδ, 1) = 0 for each line: t (L, 2) and a validity mask."""
     p0 = np.hstack([a0, np.ones((len(a0), 1))])

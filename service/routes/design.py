@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import time
 
-import numpy as np
 from fastapi import APIRouter
 
 from zeromode.service.responses import design_body, solution_space_body, two_configuration_body
@@ -19,7 +18,7 @@ from zeromode.service.schemas.design import (
     TwoConfigurationResponse,
 )
 from zeromode.solver.pipeline import RefineStage, design_pipeline
-from zeromode.solver.solution_space import solution_space
+from zeromode.solver.solution_space import seeded_samples, solution_space
 from zeromode.solver.two_configuration import design_two_configurations
 
 router = APIRouter(prefix="/v1", tags=["design"])
@@ -29,9 +28,7 @@ router = APIRouter(prefix="/v1", tags=["design"])
 def post_solution_space(request: SolutionSpaceRequest) -> dict:
     """All (x_U, u_U) of one unspecified node joined to every specified node (Ã, W̃, Q)."""
     space = solution_space(request.positions, request.motions, dim=request.dim)
-    x_u, u_u = space.sample(request.samples, np.random.default_rng(request.seed))
-    residual = np.abs(space.residuals(x_u, u_u)).max(initial=0.0) if len(x_u) else 0.0
-    return solution_space_body(space, x_u, u_u, float(residual))
+    return solution_space_body(space, seeded_samples(space, request.samples, request.seed))
 
 
 @router.post("/design", response_model=DesignResponse, responses=ERROR_RESPONSES)
