@@ -5,9 +5,9 @@ with u_U keeps every bar (x_Si − x_U)·(u_Si − u_U) = 0 iff
 
     A v = b + c·1,   A = [u_Siᵀ  x_Siᵀ] (k × 2d),  v = (x_U, u_U),  b_i = x_Si·u_Si,  c = x_U·u_U.
 
-Dropping the coupling c = x_U·u_U linearises this to Ã ṽ = b with Ã = [A, −1] (k × (2d+1)),
+Treating the product c = x_U·u_U as a free unknown linearises this to Ã ṽ = b with Ã = [A, −1] (k × (2d+1)),
 ṽ = (x_U, u_U, c).  If b ∈ R(Ã) the solutions are ṽ = W̃ α̃, W̃ = [w_1 … w_m, ṽ*] with
-W = [w_1 … w_m] a basis of N(Ã), ṽ* = Ã⁺b and α̃ = (α, 1); the coupling becomes the quadric
+W = [w_1 … w_m] a basis of N(Ã), ṽ* = Ã⁺b and α̃ = (α, 1); c = x_U·u_U then becomes the quadric
 α̃ᵀ Q α̃ = 0 (Supplementary Methods: Q = W̃ᵀ O W̃ − sym(W̃ᵀ p e_{m+1}ᵀ), O the x·u form,
 p the selector of c), so the solution set has dimension m − 1: points (m = 1), a conic (m = 2),
 a quadric surface (m = 3), a quadric hypersurface (m ≥ 4).
