@@ -21,7 +21,7 @@ to suppress); past ``SDP_MAX_DIM`` the certificate keeps the uniform margin only
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 
 import numpy as np
 
@@ -33,8 +33,8 @@ from zeromode.solver.refine import Refinement, RefinementFailed, refine
 
 @dataclass(frozen=True)
 class RefineStage:
-    """Options of the refinement stage (see refine.refine): a = amplitude, K configurations,
-    IPOPT tolerance and time limit per solve."""
+    """Options of the refinement stage, passed to refine.refine under these names: the relative
+    amplitude a, K configurations, IPOPT's tolerance and time limit per solve."""
 
     amplitude: float = 0.1
     K: int = 8
@@ -94,11 +94,8 @@ def design_pipeline(
             refined = refine(
                 result.frame,
                 motion_s=np.asarray(motions[0], dtype=float),
-                amplitude=refine_stage.amplitude,
-                K=refine_stage.K,
-                tol=refine_stage.tol,
-                max_time_s=refine_stage.max_time_s,
                 analysis=result.analysis,
+                **asdict(refine_stage),
             )
         except RefinementFailed as exc:
             refined = exc.best

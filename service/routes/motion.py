@@ -46,12 +46,7 @@ def post_motion(request: MotionRequest):
     t0 = time.perf_counter()
     frame = frame_from_model(request.frame)
     path = trace_motion(
-        frame,
-        mode=request.mode,
-        amplitude=request.amplitude,
-        max_step=request.max_step,
-        direction=request.direction,
-        max_steps=request.max_steps,
+        frame, **request.model_dump(include={"mode", "amplitude", "max_step", "direction", "max_steps"})
     )
     body = motion_body(path, {"total": 1e3 * (time.perf_counter() - t0)})
     if path.singularities and request.on_singularity == "error":
@@ -78,11 +73,7 @@ def post_refine(request: RefineRequest):
             motion_s=request.motion,
             amplitude=request.amplitude,
             targets=request.targets,
-            K=opts.K,
-            tol=opts.tol,
-            max_iter=opts.max_iter,
-            max_time_s=opts.max_time_s,
-            stay_on_solution_space=opts.stay_on_solution_space,
+            **opts.model_dump(include={"K", "tol", "max_iter", "max_time_s", "stay_on_solution_space"}),
         )
     except RefinementFailed as exc:
         return JSONResponse(
