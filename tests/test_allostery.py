@@ -1,12 +1,13 @@
 """Allosteric design (paper, "Combining Network Modes for Potential Applications": long-range
 coupled conformational regulation).
 
-The claim checked here, from scratch: drive the source nodes with u_src and let the frame do what
-its bars allow, i.e. take the zero mode u ∈ N(C) whose source rows equal u_src (C built here,
-N(C) from its SVD, least squares for the coefficients).  That response must be unique (no zero
-mode — rigid or not — leaves the source still while moving anything else) and its target rows
-must equal the prescribed u_tgt to 1e-9 relative.  The designed frame itself is checked with
-PyRigi and the same C (one nontrivial mode, no self-stress).
+The claim checked here, from scratch (oracles.rigidity.driven_response): drive the source
+nodes with u_src and let the frame do what its bars allow, i.e. take the zero mode u ∈ N(C)
+whose source rows equal u_src (C built from its definition, N(C) from its SVD, least squares for
+the coefficients). That response must be unique (no zero mode — rigid or not — leaves the source
+still while moving anything else) and its target rows must equal the prescribed u_tgt to 1e-9
+relative. The designed frame itself is checked with PyRigi and the same C (one nontrivial mode,
+no self-stress).
 """
 
 from __future__ import annotations
@@ -14,28 +15,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from fastapi.testclient import TestClient
-from rigidity_reference import compatibility_matrix, kernel, normalised
-from test_multimode import check_frame_modes
+from oracles.designs import check_frame_modes
+from oracles.rigidity import driven_response
 
 from zeromode.service.app import create_app
 from zeromode.solver.allostery import design_allosteric
 from zeromode.solver.errors import DomainError, InvalidInput
-
-
-def driven_response(positions, edges, source, source_motion) -> np.ndarray:
-    """The zero mode (N, d) with the source rows fixed to ``source_motion``; asserts that it
-    exists and is unique."""
-    positions = np.asarray(positions, dtype=float)
-    n, d = positions.shape
-    # N(C) is the same on the normalised frame (C scales by 1/radius; the motions do not).
-    null = kernel(compatibility_matrix(normalised(positions), edges), 1e-9)
-    rows = (np.asarray(source)[:, None] * d + np.arange(d)).ravel()
-    coef, *_ = np.linalg.lstsq(null[rows], np.ravel(source_motion), rcond=None)
-    assert np.linalg.matrix_rank(null[rows], tol=1e-8) == null.shape[1], "response not unique"
-    assert np.linalg.norm(null[rows] @ coef - np.ravel(source_motion)) <= 1e-9 * np.linalg.norm(
-        source_motion
-    )
-    return (null @ coef).reshape(n, d)
 
 
 def sites(d: int, distance: float, seed: int):

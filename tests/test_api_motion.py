@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 from fastapi.testclient import TestClient
-from mechanisms import four_bar, outward_square, parallelogram
+from oracles.mechanisms import four_bar, outward_square, parallelogram
+from oracles.motion import fidelity, relative_bar_error
 
 from zeromode.service.app import create_app
 
@@ -20,13 +21,6 @@ def frame_json(frame):
         "edges": frame.edges.tolist(),
         "specified": list(frame.specified),
     }
-
-
-def relative_bar_error(path, edges, reference):
-    path, edges, reference = np.asarray(path), np.asarray(edges), np.asarray(reference)
-    ref = np.linalg.norm(reference[edges[:, 0]] - reference[edges[:, 1]], axis=1)
-    lengths = np.linalg.norm(path[:, edges[:, 0]] - path[:, edges[:, 1]], axis=2)
-    return float(np.max(np.abs(lengths - ref) / ref))
 
 
 def test_motion_of_a_four_bar(client):
@@ -119,6 +113,9 @@ def test_refine_outward_square(client):
     ]
     assert np.allclose(body["path"][-1][:4], 1.2 * frame.positions[:4])
     assert relative_bar_error(body["path"], frame.edges, body["path"][0]) <= 1e-6
+    # ε after, measured again by an independent continuation from the refined frame.
+    refined = np.array(body["frame"]["positions"])
+    assert fidelity(refined, frame.edges, frame.specified, 0.2 * frame.positions[:4]) <= 1e-6
     assert body["analysis_reference"]["nontrivial_zero_modes"] == 1
     assert body["analysis_end"]["self_stresses"] == 0
 
@@ -141,6 +138,9 @@ def test_refinement_failure_is_a_422_with_the_best_result(client):
     assert best["status"] == "refinement_failed"
     assert best["epsilon_after"] <= best["epsilon_before"]
     assert len(best["frame"]["positions"]) == 6
+    kept = np.array(best["frame"]["positions"])
+    measured = fidelity(kept, frame.edges, frame.specified, 0.2 * frame.positions[:4])
+    assert measured == pytest.approx(best["epsilon_after"], rel=1e-6)
 
 
 @pytest.mark.parametrize(

@@ -22,7 +22,7 @@ import httpx
 import numpy as np
 import pytest
 from fastapi.testclient import TestClient
-from mechanisms import parallelogram
+from oracles.mechanisms import parallelogram
 
 from zeromode.service import jobs
 from zeromode.service.app import create_app

@@ -9,7 +9,8 @@ Every check goes through a route that shares nothing with the code under test:
     and subtracting the first row shows F is quadratic in p: a conic (2D) or quadric surface
     (3D) through every specified node (the first row vanishes at p = x_Si);
   * sympy's exact resultants and real-root isolation on integer conics;
-  * PyRigi's numerical flexes and stresses, and a compatibility matrix C built here (Eq. 3).
+  * PyRigi's numerical flexes and stresses, and a compatibility matrix C built from Eq. 3
+    (oracles.designs.check_design).
 
 Two facts follow from the derivation and are used below.  In 2D with k = 3 both conics of two
 motions pass through the three specified nodes, so their fourth intersection is real whenever it
@@ -17,121 +18,23 @@ is finite (complex points come in pairs): it is found here from a cubic with two
 And the tangent of such a conic at x_S1 depends only on the ratio of the strain rates
 (x_Si − x_S1)·(u_Si − u_S1), i = 2, 3, of the two bars at node 1; two motions with the same
 ratio give conics tangent at x_S1, whose four intersections are then the specified nodes alone.
-
-This file also holds the independent design checks shared by the other design-capability tests.
 """
 
 from __future__ import annotations
 
-import warnings
-
 import numpy as np
 import pytest
-import scipy.sparse as sps
-import scipy.sparse.linalg as spla
 import sympy as sp
-from pyrigi import Framework, Graph
-from rigidity_reference import compatibility_matrix, normalised, numerical_rank, rigid_generators
+from oracles.designs import check_design
+from oracles.frames import FIG4_TETRAHEDRON, FIG4_TRIANGLE
 
 from zeromode.solver.design import design
 from zeromode.solver.errors import DomainError
 from zeromode.solver.multimode import common_positions, conic_intersections, spatial_quadric
 from zeromode.solver.solution_space import solution_space
 
-RANK_RTOL = 1e-9  # relative to σ_max of C on the normalised frame
-MODE_RTOL = 1e-9  # ‖C u‖ ≤ MODE_RTOL·‖C‖_2‖u‖
-
 
 # --------------------------------------------------------------------------- independent oracles
-def pyrigi_report(positions, edges) -> tuple[np.ndarray, int, int]:
-    """(all infinitesimal flexes as dN × z columns, number of nontrivial flexes, number of
-    equilibrium stresses), from PyRigi's numerical routines on the normalised frame."""
-    x = normalised(positions)
-    graph = Graph()
-    graph.add_vertices(range(len(x)))
-    graph.add_edges([(int(i), int(j)) for i, j in edges])
-    framework = Framework(graph, {i: [float(v) for v in x[i]] for i in range(len(x))})
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        flexes = framework.inf_flexes(
-            include_trivial=True,
-            numerical=True,
-            tolerance=RANK_RTOL,
-            vertex_order=list(range(len(x))),
-        )
-        nontrivial = framework.nontrivial_inf_flexes(numerical=True, tolerance=RANK_RTOL)
-        stresses = framework.stresses(numerical=True, tolerance=RANK_RTOL)
-    basis = np.column_stack([np.asarray(f, dtype=float).ravel() for f in flexes])
-    return basis, len(nontrivial), len(stresses)
-
-
-def outside_fraction(basis: np.ndarray, v: np.ndarray) -> float:
-    """‖v − P v‖ / ‖v‖ with P the orthogonal projector onto span(basis)."""
-    q, s, _ = np.linalg.svd(basis, full_matrices=False)
-    q = q[:, s > 1e-12 * s[0]]
-    return float(np.linalg.norm(v - q @ (q.T @ v)) / np.linalg.norm(v))
-
-
-def mode_residual(c: np.ndarray, mode: np.ndarray) -> float:
-    """‖C u‖ / (‖C‖_2 ‖u‖); ‖C‖_2 by ARPACK for large C (a dense SVD would dominate the test)."""
-    if c.size <= 1_000_000:
-        norm = np.linalg.norm(c, 2)
-    else:
-        norm = spla.svds(sps.csr_matrix(c), k=1, return_singular_vectors=False)[0]
-    return float(np.linalg.norm(c @ mode.ravel()) / (norm * np.linalg.norm(mode)))
-
-
-def check_frame_modes(positions, edges, modes, use_pyrigi: bool = True) -> dict:
-    """The frame has exactly d(d+1)/2 + M zero modes, no self-stress, and the M given motions
-    (M, N, d) are zero modes independent modulo rigid motions — from a C built here and PyRigi.
-    Returns the counts for reporting."""
-    positions, edges = np.asarray(positions, dtype=float), np.asarray(edges, dtype=int)
-    n, d = positions.shape
-    m = len(modes)
-    target = d * (d + 1) // 2 + m
-    c = compatibility_matrix(normalised(positions), edges)
-    for mode in modes:
-        assert mode_residual(c, mode) <= MODE_RTOL
-    rank = numerical_rank(c, RANK_RTOL)
-    assert d * n - rank == target, "zero modes"
-    assert len(edges) - rank == 0, "self-stresses"
-    # The requested motions are independent of each other and of the rigid motions.
-    together = np.column_stack(
-        [rigid_generators(normalised(positions))] + [mo.ravel() for mo in modes]
-    )
-    assert numerical_rank(together, 1e-8) == target
-    if use_pyrigi:
-        flexes, nontrivial, stresses = pyrigi_report(positions, edges)
-        assert (flexes.shape[1], nontrivial, stresses) == (target, m, 0)
-        for mode in modes:
-            assert outside_fraction(flexes, mode.ravel()) <= 1e-8
-    return {"nodes": n, "bars": len(edges), "zero_modes": d * n - rank}
-
-
-def check_design(result, x: np.ndarray, motions: np.ndarray, use_pyrigi: bool = True) -> dict:
-    """Everything /v1/design promises, checked without the code under test.
-
-    x (k, d) and motions (M, k, d) are the request; the frame must reproduce them exactly."""
-    frame = result.frame
-    k, d = x.shape
-    positions, edges = np.asarray(frame.positions), np.asarray(frame.edges)
-    assert np.array_equal(positions[:k], x)
-    assert list(frame.specified) == list(range(k))
-    assert result.modes.shape == (len(motions), len(positions), d)
-    for mode, requested in zip(result.modes, motions):
-        assert np.array_equal(mode[:k], requested)
-    # Bipartite: every bar joins an unspecified node to one of the specified nodes of its
-    # anchor set (the module it belongs to).
-    assert result.unspecified_nodes == len(positions) - k == len(result.anchor_sets)
-    for j, anchors in enumerate(result.anchor_sets):
-        joined = {int(a) for a, b in edges if b == k + j} | {int(b) for a, b in edges if a == k + j}
-        assert joined == set(anchors) and max(anchors) < k
-    counts = check_frame_modes(positions, edges, result.modes, use_pyrigi)
-    assert result.analysis.zero_modes == counts["zero_modes"]
-    assert result.analysis.self_stresses == 0
-    return counts
-
-
 def augmented(xs: np.ndarray, us: np.ndarray, p: np.ndarray) -> np.ndarray:
     """[x_Si − p | (x_Si − p)·u_Si] (k × (d+1)) on normalised positions and motions: its rank is
     ≤ d exactly when an unspecified node at p can carry the motion on all k bars."""
@@ -436,7 +339,8 @@ def test_two_motion_designs_2d_k3():
         try:
             result = design(x, motions, seed=seed)
         except DomainError as err:
-            assert err.code == "no_solution" and err.message
+            # The fourth point is real (found above), so a refusal must not deny it.
+            assert err.code == "no_solution" and "no real point" not in err.message, err.message
             continue
         check_design(result, x, motions)
         assert (result.unspecified_nodes, result.frame.n_edges, result.analysis.maxwell_count) == (
@@ -449,22 +353,40 @@ def test_two_motion_designs_2d_k3():
     assert built >= 20, built
 
 
-def test_refusal_message_tells_the_true_reason_2d_k3():
-    """When the 2D k = 3 fourth point is real and finite but the design is refused anyway, the
-    message must not claim that the solution spaces have no real point."""
-    refused = []
-    for seed in range(30):
-        x, motions = random_target(2, 3, seed, 2)
-        p4 = fourth_intersection(x, motions[0], motions[1])
-        assert np.all(np.isfinite(p4))
-        assert max(off_position_set(x, u, p4) for u in motions) <= 1e-9
-        try:
-            design(x, motions, seed=seed)
-        except DomainError as err:
-            refused.append((seed, err.message))
-    # The refused targets have their only placement far away or close to a specified node.
-    for seed, message in refused:
-        assert "no real point" not in message, (seed, message)
+# The tangent-conic target of the last test with the second motion of node 1 raised from (0, 1)
+# to (0, 1 + δ): the strain-rate ratios at node 0 become 1 : 1 and 1 + δ : 1, the conics are no
+# longer tangent there, and δ places their fourth common point (module docstring).
+NEAR_TANGENT_X = np.array([[0.0, 0.0], [3.0, 1.0], [1.0, 2.0]])
+
+
+def near_tangent_motions(delta: float) -> np.ndarray:
+    return np.array([[[0.0, 0.0], [0.0, 1.0], [1.0, 0.0]], [[0.0, 0.0], [0.0, 1 + delta], [-1, 1]]])
+
+
+REFUSED_FOURTH_POINTS = {
+    # δ = 1e-6: the fourth point is ~4e-7 from x_S1, a bar of no length.
+    "next to a specified node": 1e-6,
+    # δ = 2.7911, near the pole of the fourth point: it lies ~1e4 radii out.
+    "far outside the specified set": 2.7911,
+}
+
+
+@pytest.mark.parametrize("where", sorted(REFUSED_FOURTH_POINTS))
+def test_refusal_message_tells_the_true_reason_2d_k3(where):
+    """The 2D k = 3 fourth point is real and finite, and carries both motions (checked on the
+    position sets derived here), but no design may use it: the refusal must say so, not claim
+    that the solution spaces have no real point."""
+    x, motions = NEAR_TANGENT_X, near_tangent_motions(REFUSED_FOURTH_POINTS[where])
+    p4 = fourth_intersection(x, motions[0], motions[1])
+    assert np.all(np.isfinite(p4))
+    assert max(off_position_set(x, u, p4) for u in motions) <= 1e-9
+    radius = np.sqrt(np.mean(np.sum((x - x.mean(axis=0)) ** 2, axis=1)))
+    gap = np.min(np.linalg.norm(x - p4, axis=1)) / radius
+    assert gap < 1e-6 if where == "next to a specified node" else gap > 1e3
+    with pytest.raises(DomainError) as err:
+        design(x, motions, seed=0)
+    assert err.value.code == "no_solution"
+    assert "no real point" not in err.value.message, err.value.message
 
 
 def test_two_motion_designs_3d_k4():
@@ -483,8 +405,8 @@ def test_two_motion_designs_3d_k4():
                 assert abs(q.values(y)[0, 0]) <= 1e-9 * np.abs(q.q_hat).max() * (1 + y @ y.T)[0, 0]
 
 
-TRIANGLE = np.array([[-1.0, 0.0], [1.0, 0.0], [0.0, 2.0]])
-CORNER_TETRAHEDRON = np.array([[0.0, 0, 0], [2, 0, 0], [0, 2, 0], [0, 0, 2]])
+TRIANGLE = np.array(FIG4_TRIANGLE)
+CORNER_TETRAHEDRON = np.array(FIG4_TETRAHEDRON)
 
 
 def test_paper_fig4_two_motions_three_nodes_2d():
@@ -545,4 +467,7 @@ def test_tangent_conics_have_no_common_point_and_no_design():
     assert err.value.code == "no_solution"
     # The only real common points are the specified nodes themselves: the message must say that
     # no point exists or that the candidates coincide with existing nodes.
-    assert "no real point" in err.value.message or "coincide with an existing node" in err.value.message
+    assert (
+        "no real point" in err.value.message
+        or "coincide with an existing node" in err.value.message
+    )

@@ -4,7 +4,7 @@ Judicious Constraint Placement").
 For k > 2d specified nodes no single unspecified node can generally join them all, so the design
 is built from modules: anchor sets of at most 2d specified nodes (primary modules when disjoint,
 coupling modules when they overlap), each carrying unspecified nodes on its own solution space.
-Every design is checked by the independent route of test_multimode.check_design (PyRigi's flexes
+Every design is checked by the independent route of oracles.designs.check_design (PyRigi's flexes
 and stresses, a compatibility matrix built here, exact specified rows); the claims that a
 specified set has no full-set solution are checked exactly with sympy.
 
@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import sympy as sp
-from test_multimode import check_design
+from oracles.designs import check_design
 
 from zeromode.solver.design import design
 

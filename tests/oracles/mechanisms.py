@@ -1,7 +1,7 @@
-"""Hand-made mechanisms for the finite-motion and refinement tests and benchmarks.
+"""Hand-made mechanisms: frames with one chosen nontrivial zero mode.
 
 Built independently of zeromode.solver.design: the paper's bipartite construction, solved
-numerically from its own equations.  For specified positions x_S and motions u_S (k × d), an
+numerically from its own equations, and qualified by the reference counts.  For specified positions x_S and motions u_S (k × d), an
 unspecified node (x_U, u_U) joined to every specified node keeps the bars iff
     A ṽ = b,   A = [u_Siᵀ  x_Siᵀ  −1],  ṽ = (x_U, u_U, c),  b_i = x_Si·u_Si,
 together with the coupling c = x_U·u_U (the quadric).  Points on it are found by intersecting
@@ -13,14 +13,15 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg import null_space
 
-from zeromode.solver import Frame, analyze
+from oracles.rigidity import reference_counts
+from oracles.solution_space import a_tilde
+from zeromode.solver import Frame
 
 
 def solution_points(x_s: np.ndarray, u_s: np.ndarray, count: int, rng: np.random.Generator):
     """``count`` points (x_U, u_U) of the solution space, each (d,), from seeded random lines."""
-    k, d = x_s.shape
-    a = np.hstack([u_s, x_s, -np.ones((k, 1))])
-    b = np.sum(x_s * u_s, axis=1)
+    d = x_s.shape[1]
+    a, b = a_tilde(x_s, u_s)
     v_star = np.linalg.lstsq(a, b, rcond=None)[0]
     w = null_space(a)
 
@@ -64,10 +65,9 @@ def bipartite_design(x_s, u_s, n_unspecified: int, seed: int = 0, scale_limit: f
             or gaps.min() < 0.2 * size
         ):
             continue
-        frame = Frame.build(positions, edges, specified=list(range(k)))
-        an = analyze(frame)
-        if an.nontrivial_zero_modes == 1 and an.self_stresses == 0:
-            return frame
+        counts = reference_counts(positions, edges)
+        if counts["nontrivial_zero_modes"] == 1 and counts["self_stresses"] == 0:
+            return Frame.build(positions, edges, specified=list(range(k)))
     raise RuntimeError("no qualifying design found")
 
 
