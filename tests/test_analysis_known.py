@@ -2,14 +2,14 @@
 
 Each count below is worked out from the geometry (stated in the comment), not from the code;
 every basis the solver returns is then checked against a compatibility matrix and rigid
-motions built independently in ``rigidity_reference``.
+motions built independently in ``oracles.rigidity``.
 """
 
 from dataclasses import dataclass
 
 import numpy as np
 import pytest
-from rigidity_reference import (
+from oracles.rigidity import (
     as_columns,
     compatibility_matrix,
     normalised,

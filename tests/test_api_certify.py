@@ -1,6 +1,6 @@
 """POST /v1/certify through the real FastAPI app.
 
-Answers are checked from scratch (tests/rigidity_reference.py): the certifying stress is an
+Answers are checked from scratch (tests/oracles/rigidity.py): the certifying stress is an
 equilibrium whose stress energy on the reference flex basis has the reported margin as its
 smallest eigenvalue; the returned stiffness attains the reported optimal margin. Failures must
 be 422s with a code — certificate_failed, too_expensive, invalid_modes, invalid_request.
@@ -11,38 +11,29 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from fastapi.testclient import TestClient
-from rigidity_reference import compatibility_matrix, kernel, normalised, rigid_generators, span
+from oracles.frames import triangle_with_taut_sides
+from oracles.mechanisms import outward_square
+from oracles.rigidity import (
+    compatibility_matrix,
+    kernel,
+    nontrivial_flexes,
+    normalised,
+    rigid_generators,
+    span,
+)
+from oracles.wire import frame_body
 
 from zeromode.service.app import create_app
 from zeromode.service.settings import Settings
 from zeromode.solver.certificates import SDP_MAX_DIM
 
 # A triangle whose three sides each carry a taut midpoint joint: 3 flexes, 3 stresses.
-CORNERS = np.array([[0.0, 0.0], [4.0, 0.0], [1.5, 3.0]])
-TAUT_TRIANGLE = {
-    "dim": 2,
-    "positions": np.vstack(
-        [
-            CORNERS,
-            (CORNERS[0] + CORNERS[1]) / 2,
-            (CORNERS[1] + CORNERS[2]) / 2,
-            (CORNERS[2] + CORNERS[0]) / 2,
-        ]
-    ).tolist(),
-    "edges": [[0, 1], [1, 2], [0, 2], [0, 3], [3, 1], [1, 4], [4, 2], [2, 5], [5, 0]],
-}
+_TAUT_X, _TAUT_E = triangle_with_taut_sides(3)
+TAUT_TRIANGLE = {"dim": 2, "positions": _TAUT_X.tolist(), "edges": [list(e) for e in _TAUT_E]}
 # The paper's outward module (Fig. 3b): corners (±1, ±1) with u_S = x_S, two unspecified
 # nodes on the circumcircle with u_U = −x_U, each joined to all four corners.
-ANG = np.deg2rad([20.0, 230.0])
-X_U = np.sqrt(2.0) * np.column_stack([np.cos(ANG), np.sin(ANG)])
-X_S = np.array([[1.0, 1.0], [1.0, -1.0], [-1.0, 1.0], [-1.0, -1.0]])
-OUTWARD = {
-    "dim": 2,
-    "positions": np.vstack([X_S, X_U]).tolist(),
-    "edges": [[i, 4 + j] for j in range(2) for i in range(4)],
-    "specified": [0, 1, 2, 3],
-}
-OUTWARD_MODE = np.vstack([X_S, -X_U]).tolist()
+OUTWARD = frame_body(outward_square())
+OUTWARD_MODE = (np.array([[1.0]] * 4 + [[-1.0]] * 2) * OUTWARD["positions"]).tolist()
 
 
 @pytest.fixture(scope="module")
@@ -81,8 +72,7 @@ def test_general_case_prestress_certificate(client):
     c = compatibility_matrix(x, e)
     omega = np.array(ps["stress"])
     assert np.linalg.norm(c.T @ omega) <= 1e-8 * np.linalg.norm(c)
-    null = kernel(c)
-    flexes = null @ kernel(span(rigid_generators(x)).T @ null)
+    flexes = nontrivial_flexes(x, e)
     q = flexes.reshape(-1, 2, flexes.shape[1])
     energy = sum(w * (q[i] - q[j]).T @ (q[i] - q[j]) for w, (i, j) in zip(omega, e))
     assert np.linalg.eigvalsh(energy)[0] == pytest.approx(ps["margin"], rel=1e-6)

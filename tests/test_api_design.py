@@ -13,33 +13,23 @@ import math
 
 import numpy as np
 import pytest
-from api_helpers import COUNT_FIELDS, is_number
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from oracles.frames import CUBE_CORNERS, SQUARE_CORNERS
+from oracles.rigidity import (
+    COUNT_FIELDS,
+    compatibility_matrix,
+    mode_residual,
+    normalised,
+    rank_gap,
+    reference_counts,
+)
+from oracles.solution_space import a_tilde, bar_residuals, points_on_random_lines
+from oracles.wire import assert_error, is_number, matrix
 
-SQUARE = [[1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0], [1.0, -1.0]]
-CUBE = [[i, j, k] for i in (-1.0, 1.0) for j in (-1.0, 1.0) for k in (-1.0, 1.0)]
+SQUARE = SQUARE_CORNERS
+CUBE = CUBE_CORNERS
 KINDS = {1: "points", 2: "conic", 3: "quadric_surface"}
-
-
-def matrix(value, rows: int, cols: int) -> np.ndarray:
-    assert isinstance(value, list) and len(value) == rows
-    assert all(
-        isinstance(r, list) and len(r) == cols and all(is_number(v) for v in r) for r in value
-    )
-    return np.array(value, dtype=float)
-
-
-def assert_error(response, code: str | set[str], status: int = 422) -> None:
-    assert response.status_code == status, response.text
-    detail = response.json()["detail"]
-    assert detail["code"] in ({code} if isinstance(code, str) else code), detail
-    assert isinstance(detail["message"], str) and len(detail["message"]) > 10
-
-
-def unit(x: np.ndarray) -> np.ndarray:
-    y = x - x.mean(axis=0)
-    return y / np.sqrt(np.mean(np.sum(y**2, axis=1)))
 
 
 def check_design_body(body: dict, request: dict) -> None:
@@ -64,38 +54,25 @@ def check_design_body(body: dict, request: dict) -> None:
     modes = np.stack([matrix(m, n, d) for m in body["modes"]])
     assert np.array_equal(modes[:, :k], motions)
 
-    # C from Eq. 3 on the normalised frame: C·u = 0, counts from its SVD.
-    y = unit(positions)
-    c = np.zeros((len(edges), n * d))
-    for row, (i, j) in enumerate(edges):
-        c[row, d * i : d * i + d], c[row, d * j : d * j + d] = y[i] - y[j], y[j] - y[i]
+    # C from Eq. 3 on the normalised frame: C·u = 0, counts and the rank gap from its SVD.
+    c = compatibility_matrix(normalised(positions), edges)
     for mode in modes:
-        assert np.linalg.norm(c @ mode.ravel()) <= 1e-9 * np.linalg.norm(c) * np.linalg.norm(mode)
-    s = np.linalg.svd(c, compute_uv=False) if len(edges) else np.zeros(1)
-    rank = int(np.count_nonzero(s > 1e-9 * s[0]))
+        assert mode_residual(c, mode) <= 1e-9
 
     report = body["report"]
     analysis = report["analysis"]
-    assert COUNT_FIELDS <= set(analysis)
+    assert {*COUNT_FIELDS, "rank_gap"} <= set(analysis)
     assert {"modes", "stresses"}.isdisjoint(analysis)
     target = d * (d + 1) // 2 + n_modes
-    expected = {
-        "nodes": n,
-        "edges": len(edges),
-        "dim": d,
-        "maxwell_count": d * n - len(edges),
-        "rank": rank,
-        "zero_modes": d * n - rank,
-        "rigid_body_modes": d * (d + 1) // 2,
-        "nontrivial_zero_modes": n_modes,
-        "self_stresses": 0,
-    }
-    assert {key: analysis[key] for key in expected} == expected
-    assert d * n - rank == target and len(edges) == rank
+    expected = reference_counts(positions, edges)
+    assert {key: analysis[key] for key in COUNT_FIELDS} == expected
+    assert (expected["zero_modes"], expected["self_stresses"]) == (target, 0)
+    assert expected["rigid_body_modes"] == d * (d + 1) // 2
     gap = analysis["rank_gap"]
     assert is_number(gap["last_nonzero"]) and is_number(gap["first_zero"])
-    if rank:
-        assert math.isclose(gap["last_nonzero"], s[rank - 1], rel_tol=1e-6)
+    assert math.isclose(
+        gap["last_nonzero"], rank_gap(positions, edges)["last_nonzero"], rel_tol=1e-6
+    )
     assert report["target_zero_modes"] == target
     assert report["unspecified_nodes"] == n - k and isinstance(report["unspecified_nodes"], int)
     assert isinstance(report["timings_ms"], dict) and report["timings_ms"]
@@ -127,8 +104,7 @@ def test_solution_space_fields(client, d, k, samples):
     basis = matrix(body["basis"], 2 * d + 1, m + 1)
     q = matrix(body["quadric"], m + 1, m + 1)
     assert np.allclose(q, q.T, rtol=0, atol=1e-14 * np.abs(q).max())
-    a = np.hstack([u, x, -np.ones((k, 1))])
-    b = np.sum(x * u, axis=1)
+    a, b = a_tilde(x, u)
     assert np.linalg.norm(a @ basis[:, :m]) <= 1e-12 * np.linalg.norm(a)
     assert np.allclose(
         a @ basis[:, m], b, atol=1e-12 * np.linalg.norm(a) * (1 + np.linalg.norm(basis[:, m]))
@@ -137,12 +113,14 @@ def test_solution_space_fields(client, d, k, samples):
     for sample in body["samples"]:
         assert set(sample) >= {"position", "motion"}
         x_u, u_u = matrix([sample["position"]], 1, d)[0], matrix([sample["motion"]], 1, d)[0]
-        bars = np.sum((x - x_u) * (u - u_u), axis=1)
-        scale = (np.linalg.norm(x, axis=1) + np.linalg.norm(x_u)) * (
-            np.linalg.norm(u, axis=1) + np.linalg.norm(u_u)
-        )
-        assert np.all(np.abs(bars) <= 1e-9 * scale)
-    if samples and k <= d + 1:  # x_U = x_Si always solves these, so the set is not empty
+        assert np.all(bar_residuals(x, u, x_u, u_u) <= 1e-9)
+    # Real points found here (all of them for m = 1) mean the samples cannot be empty; for
+    # k ≤ d + 1, x_U = x_Si always solves the problem.
+    real = points_on_random_lines(basis, d, np.random.default_rng(0))
+    assert len(real) or k > d + 1
+    if m == 1:
+        assert len(body["samples"]) == min(samples, len(real))
+    elif samples and len(real):
         assert body["samples"]
 
 

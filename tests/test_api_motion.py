@@ -5,6 +5,7 @@ import pytest
 from fastapi.testclient import TestClient
 from oracles.mechanisms import four_bar, outward_square, parallelogram
 from oracles.motion import fidelity, relative_bar_error
+from oracles.wire import frame_body
 
 from zeromode.service.app import create_app
 
@@ -14,19 +15,10 @@ def client():
     return TestClient(create_app())
 
 
-def frame_json(frame):
-    return {
-        "dim": frame.dim,
-        "positions": frame.positions.tolist(),
-        "edges": frame.edges.tolist(),
-        "specified": list(frame.specified),
-    }
-
-
 def test_motion_of_a_four_bar(client):
     frame = four_bar()
     r = client.post(
-        "/v1/motion", json={"frame": frame_json(frame), "amplitude": 0.3, "max_step": 0.05}
+        "/v1/motion", json={"frame": frame_body(frame), "amplitude": 0.3, "max_step": 0.05}
     )
     assert r.status_code == 200
     body = r.json()
@@ -42,7 +34,7 @@ def test_motion_of_a_four_bar(client):
 
 
 def test_singular_path_is_a_422_with_the_path_up_to_it(client):
-    request = {"frame": frame_json(parallelogram()), "amplitude": 3.0, "max_step": 0.05}
+    request = {"frame": frame_body(parallelogram()), "amplitude": 3.0, "max_step": 0.05}
     r = client.post("/v1/motion", json=request)
     assert r.status_code == 422
     detail = r.json()["detail"]
@@ -73,7 +65,7 @@ def test_singular_path_is_a_422_with_the_path_up_to_it(client):
     ],
 )
 def test_motion_rejects_bad_requests(client, change, code):
-    r = client.post("/v1/motion", json={"frame": frame_json(four_bar()), **change})
+    r = client.post("/v1/motion", json={"frame": frame_body(four_bar()), **change})
     assert r.status_code == 422
     assert r.json()["detail"]["code"] == code
 
@@ -95,7 +87,7 @@ def test_refine_outward_square(client):
     frame = outward_square()
     r = client.post(
         "/v1/refine",
-        json={"frame": frame_json(frame), "motion": frame.positions[:4].tolist(), "amplitude": 0.2},
+        json={"frame": frame_body(frame), "motion": frame.positions[:4].tolist(), "amplitude": 0.2},
     )
     assert r.status_code == 200
     body = r.json()
@@ -125,7 +117,7 @@ def test_refinement_failure_is_a_422_with_the_best_result(client):
     r = client.post(
         "/v1/refine",
         json={
-            "frame": frame_json(frame),
+            "frame": frame_body(frame),
             "motion": frame.positions[:4].tolist(),
             "amplitude": 0.2,
             "options": {"stay_on_solution_space": True},
@@ -154,13 +146,13 @@ def test_refinement_failure_is_a_422_with_the_best_result(client):
     ],
 )
 def test_refine_rejects_bad_requests(client, change, code):
-    r = client.post("/v1/refine", json={"frame": frame_json(outward_square()), **change})
+    r = client.post("/v1/refine", json={"frame": frame_body(outward_square()), **change})
     assert r.status_code == 422
     assert r.json()["detail"]["code"] == code
 
 
 def test_refine_needs_specified_nodes(client):
-    frame = frame_json(four_bar())
+    frame = frame_body(four_bar())
     r = client.post("/v1/refine", json={"frame": frame, "motion": []})
     assert r.status_code == 422 and r.json()["detail"]["code"] == "too_few_specified"
 

@@ -15,7 +15,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from oracles import pyrigi_adapter
-from oracles.frames import K4_SQUARE, SQUARE, TRIANGLE, random_rotation
+from oracles.frames import K4_SQUARE, SQUARE, TRIANGLE, random_rotation, triangle_with_taut_sides
 from oracles.mechanisms import bipartite_design, four_bar, outward_square, random_targets
 from oracles.rigidity import (
     compatibility_matrix,
@@ -74,20 +74,6 @@ def homothetic_frustum(body: np.ndarray):
 
 TETRAHEDRON = np.array([[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]], float)
 OCTAHEDRON = np.vstack([np.eye(3), -np.eye(3)])
-
-
-def triangle_with_taut_sides(sides: int):
-    """2D: a triangle whose first ``sides`` sides each carry a taut midpoint joint.
-
-    ``sides`` stresses and ``sides`` flexes; each stress stiffens only its own joint, so no
-    single basis stress is positive on every flex, but their sum is.
-    """
-    corners = np.array([[0.0, 0.0], [4.0, 0.0], [1.5, 3.0]])
-    x, e = list(corners), [(0, 1), (1, 2), (0, 2)]
-    for a, b in [(0, 1), (1, 2), (2, 0)][:sides]:
-        x.append((corners[a] + corners[b]) / 2)
-        e += [(a, len(x) - 1), (len(x) - 1, b)]
-    return np.array(x), e
 
 
 def connelly_second_order_rigid():

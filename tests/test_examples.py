@@ -1,13 +1,13 @@
 """The named examples (`zeromode example list`) reproduce the paper's counts.
 
 Every example is designed through POST /v1/design and its frame is re-analysed with the test
-suite's own reference rank (tests/rigidity_reference.py): exactly d(d+1)/2 + M zero modes, no
+suite's own reference rank (tests/oracles/rigidity.py): exactly d(d+1)/2 + M zero modes, no
 self-stress, every requested motion a zero mode, and the paper's node counts where it gives them.
 """
 
 import numpy as np
 import pytest
-from rigidity_reference import compatibility_matrix, normalised, reference_counts
+from oracles.rigidity import compatibility_matrix, normalised, reference_counts
 
 from zeromode.solver.examples import example_names, example_request
 

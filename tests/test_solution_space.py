@@ -19,82 +19,37 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from oracles.frames import CUBE_CORNERS, SQUARE_CORNERS, random_rotation
+from oracles.rigidity import REFERENCE_RTOL, normalised
+from oracles.solution_space import (
+    a_tilde,
+    bar_residuals,
+    paper_quadric,
+    points_on_random_lines,
+    roots_on_line,
+)
+from oracles.solution_space import (
+    nullity as expected_nullity,
+)
+
 from zeromode.solver.errors import DomainError
 from zeromode.solver.solution_space import solution_space
 
 # Derandomised: a property failure reproduces on every machine and every run.
 PROPERTY = settings(max_examples=50, deadline=None, derandomize=True)
-RANK_RTOL = 1e-9  # numpy's matrix_rank threshold, relative to σ_max, on the normalised Ã
 KIND = {1: "points", 2: "conic", 3: "quadric_surface"}
 
-SQUARE = np.array([[1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0], [1.0, -1.0]])
-CUBE = np.array([[i, j, k] for i in (-1.0, 1.0) for j in (-1.0, 1.0) for k in (-1.0, 1.0)])
+SQUARE = np.array(SQUARE_CORNERS)
+CUBE = np.array(CUBE_CORNERS)
 
 
-# --------------------------------------------------------------------------- the paper's algebra
-def linear_system(x: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Ã (k × (2d+1)) with rows [u_Siᵀ, x_Siᵀ, −1] and b_i = x_Si·u_Si (Eqs. 4–5)."""
-    return np.hstack([u, x, -np.ones((len(x), 1))]), np.sum(x * u, axis=1)
-
-
-def normalised(x: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Positions and motions each centred and divided by their RMS radius (rank of Ã unchanged:
-    both maps are invertible column operations on [u, x, −1])."""
-
-    def unit(y):
-        y = y - y.mean(axis=0)
-        r = np.sqrt(np.mean(np.sum(y**2, axis=1)))
-        return y / r if r > 0 else y
-
-    return unit(x), unit(u)
-
-
-def expected_nullity(x: np.ndarray, u: np.ndarray) -> int:
-    a, _ = linear_system(*normalised(x, u))
-    s = np.linalg.svd(a, compute_uv=False)
-    return a.shape[1] - int(np.linalg.matrix_rank(a, tol=RANK_RTOL * s[0]))
-
-
-def paper_quadric(w_tilde: np.ndarray, d: int) -> np.ndarray:
-    """Q = [[A, B], [Bᵀ, C]] with A = WᵀOW, B = (2ṽ*ᵀO − pᵀ)W/2, C = (ṽ*ᵀO − pᵀ)ṽ* (Supplement)."""
-    w, v = w_tilde[:, :-1], w_tilde[:, -1]
-    o = np.zeros((2 * d + 1, 2 * d + 1))
-    o[:d, d : 2 * d] = o[d : 2 * d, :d] = 0.5 * np.eye(d)
-    p = np.zeros(2 * d + 1)
-    p[-1] = 1.0
-    a = w.T @ o @ w
-    b = (2 * v @ o - p) @ w / 2
-    c = (v @ o - p) @ v
-    return np.block([[a, b[:, None]], [b[None, :], np.array([[c]])]])
-
-
-def roots_on_line(q: np.ndarray, a0: np.ndarray, delta: np.ndarray) -> list[float]:
-    """Real t with (a0 + tδ, 1)ᵀ Q (a0 + tδ, 1) = 0."""
-    p0, p1 = np.append(a0, 1.0), np.append(delta, 0.0)
-    qa, qb, qc = p1 @ q @ p1, 2 * p1 @ q @ p0, p0 @ q @ p0
-    if abs(qa) < 1e-14 * (abs(qb) + abs(qc)):
-        return [-qc / qb] if qb != 0 else []
-    disc = qb * qb - 4 * qa * qc
-    if disc < 0:
-        return []
-    return [(-qb + np.sqrt(disc)) / (2 * qa), (-qb - np.sqrt(disc)) / (2 * qa)]
-
-
-def bar_residuals(x, u, x_u, u_u) -> np.ndarray:
-    """|(x_Si − x_U)·(u_Si − u_U)| over the scale of its terms, for one unspecified node: (k,)."""
-    dx, du = x - x_u, u - u_u
-    scale = (np.linalg.norm(x, axis=1) + np.linalg.norm(x_u)) * (
-        np.linalg.norm(u, axis=1) + np.linalg.norm(u_u)
-    )
-    return np.abs(np.sum(dx * du, axis=1)) / np.maximum(scale, 1e-300)
-
-
-def random_rotation(d: int, rng: np.random.Generator) -> np.ndarray:
-    q, r = np.linalg.qr(rng.standard_normal((d, d)))
-    q = q * np.sign(np.diag(r))
-    if np.linalg.det(q) < 0:
-        q[:, 0] = -q[:, 0]
-    return q
+def check_samples(x, u, space, positions, motions, rtol: float = 1e-9) -> None:
+    """Every sample keeps all bars, and there are samples whenever real points exist (found
+    here along random lines of α-space with the paper's quadric)."""
+    for x_u, u_u in zip(positions, motions, strict=True):
+        assert np.all(bar_residuals(x, u, x_u, u_u) <= rtol)
+    real = points_on_random_lines(space.w_tilde, x.shape[1], np.random.default_rng(0))
+    assert len(positions) or not len(real)
 
 
 def generic_target(d: int, k: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
@@ -133,12 +88,12 @@ def redundant_target(d: int, r: int, extra: int, seed: int, consistent: bool = T
 # --------------------------------------------------------------------------- linear structure
 @PROPERTY
 @given(d=st.sampled_from([2, 3]), data=st.data(), seed=st.integers(0, 2**32 - 1))
-def test_basis_solves_the_linear_system(d, data, seed):
+def test_basis_solves_the_a_tilde(d, data, seed):
     """Ã W = 0, Ã ṽ* = b, ṽ* = Ã⁺b, WᵀW = I, shapes (2d+1)×(m+1) and (m+1)×(m+1), Q = Qᵀ."""
     k = data.draw(st.integers(1, 2 * d), label="k")
     x, u = generic_target(d, k, seed)
     space = solution_space(x, u, d)
-    a, b = linear_system(x, u)
+    a, b = a_tilde(x, u)
     m = space.nullity
     assert m == expected_nullity(x, u) == 2 * d + 1 - k
     assert space.w_tilde.shape == (2 * d + 1, m + 1)
@@ -149,7 +104,7 @@ def test_basis_solves_the_linear_system(d, data, seed):
     assert np.linalg.norm(a @ v_star - b) <= 1e-12 * (
         a_norm * np.linalg.norm(v_star) + np.linalg.norm(b)
     )
-    pinv = np.linalg.pinv(a, rcond=RANK_RTOL) @ b
+    pinv = np.linalg.pinv(a, rcond=REFERENCE_RTOL) @ b
     assert np.linalg.norm(v_star - pinv) <= 1e-9 * np.linalg.norm(pinv)
     assert np.allclose(w.T @ w, np.eye(m), atol=1e-12)
     assert np.allclose(
@@ -206,8 +161,7 @@ def test_every_sample_keeps_all_bars(d, data, seed):
     assert len(positions) <= 12
     if k <= d + 1:  # nonempty: x_U = x_Si solves it (u_U then follows linearly)
         assert len(positions) > 0
-    for x_u, u_u in zip(positions, motions):
-        assert np.all(bar_residuals(x, u, x_u, u_u) <= 1e-9)
+    check_samples(x, u, space, positions, motions)
 
 
 @pytest.mark.parametrize("d", [2, 3])
@@ -259,7 +213,7 @@ def test_no_real_point_when_the_linear_solution_is_unique(d):
     """m = 0 (k = 2d + 1 generic): the one linear solution misses the coupling → no_solution,
     not a "quadric_hypersurface" of dimension −1."""
     x, u = generic_target(d, 2 * d + 1, 0)
-    a, b = linear_system(x, u)
+    a, b = a_tilde(x, u)
     v = np.linalg.solve(a, b)  # square and invertible: the only candidate ṽ
     assert abs(v[2 * d] - v[:d] @ v[d : 2 * d]) > 1e-3  # ... and it misses the coupling
     with pytest.raises(DomainError) as err:
@@ -345,8 +299,7 @@ def test_redundant_rows_raise_the_nullity(d, data, seed):
     assert space.nullity == expected_nullity(x, u) == 2 * d + 1 - r
     assert space.nullity > 2 * d + 1 - k  # larger than for k independent rows
     positions, motions = space.sample(8, np.random.default_rng(seed))
-    for x_u, u_u in zip(positions, motions):
-        assert np.all(bar_residuals(x, u, x_u, u_u) <= 1e-9)
+    check_samples(x, u, space, positions, motions)
 
 
 # --------------------------------------------------------------------------- no solution
@@ -354,7 +307,7 @@ def test_redundant_rows_raise_the_nullity(d, data, seed):
 def test_overdetermined_generic_target_has_no_solution(d, k):
     for seed in range(3):
         x, u = generic_target(d, k, seed)
-        a, b = linear_system(*normalised(x, u))
+        a, b = a_tilde(normalised(x), normalised(u))
         coef = np.linalg.lstsq(a, b, rcond=None)[0]
         assert np.linalg.norm(a @ coef - b) > 1e-3 * np.linalg.norm(b)  # b ∉ R(Ã), checked here
         with pytest.raises(DomainError) as err:
@@ -423,7 +376,7 @@ def test_nullity_and_kind_are_invariant(d, data, seed, x_exp, u_exp, redundant):
     reference = solution_space(x, u, d)
     rng = np.random.default_rng(seed)
     sx, su = 10.0**x_exp, 10.0**u_exp
-    rotation = random_rotation(d, rng)
+    rotation = random_rotation(rng, d)
     x2 = sx * x @ rotation + 3 * sx * rng.standard_normal(d)
     u2 = su * u @ rotation + 3 * su * rng.standard_normal(d)
     moved = solution_space(x2, u2, d)
@@ -434,8 +387,7 @@ def test_nullity_and_kind_are_invariant(d, data, seed, x_exp, u_exp, redundant):
     )
     assert moved.nullity == expected_nullity(x2, u2)
     positions, motions = moved.sample(6, np.random.default_rng(seed))
-    for x_u, u_u in zip(positions, motions):
-        assert np.all(bar_residuals(x2, u2, x_u, u_u) <= 1e-8)
+    check_samples(x2, u2, moved, positions, motions, rtol=1e-8)
 
 
 @pytest.mark.parametrize("scale", [1e-3, 1e-1, 1e1, 1e3])
@@ -450,5 +402,4 @@ def test_paper_cases_are_scale_free(scale):
             assert space.nullity == m
             positions, motions = space.sample(8, np.random.default_rng(0))
             assert len(positions) > 0
-            for x_u, u_u in zip(positions, motions):
-                assert np.all(bar_residuals(x, u, x_u, u_u) <= 1e-9)
+            check_samples(x, u, space, positions, motions)

@@ -1,21 +1,22 @@
 """Finite two-configuration design: both configurations are exact realisations of one frame.
 
 Checked independently: bar lengths recomputed in both configurations, the specified rows exact,
-and the counts of the first configuration from the reference rank.
+the counts of the first configuration from the reference rank, and the reported ε measured again
+by the continuation of oracles.motion.
 """
 
 import numpy as np
 import pytest
-from rigidity_reference import reference_counts
+from oracles.frames import SQUARE_CORNERS
+from oracles.motion import bar_lengths, fidelity
+from oracles.rigidity import reference_counts
 
 from zeromode.solver.errors import DomainError
 from zeromode.solver.two_configuration import design_two_configurations
 
-SQUARE = np.array([[1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0], [1.0, -1.0]])
-
-
-def bar_lengths(x, edges):
-    return np.linalg.norm(x[edges[:, 0]] - x[edges[:, 1]], axis=1)
+SQUARE = np.array(SQUARE_CORNERS)
+# ε by two continuations agrees to round-off; below ROUND_OFF_EPSILON both are "zero".
+SAME_EPSILON, ROUND_OFF_EPSILON = 1e-6, 1e-9
 
 
 @pytest.mark.parametrize("d,k,seed", [(2, 3, 0), (2, 4, 1), (3, 4, 2), (3, 5, 3)])
@@ -28,8 +29,12 @@ def test_both_configurations_keep_every_bar(d, k, seed):
     assert np.array_equal(first[:k], x) and np.array_equal(second[:k], y)
     l1, l2 = bar_lengths(first, edges), bar_lengths(second, edges)
     assert np.max(np.abs(l1 - l2) / l1) <= 1e-12
+    # The design's promise for the first configuration: one motion and no self-stress, so its
+    # ε towards the second was traced, and is what an independent continuation measures.
     counts = reference_counts(first, edges)
-    assert counts["self_stresses"] == 0 or r.epsilon is None
+    assert (counts["nontrivial_zero_modes"], counts["self_stresses"]) == (1, 0)
+    measured = fidelity(first, edges, r.frame.specified, y - x)
+    assert measured == pytest.approx(r.epsilon, rel=SAME_EPSILON, abs=ROUND_OFF_EPSILON)
 
 
 def test_outward_square_scaled_is_reached_by_one_motion():
@@ -37,6 +42,7 @@ def test_outward_square_scaled_is_reached_by_one_motion():
     assert r.epsilon is not None and r.epsilon <= 1e-6
     counts = reference_counts(r.frame.positions, r.frame.edges)
     assert counts["nontrivial_zero_modes"] == 1 and counts["self_stresses"] == 0
+    assert fidelity(r.frame.positions, r.frame.edges, r.frame.specified, 0.5 * SQUARE) <= 1e-6
 
 
 def test_a_rigid_motion_has_no_design():

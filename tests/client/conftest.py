@@ -19,11 +19,12 @@ from pathlib import Path
 import httpx
 import pytest
 import uvicorn
-from client_reference import API_KEY
 
 from zeromode.service.app import create_app
 
 STARTUP_TIMEOUT_S = 60.0
+# The key the keyed service is started with (ZEROMODE_API_KEY).
+API_KEY = "test-key-3f9c"
 
 
 def loopback_socket() -> socket.socket:
@@ -115,16 +116,5 @@ def keyed_service_url(keyed_service: KeyedService) -> str:
 
 
 @pytest.fixture(scope="session")
-def served_paths(service_url: str) -> frozenset[str]:
-    return frozenset(httpx.get(f"{service_url}/openapi.json").json()["paths"])
-
-
-@pytest.fixture
-def require(served_paths: frozenset[str]) -> Callable[[str], None]:
-    """Skip a test whose endpoint the live service does not serve yet."""
-
-    def check(path: str) -> None:
-        if path not in served_paths:
-            pytest.skip(f"{path} is not served yet (absent from /openapi.json)")
-
-    return check
+def api_key() -> str:
+    return API_KEY

@@ -6,9 +6,11 @@ import json
 
 import numpy as np
 import pytest
-from client_reference import K4_SPACE
+from oracles import frames
 
 from zeromode_client import Frame, Result
+
+K4_SPACE = Frame.from_json(frames.TETRAHEDRON)
 
 
 def test_frame_json_round_trip_is_exact() -> None:

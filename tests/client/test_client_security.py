@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import pytest
-from client_reference import API_KEY, SQUARE
+from oracles import frames
 
-from zeromode_client import Client, ZeromodeError
+from zeromode_client import Client, Frame, ZeromodeError
+
+SQUARE = Frame.from_json(frames.SQUARE)
 
 
 def test_health_stays_open(keyed_service_url: str) -> None:
@@ -21,6 +23,6 @@ def test_v1_needs_the_key(keyed_service_url: str, key: str | None) -> None:
     assert "X-API-Key" in info.value.message
 
 
-def test_the_key_opens_v1(keyed_service_url: str) -> None:
-    with Client(keyed_service_url, api_key=API_KEY) as client:
+def test_the_key_opens_v1(keyed_service_url: str, api_key: str) -> None:
+    with Client(keyed_service_url, api_key=api_key) as client:
         assert client.analyze(SQUARE).nontrivial_zero_modes == 1

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
-
 import pytest
 from fastapi.testclient import TestClient
 
@@ -21,14 +19,3 @@ def openapi(client: TestClient) -> dict:
     response = client.get("/openapi.json")
     assert response.status_code == 200
     return response.json()
-
-
-@pytest.fixture
-def require(openapi: dict) -> Callable[[str], None]:
-    """Skip a test whose endpoint is not served yet (absent from /openapi.json)."""
-
-    def check(path: str) -> None:
-        if path not in openapi["paths"]:
-            pytest.skip(f"{path} is not served yet (absent from /openapi.json)")
-
-    return check

@@ -80,6 +80,20 @@ FIG4_TRIANGLE = [[-1.0, 0.0], [1.0, 0.0], [0.0, 2.0]]
 FIG4_TETRAHEDRON = [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 2.0]]
 
 
+def triangle_with_taut_sides(sides: int):
+    """2D: a triangle whose first ``sides`` sides each carry a taut midpoint joint.
+
+    ``sides`` stresses and ``sides`` flexes; each stress stiffens only its own joint, so no
+    single basis stress is positive on every flex, but their sum is.
+    """
+    corners = np.array([[0.0, 0.0], [4.0, 0.0], [1.5, 3.0]])
+    x, e = list(corners), [(0, 1), (1, 2), (0, 2)]
+    for a, b in [(0, 1), (1, 2), (2, 0)][:sides]:
+        x.append((corners[a] + corners[b]) / 2)
+        e += [(a, len(x) - 1), (len(x) - 1, b)]
+    return np.array(x), e
+
+
 def arrays(frame: dict) -> tuple[np.ndarray, np.ndarray]:
     """(positions N × d, edges N_B × 2) of a JSON frame."""
     positions = np.array(frame["positions"], dtype=float).reshape(-1, frame["dim"])

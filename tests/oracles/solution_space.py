@@ -60,3 +60,17 @@ def roots_on_line(q: np.ndarray, a0: np.ndarray, delta: np.ndarray) -> list[floa
     if disc < 0:
         return []
     return [(-qb + np.sqrt(disc)) / (2 * qa), (-qb - np.sqrt(disc)) / (2 * qa)]
+
+
+def points_on_random_lines(w_tilde: np.ndarray, d: int, rng: np.random.Generator, lines: int = 20):
+    """Points ṽ = W̃(α, 1) of the solution set (Q from paper_quadric) on ``lines`` random lines of
+    α-space, as rows (≤ 2·lines × (2d+1)). For nullity m = 1 the line is all of α-space, so these
+    are all the points; an empty result for m ≥ 2 means none was met, not that none exists."""
+    m = w_tilde.shape[1] - 1
+    q = paper_quadric(w_tilde, d)
+    found = []
+    for _ in range(1 if m == 1 else lines):
+        a0 = np.zeros(m) if m == 1 else rng.standard_normal(m)
+        delta = np.ones(m) if m == 1 else rng.standard_normal(m)
+        found += [w_tilde @ np.append(a0 + t * delta, 1.0) for t in roots_on_line(q, a0, delta)]
+    return np.array(found).reshape(-1, 2 * d + 1)

@@ -45,3 +45,13 @@ def assert_error(response, code: str | set[str] | None = None, status: int | Non
     if code is not None:
         assert detail["code"] in ({code} if isinstance(code, str) else code), detail
     return detail
+
+
+def frame_body(frame) -> dict:
+    """The JSON frame {"dim", "positions", "edges", "specified"} of a solver Frame."""
+    return {
+        "dim": frame.dim,
+        "positions": frame.positions.tolist(),
+        "edges": frame.edges.tolist(),
+        "specified": list(frame.specified),
+    }
