@@ -88,7 +88,7 @@ def redundant_target(d: int, r: int, extra: int, seed: int, consistent: bool = T
 # --------------------------------------------------------------------------- linear structure
 @PROPERTY
 @given(d=st.sampled_from([2, 3]), data=st.data(), seed=st.integers(0, 2**32 - 1))
-def test_basis_solves_the_a_tilde(d, data, seed):
+def test_basis_solves_the_linear_system(d, data, seed):
     """Ã W = 0, Ã ṽ* = b, ṽ* = Ã⁺b, WᵀW = I, shapes (2d+1)×(m+1) and (m+1)×(m+1), Q = Qᵀ."""
     k = data.draw(st.integers(1, 2 * d), label="k")
     x, u = generic_target(d, k, seed)
