@@ -19,6 +19,7 @@ RUN pip install --no-cache-dir --only-binary=:all: -r requirements.lock
 COPY pyproject.toml README.md ./
 COPY solver ./solver
 COPY service ./service
+COPY viz ./viz
 RUN pip install --no-cache-dir --no-deps --no-build-isolation . \
     && rm -rf build ./*.egg-info
 

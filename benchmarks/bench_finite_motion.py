@@ -54,11 +54,11 @@ from pathlib import Path
 
 import numpy as np
 
+from zeromode.service.examples import example_request
 from zeromode.service.responses import json_safe
 from zeromode.solver.budget import time_budget
 from zeromode.solver.design import design
 from zeromode.solver.errors import DomainError
-from zeromode.solver.examples import example_request
 from zeromode.solver.finite_motion import motion_fidelity
 from zeromode.solver.refine import RefinementFailed, refine, target_displacement
 

@@ -15,8 +15,8 @@ import json
 import socket
 import sys
 
-from zeromode.solver.errors import DomainError
-from zeromode.solver.frame import Frame
+# Only the standard library above: `zeromode --help` must not wait for numpy and scipy. Each
+# command imports what it needs.
 
 
 def _load_json(path: str) -> dict:
@@ -24,7 +24,9 @@ def _load_json(path: str) -> dict:
         return json.load(fh)
 
 
-def _frame_from_json(doc: dict) -> Frame:
+def _frame_from_json(doc: dict):
+    from zeromode.solver.frame import Frame
+
     doc = doc.get("frame", doc)
     return Frame.build(doc["positions"], doc.get("edges", []), doc.get("specified", []), dim=doc.get("dim"))
 
@@ -84,7 +86,7 @@ def cmd_analyze(args) -> int:
 
 
 def cmd_example(args) -> int:
-    from zeromode.solver.examples import example_description, example_names, example_request
+    from zeromode.service.examples import example_description, example_names, example_request
 
     if args.action == "list":
         for name in example_names():
@@ -98,26 +100,31 @@ def cmd_example(args) -> int:
     return 0
 
 
-def cmd_plot(args) -> int:
-    from zeromode.service.routes.plot import plot_request_for, render_plot
+PLOT_FORMATS = (".svg", ".png", ".pdf")
 
-    if not args.output.endswith((".svg", ".png")):
-        print("error: the output file must end in .svg or .png.", file=sys.stderr)
+
+def cmd_plot(args) -> int:
+    import dataclasses
+    from pathlib import Path
+
+    from zeromode.service.plotting import picture_for_document
+    from zeromode.viz.layout import layout
+    from zeromode.viz.svg import scene_svg
+
+    output = Path(args.output)
+    if output.suffix.lower() not in PLOT_FORMATS:
+        print(f"error: the output file must end in {', '.join(PLOT_FORMATS)}.", file=sys.stderr)
         return 2
-    request = plot_request_for(_load_json(args.design), solution_space=not args.no_solution_space)
+    picture = picture_for_document(_load_json(args.design), solution_space=not args.no_solution_space)
     if args.title is not None:
-        request.title = args.title
-    svg = render_plot(request)
-    if args.output.endswith(".svg"):
-        with open(args.output, "w") as fh:
-            fh.write(svg)
-        return 0
-    try:
-        import cairosvg
-    except ImportError:
-        print("error: PNG output needs cairosvg (pip install 'zeromode[plot]'); write a .svg file instead.", file=sys.stderr)
-        return 2
-    cairosvg.svg2png(bytestring=svg.encode(), write_to=args.output, scale=args.scale)
+        picture = dataclasses.replace(picture, title=args.title)
+    scene = layout(picture)
+    if output.suffix.lower() == ".svg":
+        output.write_text(scene_svg(scene), encoding="utf-8")
+    else:
+        from zeromode.viz.raster import write_raster  # matplotlib: only for PNG and PDF
+
+        write_raster(scene, output, args.scale)
     return 0
 
 
@@ -126,6 +133,8 @@ def _http_json(method: str, url: str, api_key: str | None, body: dict | None = N
     an error answer raises DomainError with the service's code and sentence."""
     import urllib.error
     import urllib.request
+
+    from zeromode.solver.errors import DomainError
 
     try:
         data = None if body is None else json.dumps(body, allow_nan=False).encode()
@@ -151,6 +160,8 @@ def _http_json(method: str, url: str, api_key: str | None, body: dict | None = N
 
 def cmd_job(args) -> int:
     import time
+
+    from zeromode.solver.errors import DomainError
 
     endpoint = "/v1/" + args.endpoint.strip("/").removeprefix("v1/")
     base = args.url.rstrip("/")
@@ -191,13 +202,13 @@ def build_parser() -> argparse.ArgumentParser:
     ex.set_defaults(func=cmd_example)
     pl = sub.add_parser(
         "plot", help="draw a response (or request, designed first) of /v1/design, /v1/design/auxetic or "
-        "/v1/design/allosteric, or a /v1/plot body, as SVG or PNG"
+        "/v1/design/allosteric, or a /v1/plot body, as SVG, PNG or PDF"
     )
     pl.add_argument("design", help="JSON file (or - for stdin)")
-    pl.add_argument("-o", "--output", required=True, help="out.svg or out.png (PNG needs cairosvg)")
+    pl.add_argument("-o", "--output", required=True, help="out.svg, out.png or out.pdf")
     pl.add_argument("--title", default=None)
     pl.add_argument("--no-solution-space", action="store_true", help="do not draw the solution space")
-    pl.add_argument("--scale", type=float, default=1.5, help="PNG pixels per SVG unit (default 1.5)")
+    pl.add_argument("--scale", type=float, default=1.5, help="PNG pixels per SVG pixel (default 1.5)")
     pl.set_defaults(func=cmd_plot)
     jb = sub.add_parser(
         "job", help="run a request as a job on a running service (progress bar); print its result"
@@ -215,6 +226,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    from zeromode.solver.errors import DomainError  # after parsing: --help needs no numpy
+
     try:
         return args.func(args)
     except DomainError as exc:

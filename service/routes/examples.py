@@ -2,9 +2,9 @@
 
 from fastapi import APIRouter, HTTPException
 
+from zeromode.service.examples import example_description, example_names, example_request
 from zeromode.service.schemas.common import ErrorResponse
 from zeromode.solver.errors import InvalidInput
-from zeromode.solver.examples import example_description, example_names, example_request
 
 router = APIRouter(prefix="/v1", tags=["examples"])
 

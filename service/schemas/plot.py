@@ -5,7 +5,7 @@ from __future__ import annotations
 from pydantic import BaseModel, Field, FiniteFloat
 
 from zeromode.service.schemas.common import FrameModel, Points
-from zeromode.solver.plot import VIEW_3D
+from zeromode.viz.style import VIEW_3D
 
 MAX_PLOT_MODES = 16
 MAX_CONFIGURATIONS = 8
