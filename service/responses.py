@@ -25,6 +25,20 @@ from zeromode.solver.rank import RankGap
 from zeromode.solver.rigidity import Analysis
 
 
+# The integer fields of /v1/analyze, in the contract's order (docs/API.md).
+COUNT_FIELDS = (
+    "nodes",
+    "edges",
+    "dim",
+    "maxwell_count",
+    "rank",
+    "zero_modes",
+    "rigid_body_modes",
+    "nontrivial_zero_modes",
+    "self_stresses",
+)
+
+
 def json_safe(value):
     """Non-finite numbers (e.g. an IPOPT iterate that diverged) become null: JSON has no NaN."""
     if isinstance(value, float):
@@ -60,15 +74,7 @@ def rank_gap_body(gap: RankGap) -> dict:
 def counts_body(analysis: Analysis) -> dict:
     """The integer fields and the rank gap of /v1/analyze (also embedded as report.analysis)."""
     return {
-        "nodes": analysis.nodes,
-        "edges": analysis.edges,
-        "dim": analysis.dim,
-        "maxwell_count": analysis.maxwell_count,
-        "rank": analysis.rank,
-        "zero_modes": analysis.zero_modes,
-        "rigid_body_modes": analysis.rigid_body_modes,
-        "nontrivial_zero_modes": analysis.nontrivial_zero_modes,
-        "self_stresses": analysis.self_stresses,
+        **{name: getattr(analysis, name) for name in COUNT_FIELDS},
         "rank_gap": rank_gap_body(analysis.rank_gap),
     }
 
