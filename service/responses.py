@@ -24,7 +24,6 @@ from zeromode.solver.frame import Frame
 from zeromode.solver.rank import RankGap
 from zeromode.solver.rigidity import Analysis
 
-
 # The integer fields of /v1/analyze, in the contract's order (docs/API.md).
 COUNT_FIELDS = (
     "nodes",
