@@ -1,0 +1,121 @@
+"""The service's documents, recognised by their fields: what ``zeromode plot``, ``zeromode export``,
+POST /v1/plot and POST /v1/export accept besides their own bodies.
+
+A document is a request or response body of /v1/design, /v1/design/auxetic or
+/v1/design/allosteric — a request is designed first (``respond``), so a request and its response
+give the same document — a /v1/refine response, or any other body with a ``frame``.
+"""
+
+from __future__ import annotations
+
+from pydantic import BaseModel, ValidationError
+
+from zeromode.service.responses import allosteric_body, auxetic_body, design_body
+from zeromode.service.schemas.allostery import AllostericRequest
+from zeromode.service.schemas.common import FrameModel, Points
+from zeromode.service.schemas.design import DesignRequest
+from zeromode.service.schemas.lattice import AuxeticRequest, LatticeState
+from zeromode.solver.allostery import design_allosteric
+from zeromode.solver.errors import InvalidInput
+from zeromode.solver.lattice import Lattice, auxetic_chain_3d, auxetic_sheet
+from zeromode.solver.pipeline import design_pipeline
+
+# What a document is, by its fields (``kind``).
+DESIGN, AUXETIC, ALLOSTERIC, REFINEMENT, FRAME = "design", "auxetic", "allosteric", "refinement", "frame"
+
+
+# The fields of each response the plotting and export code read (pydantic ignores the rest).
+class DesignDocument(BaseModel):
+    frame: FrameModel
+    modes: list[Points] = []
+
+
+class AuxeticReportFields(BaseModel):
+    boundary: dict[str, list[int]] | None = None
+
+
+class AuxeticDocument(DesignDocument):
+    poisson_ratio: float
+    states: list[LatticeState]
+    report: AuxeticReportFields = AuxeticReportFields()
+
+
+class AllostericReportFields(BaseModel):
+    source: list[int]
+    target: list[int]
+    relays: list[int] = []
+    achieved_target_motion: Points = []
+
+
+class AllostericDocument(DesignDocument):
+    report: AllostericReportFields
+
+
+class RefinementDocument(BaseModel):
+    frame: FrameModel
+    path: list[Points]
+
+
+def kind(doc: dict) -> str:
+    """The kind of a response document (one with a ``frame``): AUXETIC (``states`` and
+    ``poisson_ratio``), ALLOSTERIC (``report`` with ``source``, ``target``, ``relays``), DESIGN
+    (any other ``report``), REFINEMENT (``path`` and ``epsilon_after``), else FRAME."""
+    report = doc.get("report") if isinstance(doc.get("report"), dict) else {}
+    if "states" in doc and "poisson_ratio" in doc:
+        return AUXETIC
+    if {"source", "target", "relays"} <= report.keys():
+        return ALLOSTERIC
+    if "report" in doc:
+        return DESIGN
+    if "path" in doc and "epsilon_after" in doc:
+        return REFINEMENT
+    return FRAME
+
+
+def respond(doc: dict) -> tuple[dict, BaseModel]:
+    """Design a request document: (the response body, the validated request). The one place
+    documents call the designers."""
+    if "source" in doc and "target" in doc:
+        r = validated(doc, AllostericRequest)
+        result = design_allosteric(
+            r.source.positions, r.source.motion, r.target.positions, r.target.motion,
+            dim=r.dim, seed=r.options.seed, relay_spacing=r.options.relay_spacing,
+        )
+        return allosteric_body(result, {}), r
+    if "cells" in doc or "poisson_ratio" in doc:
+        r = validated(doc, AuxeticRequest)
+        return auxetic_body(lattice(r), {}), r
+    if "positions" in doc and "motions" in doc:
+        r = validated(doc, DesignRequest)
+        result = design_pipeline(r.positions, r.motions, dim=r.dim, seed=r.options.seed,
+                                 n_unspecified=r.options.n_unspecified)
+        return design_body(result, {}), r
+    raise InvalidInput(
+        "invalid_document",
+        "the document is neither a body with a frame nor a request or response of /v1/design, "
+        "/v1/design/auxetic or /v1/design/allosteric.",
+    )
+
+
+def lattice(r: AuxeticRequest) -> Lattice:
+    """A 2D sheet (cells [n_x, n_y], cell [w, h]) or a 3D chain (cells [n], block [w, h, l])."""
+    cells, sizes = (2, 2) if r.dim == 2 else (1, 3)
+    if len(r.cells) != cells:
+        raise InvalidInput("invalid_size", f"a {r.dim}D lattice needs {cells} cell count(s).")
+    if r.cell is not None and len(r.cell) != sizes:
+        raise InvalidInput("invalid_cell", f"a {r.dim}D module has {sizes} half-sizes.")
+    if r.dim == 2:
+        return auxetic_sheet(*r.cells, poisson=r.poisson_ratio, cell=tuple(r.cell or (1.0, 1.0)), strain=r.strain)
+    return auxetic_chain_3d(
+        r.cells[0], poisson=r.poisson_ratio, block=tuple(r.cell or (1.0, 1.0, 1.0)), strain=r.strain, seed=r.seed
+    )
+
+
+def validated(body: dict, model: type[BaseModel]):
+    """``body`` read as ``model``; InvalidInput ``invalid_request`` naming the first bad field."""
+    try:
+        return model.model_validate(body)
+    except ValidationError as exc:
+        first = exc.errors()[0]
+        where = ".".join(str(p) for p in first.get("loc", ())) or "document"
+        raise InvalidInput("invalid_request", f"{where}: {first.get('msg', 'invalid value')}.") from exc
