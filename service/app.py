@@ -25,7 +25,7 @@ from zeromode.service.routes import (
     motion,
     plot,
 )
-from zeromode.service.settings import SETTINGS, Settings
+from zeromode.service.settings import Settings, settings_scope
 from zeromode.solver.budget import time_budget
 
 log = logging.getLogger("zeromode")
@@ -33,8 +33,9 @@ log = logging.getLogger("zeromode")
 
 class LimitsAndAuth:
     """Pure ASGI middleware (no per-request task or body streaming, unlike BaseHTTPMiddleware):
-    body-size limit, Content-Length required on bodies, optional API key, the per-request time
-    budget, and a request id echoed in the response and the log."""
+    body-size limit, Content-Length required on bodies, optional API key, the app's settings as
+    the current settings and the per-request time budget, and a request id echoed in the
+    response and the log."""
 
     def __init__(self, app: ASGIApp, settings: Settings):
         self.app = app
@@ -75,14 +76,17 @@ class LimitsAndAuth:
                 MutableHeaders(scope=message).append("x-request-id", request_id)
             await send(message)
 
-        with time_budget(settings.time_budget_s):
+        with settings_scope(settings), time_budget(settings.time_budget_s):
             await self.app(scope, receive, send_with_id)
         log.info(
             "request_id=%s %s %s -> %s", request_id, scope["method"], scope["path"], status_seen[0] if status_seen else "-"
         )
 
 
-def create_app(settings: Settings = SETTINGS) -> FastAPI:
+def create_app(settings: Settings | None = None) -> FastAPI:
+    """The service for ``settings`` (default: read from the ZEROMODE_* environment). Every
+    limit of a request is taken from these settings while it is served."""
+    settings = Settings() if settings is None else settings
     app = FastAPI(
         title="zeromode",
         version=__version__,

@@ -1,46 +1,83 @@
-"""Service settings and size limits, read once from the environment (ZEROMODE_*)."""
+"""Service settings: one pydantic-settings object, read from ZEROMODE_* environment variables
+and injected into ``create_app``; every limit is enforced with a 4xx naming it.
+
+Nothing reads settings at import time: the app built by ``create_app(settings)`` makes them the
+*current* settings of each request it serves (a context variable set by the ASGI middleware),
+and request validation reads the limits from there (see service/schemas/limits.py).
+"""
 
 from __future__ import annotations
 
 import os
 import tempfile
-from dataclasses import dataclass, field
+from collections.abc import Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
+from typing import Annotated
+
+from pydantic import Field, field_validator
+from pydantic_settings import BaseSettings, NoDecode, SettingsConfigDict
 
 
-def _int(name: str, default: int) -> int:
-    return int(os.environ.get(name, default))
+class Settings(BaseSettings):
+    """Limits and deployment options (README, "Errors and limits"). Environment: ZEROMODE_<NAME>."""
 
+    model_config = SettingsConfigDict(env_prefix="ZEROMODE_", frozen=True, extra="forbid")
 
-def _float(name: str, default: float) -> float:
-    return float(os.environ.get(name, default))
-
-
-@dataclass(frozen=True)
-class Settings:
-    """Limits are documented in the README; every one is enforced with a 4xx naming it."""
-
-    max_body_bytes: int = field(default_factory=lambda: _int("ZEROMODE_MAX_BODY_BYTES", 20_000_000))
-    max_nodes: int = field(default_factory=lambda: _int("ZEROMODE_MAX_NODES", 100_000))
-    max_edges: int = field(default_factory=lambda: _int("ZEROMODE_MAX_EDGES", 400_000))
-    max_specified: int = field(default_factory=lambda: _int("ZEROMODE_MAX_SPECIFIED", 64))
-    max_motions: int = field(default_factory=lambda: _int("ZEROMODE_MAX_MOTIONS", 4))
-    max_samples: int = field(default_factory=lambda: _int("ZEROMODE_MAX_SAMPLES", 1000))
-    time_budget_s: float = field(default_factory=lambda: _float("ZEROMODE_TIME_BUDGET_S", 60.0))
-    job_time_budget_s: float = field(default_factory=lambda: _float("ZEROMODE_JOB_TIME_BUDGET_S", 900.0))
-    job_dir: str = field(
-        default_factory=lambda: os.environ.get("ZEROMODE_JOB_DIR")
-        or os.path.join(tempfile.gettempdir(), "zeromode-jobs")
+    max_body_bytes: int = Field(default=20_000_000, gt=0, description="Largest request body.")
+    max_nodes: int = Field(default=100_000, gt=0, description="Nodes of a frame.")
+    max_edges: int = Field(default=400_000, gt=0, description="Bars of a frame.")
+    max_specified: int = Field(default=64, gt=0, description="Specified nodes of a design.")
+    max_motions: int = Field(default=4, gt=0, description="Target motions of a design.")
+    max_samples: int = Field(default=1000, ge=0, description="Samples of a solution space.")
+    time_budget_s: float = Field(default=60.0, gt=0, description="Wall time of one request.")
+    job_time_budget_s: float = Field(default=900.0, ge=0, description="Wall time of one job.")
+    job_dir: str = Field(
+        default_factory=lambda: os.path.join(tempfile.gettempdir(), "zeromode-jobs"),
+        description="Directory of the job store (shared by the workers).",
     )
-    job_threads: int = field(default_factory=lambda: _int("ZEROMODE_JOB_THREADS", 1))
-    max_pending_jobs: int = field(default_factory=lambda: _int("ZEROMODE_MAX_PENDING_JOBS", 8))
-    max_stored_jobs: int = field(default_factory=lambda: _int("ZEROMODE_MAX_STORED_JOBS", 1000))
-    job_ttl_s: float = field(default_factory=lambda: _float("ZEROMODE_JOB_TTL_S", 86_400.0))
-    api_key: str | None = field(default_factory=lambda: os.environ.get("ZEROMODE_API_KEY") or None)
-    cors_origins: tuple[str, ...] = field(
-        default_factory=lambda: tuple(
-            o.strip() for o in os.environ.get("ZEROMODE_CORS_ORIGINS", "").split(",") if o.strip()
-        )
+    job_threads: int = Field(default=1, ge=1)
+    max_pending_jobs: int = Field(default=8, ge=0)
+    max_stored_jobs: int = Field(default=1000, ge=0)
+    job_ttl_s: float = Field(default=86_400.0, ge=0)
+    api_key: str | None = Field(default=None, description="Required X-API-Key on /v1/ when set.")
+    cors_origins: Annotated[tuple[str, ...], NoDecode] = Field(
+        default=(), description="Allowed CORS origins (comma-separated in the environment)."
     )
 
+    @field_validator("api_key", mode="before")
+    @classmethod
+    def _empty_key_is_none(cls, value):
+        return value or None
 
-SETTINGS = Settings()
+    @field_validator("cors_origins", mode="before")
+    @classmethod
+    def _comma_separated(cls, value):
+        if isinstance(value, str):
+            return tuple(origin.strip() for origin in value.split(",") if origin.strip())
+        return value
+
+
+_CURRENT: ContextVar[Settings | None] = ContextVar("zeromode_settings", default=None)
+_FROM_ENVIRONMENT: list[Settings] = []
+
+
+@contextmanager
+def settings_scope(settings: Settings) -> Iterator[None]:
+    """Within this block (one request of an app), ``current_settings()`` is ``settings``."""
+    token = _CURRENT.set(settings)
+    try:
+        yield
+    finally:
+        _CURRENT.reset(token)
+
+
+def current_settings() -> Settings:
+    """The settings of the request being served; outside any request (the library, a script
+    validating a document), the environment's, read once."""
+    settings = _CURRENT.get()
+    if settings is not None:
+        return settings
+    if not _FROM_ENVIRONMENT:
+        _FROM_ENVIRONMENT.append(Settings())
+    return _FROM_ENVIRONMENT[0]

@@ -20,7 +20,6 @@ from zeromode.service.errors import error_body
 from zeromode.service.jobs import JobFailed, JobRejected, JobStore
 from zeromode.service.schemas.common import ERROR_RESPONSES, ErrorResponse
 from zeromode.service.schemas.jobs import JobAccepted, JobEndpoint, JobRequest, JobStatus
-from zeromode.service.settings import SETTINGS
 
 router = APIRouter(prefix="/v1", tags=["jobs"])
 
@@ -50,7 +49,7 @@ def _store(request: Request) -> JobStore:
     state = request.app.state
     with _STORE_LOCK:
         if not hasattr(state, "job_store"):
-            settings = getattr(state, "settings", SETTINGS)
+            settings = state.settings
             try:
                 state.job_store = JobStore(settings)
             except OSError as exc:  # the operator's ZEROMODE_JOB_DIR, not the request, is wrong

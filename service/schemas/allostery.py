@@ -6,13 +6,12 @@ from typing import Literal
 
 from pydantic import BaseModel, Field, FiniteFloat
 
-from zeromode.service.schemas.common import AnalysisCounts, FrameModel, Points
-from zeromode.service.settings import SETTINGS
+from zeromode.service.schemas.common import AnalysisCounts, FrameModel, Points, SpecifiedPoints
 
 
 class Site(BaseModel):
-    positions: Points = Field(min_length=1, max_length=SETTINGS.max_specified)
-    motion: Points = Field(min_length=1, max_length=SETTINGS.max_specified)
+    positions: SpecifiedPoints = Field(min_length=1)
+    motion: SpecifiedPoints = Field(min_length=1)
 
 
 class AllostericOptions(BaseModel):

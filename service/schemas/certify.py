@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Annotated, Literal
 
 from pydantic import BaseModel, Field
 
 from zeromode.service.schemas.common import AnalysisCounts, FrameModel, Points
-from zeromode.service.settings import SETTINGS
+from zeromode.service.schemas.limits import Limited
 from zeromode.solver.certificates import PRESTRESS_TOL, SDP_MAX_DIM
 from zeromode.solver.tolerances import GIVEN_MODE_RTOL
 
@@ -35,9 +35,8 @@ class CertifyOptions(BaseModel):
 
 class CertifyRequest(BaseModel):
     frame: FrameModel
-    modes: list[Points] = Field(
+    modes: Annotated[list[Points], Limited("max_motions")] = Field(
         default_factory=list,
-        max_length=SETTINGS.max_motions,
         description=(
             "Designed modes, each N×d (e.g. the modes of a /v1/design answer): zero modes of the "
             f"frame (‖C m‖ ≤ {GIVEN_MODE_RTOL:g}·‖C‖_F‖m‖), independent modulo rigid motions. The "

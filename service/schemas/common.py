@@ -2,25 +2,27 @@
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Annotated, Literal
 
 from pydantic import BaseModel, Field, FiniteFloat
 
-from zeromode.service.settings import SETTINGS
+from zeromode.service.schemas.limits import Limited, limit_text
 
 Point = list[FiniteFloat]
 Points = list[Point]
+# k×d positions or motions of the specified nodes of a request.
+SpecifiedPoints = Annotated[Points, Limited("max_specified")]
 
 
 class FrameModel(BaseModel):
     """A bar-and-joint frame. Node indices are 0-based; an edge and its reverse are the same edge."""
 
     dim: Literal[2, 3] = Field(description="Spatial dimension d.")
-    positions: Points = Field(
-        max_length=SETTINGS.max_nodes, description="N×d node positions (row list)."
+    positions: Annotated[Points, Limited("max_nodes")] = Field(
+        description=f"N×d node positions (row list), N {limit_text('max_nodes')}."
     )
-    edges: list[tuple[int, int]] = Field(
-        default_factory=list, max_length=SETTINGS.max_edges, description="N_B bars [i, j], i ≠ j."
+    edges: Annotated[list[tuple[int, int]], Limited("max_edges")] = Field(
+        default_factory=list, description=f"N_B bars [i, j], i ≠ j; N_B {limit_text('max_edges')}."
     )
     specified: list[int] = Field(
         default_factory=list, description="Indices of the specified nodes (default: none)."

@@ -2,20 +2,22 @@
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Annotated, Literal
 
 from pydantic import BaseModel, Field
 
 from zeromode.service.schemas.certify import CertifyResponse
-from zeromode.service.schemas.common import AnalysisCounts, FrameModel, Points
-from zeromode.service.settings import SETTINGS
+from zeromode.service.schemas.common import AnalysisCounts, FrameModel, Points, SpecifiedPoints
+from zeromode.service.schemas.limits import AtMost, Limited, limit_text
 
 
 class SolutionSpaceRequest(BaseModel):
     dim: Literal[2, 3]
-    positions: Points = Field(min_length=1, max_length=SETTINGS.max_specified, description="x_S, k×d.")
-    motions: Points = Field(min_length=1, max_length=SETTINGS.max_specified, description="u_S, k×d.")
-    samples: int = Field(default=8, ge=0, le=SETTINGS.max_samples, description="How many real solutions to return.")
+    positions: SpecifiedPoints = Field(min_length=1, description="x_S, k×d.")
+    motions: SpecifiedPoints = Field(min_length=1, description="u_S, k×d.")
+    samples: Annotated[int, AtMost("max_samples")] = Field(
+        default=8, ge=0, description=f"How many real solutions to return, {limit_text('max_samples')}."
+    )
     seed: int = Field(default=0, ge=0, description="Seed for the sampling lines.")
 
 
@@ -73,9 +75,9 @@ class DesignOptions(BaseModel):
 
 class DesignRequest(BaseModel):
     dim: Literal[2, 3]
-    positions: Points = Field(min_length=1, max_length=SETTINGS.max_specified, description="x_S, k×d.")
-    motions: list[Points] = Field(
-        min_length=1, max_length=SETTINGS.max_motions, description="M target motions, each k×d."
+    positions: SpecifiedPoints = Field(min_length=1, description="x_S, k×d.")
+    motions: Annotated[list[SpecifiedPoints], Limited("max_motions")] = Field(
+        min_length=1, description=f"M target motions, each k×d; M {limit_text('max_motions')}."
     )
     options: DesignOptions = Field(default_factory=DesignOptions)
 
@@ -105,8 +107,8 @@ class DesignResponse(BaseModel):
 
 class TwoConfigurationRequest(BaseModel):
     dim: Literal[2, 3]
-    initial: Points = Field(min_length=1, max_length=SETTINGS.max_specified, description="x_S, k×d: first configuration.")
-    final: Points = Field(min_length=1, max_length=SETTINGS.max_specified, description="y_S, k×d: second configuration.")
+    initial: SpecifiedPoints = Field(min_length=1, description="x_S, k×d: first configuration.")
+    final: SpecifiedPoints = Field(min_length=1, description="y_S, k×d: second configuration.")
     options: DesignOptions = Field(default_factory=DesignOptions, description="Only `seed` is used.")
 
 

@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Annotated, Literal
 
 from pydantic import BaseModel, Field, model_validator
 
 from zeromode.service.schemas.common import AnalysisCounts, ErrorDetail, FrameModel, Points
-from zeromode.service.settings import SETTINGS
+from zeromode.service.schemas.limits import AtMost, limit_text
 
 FIDELITY = (
     "Finite-motion fidelity ε(a) = min over path points X(τ) and proper rigid motions R of "
@@ -99,11 +99,10 @@ class RefineOptions(BaseModel):
     )
     tol: float = Field(default=1e-8, gt=0, lt=1, description="IPOPT tol.")
     max_iter: int = Field(default=500, ge=1, le=10000, description="IPOPT max_iter.")
-    max_time_s: float = Field(
+    max_time_s: Annotated[float, AtMost("time_budget_s")] = Field(
         default=5.0,
         gt=0,
-        le=SETTINGS.time_budget_s,
-        description="IPOPT max_cpu_time and max_wall_time.",
+        description=f"IPOPT max_cpu_time and max_wall_time, {limit_text('time_budget_s')}.",
     )
     stay_on_solution_space: bool = Field(
         default=False,

@@ -17,7 +17,9 @@ from oracles.rigidity import COUNT_FIELDS, RANK_GAP_FIELDS
 from oracles.wire import assert_error
 
 from zeromode.service import __version__
-from zeromode.service.settings import SETTINGS
+from zeromode.service.settings import Settings
+
+SETTINGS = Settings()  # the defaults the test app is built with
 
 SQUARE = SQUARE_CORNERS
 DESIGN = {"dim": 2, "positions": SQUARE, "motions": [SQUARE], "options": {"seed": 0}}
