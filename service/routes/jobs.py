@@ -2,46 +2,59 @@
 
 from __future__ import annotations
 
-import importlib
 import json
-import pkgutil
 import threading
-from functools import cache, partial
+from collections.abc import Callable
+from dataclasses import dataclass
+from functools import partial
 from typing import Any, get_args
 
 from fastapi import APIRouter, HTTPException, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse, Response
-from fastapi.routing import APIRoute
 from pydantic import BaseModel, ValidationError
 
-import zeromode.service.routes as routes_package
 from zeromode.service.errors import error_body
 from zeromode.service.jobs import JobFailed, JobRejected, JobStore
+from zeromode.service.routes import analyze, certify, design, lattice, motion
 from zeromode.service.schemas.common import ERROR_RESPONSES, ErrorResponse
 from zeromode.service.schemas.jobs import JobAccepted, JobEndpoint, JobRequest, JobStatus
 
 router = APIRouter(prefix="/v1", tags=["jobs"])
 
-JOB_ENDPOINTS = frozenset(get_args(JobEndpoint))
+
+@dataclass(frozen=True)
+class Runnable:
+    """An endpoint that can run as a job: its route function, request and response models."""
+
+    run: Callable[[BaseModel], Any]
+    request_model: type[BaseModel]
+    response_model: type[BaseModel]
+
+
+def _runnable(run: Callable[[BaseModel], Any]) -> Runnable:
+    """The route function with the models its own signature and route declare."""
+    route = next(
+        r for module in (analyze, certify, design, lattice, motion) for r in module.router.routes
+        if getattr(r, "endpoint", None) is run
+    )
+    (param,) = route.dependant.body_params
+    return Runnable(run, param.field_info.annotation, route.response_model)
+
+
+# The job endpoints, declared once. JobEndpoint (the schema's enum) must name the same paths.
+JOBS: dict[str, Runnable] = {
+    "/v1/analyze": _runnable(analyze.post_analyze),
+    "/v1/design": _runnable(design.post_design),
+    "/v1/design/auxetic": _runnable(lattice.post_auxetic),
+    "/v1/design/allosteric": _runnable(lattice.post_allosteric),
+    "/v1/motion": _runnable(motion.post_motion),
+    "/v1/refine": _runnable(motion.post_refine),
+    "/v1/certify": _runnable(certify.post_certify),
+}
+assert set(JOBS) == set(get_args(JobEndpoint)), "JOBS and schemas.jobs.JobEndpoint disagree"
 UNAVAILABLE = {503: {"model": ErrorResponse, "description": "The job directory cannot be used."}}
 _STORE_LOCK = threading.Lock()
-
-
-@cache
-def _job_routes() -> dict[str, APIRoute]:
-    """The POST routes of the job endpoints, found in the route modules (whichever defines them)."""
-    found = {}
-    for info in pkgutil.iter_modules(routes_package.__path__):
-        module = importlib.import_module(f"{routes_package.__name__}.{info.name}")
-        for route in getattr(getattr(module, "router", None), "routes", ()):
-            if (
-                isinstance(route, APIRoute)
-                and route.path in JOB_ENDPOINTS
-                and "POST" in route.methods
-            ):
-                found[route.path] = route
-    return found
 
 
 def _store(request: Request) -> JobStore:
@@ -64,18 +77,15 @@ def _store(request: Request) -> JobStore:
         return state.job_store
 
 
-def _run_route(route: APIRoute, argument: str, body: BaseModel) -> dict[str, Any]:
-    """Call the endpoint's function and return the JSON body it would have answered."""
-    out = route.endpoint(**{argument: body})
+def _run(job: Runnable, body: BaseModel) -> dict[str, Any]:
+    """Run the endpoint's function and return the JSON body the endpoint would have answered."""
+    out = job.run(body)
     if isinstance(out, Response):  # endpoints answer some domain failures with a JSONResponse
         data = json.loads(out.body)
         if out.status_code >= 400:
             raise JobFailed(data.get("detail", {}))
         return data
-    model = route.response_model
-    if isinstance(model, type) and issubclass(model, BaseModel):
-        return model.model_validate(out).model_dump(mode="json", by_alias=True)
-    return out
+    return job.response_model.model_validate(out).model_dump(mode="json")
 
 
 @router.post(
@@ -92,25 +102,16 @@ def submit_job(job: JobRequest, request: Request) -> JSONResponse:
     """Run a long request as a job: the request is validated now (422 with the endpoint's own
     error body if invalid) and runs in the background under ZEROMODE_JOB_TIME_BUDGET_S
     (default 900 s) instead of the per-request budget. Poll GET /v1/jobs/{id}."""
-    route = _job_routes().get(job.endpoint)
-    if route is None or job.endpoint not in request.app.openapi()["paths"]:
-        raise HTTPException(
-            422,
-            detail={
-                "code": "unsupported_endpoint",
-                "message": f"{job.endpoint} is not served by this version; see /openapi.json.",
-            },
-        )
-    (param,) = route.dependant.body_params
+    runnable = JOBS[job.endpoint]  # the schema admits only the registered endpoints
     try:
-        body = param.field_info.annotation.model_validate(job.request)
+        body = runnable.request_model.model_validate(job.request)
     except ValidationError as exc:
         raise RequestValidationError(
             [{**e, "loc": ("body", "request", *e["loc"])} for e in exc.errors()]
         ) from exc
     try:
         accepted = _store(request).submit(
-            job.endpoint, partial(_run_route, route, param.name, body)
+            job.endpoint, partial(_run, runnable, body)
         )
     except JobRejected as exc:
         return JSONResponse(status_code=429, content=error_body(exc.code, exc.message))
