@@ -9,7 +9,7 @@ import json
 
 import pytest
 from fastapi.testclient import TestClient
-from oracles.frames import SQUARE_CORNERS
+from oracles.frames import SQUARE_CORNERS, SQUARE_LINKAGE
 
 from zeromode.service.app import create_app
 from zeromode.service.settings import Settings
@@ -130,3 +130,45 @@ def test_settings_refuse_nonsense_and_are_immutable():
     settings = Settings()
     with pytest.raises(ValueError):
         settings.max_nodes = 3
+
+
+VALID_BODIES = {
+    "/v1/analyze": {"frame": TRIANGLE},
+    "/v1/solution-space": {"dim": 2, "positions": SQUARE_CORNERS, "motions": SQUARE_CORNERS},
+    "/v1/design": {"dim": 2, "positions": SQUARE_CORNERS, "motions": [SQUARE_CORNERS]},
+    "/v1/design/two-configuration": {
+        "dim": 2,
+        "initial": SQUARE_CORNERS,
+        "final": [[1.1, 1.1], [-1.1, 1.1], [-1.1, -1.1], [1.1, -1.1]],
+    },
+    "/v1/design/auxetic": {"dim": 2, "cells": [2, 2], "poisson_ratio": -0.5},
+    "/v1/motion": {"frame": SQUARE_LINKAGE},
+    "/v1/certify": {"frame": TRIANGLE},
+    "/v1/plot": {"frame": TRIANGLE},
+}
+
+
+# A nested object of each endpoint where a typo could hide.
+NESTED = {
+    "/v1/analyze": "options",
+    "/v1/design": "options",
+    "/v1/design/two-configuration": "options",
+    "/v1/certify": "options",
+    "/v1/motion": "frame",
+    "/v1/plot": "frame",
+}
+
+
+@pytest.mark.parametrize(
+    ("path", "key"),
+    [(path, None) for path in sorted(VALID_BODIES)] + sorted(NESTED.items()),
+)
+def test_unknown_fields_are_refused_by_name(default_app, path, key):
+    body = json.loads(json.dumps(VALID_BODIES[path]))
+    (body.setdefault(key, {}) if key else body)["seeed"] = 3
+    name = f"{key}.seeed" if key else "seeed"
+    assert default_app.post(path, json=VALID_BODIES[path]).status_code == 200
+    response = default_app.post(path, json=body)
+    assert response.status_code == 422, response.text
+    detail = response.json()["detail"]
+    assert detail["code"] == "invalid_request" and name in detail["message"], detail

@@ -6,22 +6,28 @@ from typing import Literal
 
 from pydantic import BaseModel, Field, FiniteFloat
 
-from zeromode.service.schemas.common import AnalysisCounts, FrameModel, Points, SpecifiedPoints
+from zeromode.service.schemas.common import (
+    AnalysisCounts,
+    FrameModel,
+    Points,
+    RequestModel,
+    SpecifiedPoints,
+)
 
 
-class Site(BaseModel):
+class Site(RequestModel):
     positions: SpecifiedPoints = Field(min_length=1)
     motion: SpecifiedPoints = Field(min_length=1)
 
 
-class AllostericOptions(BaseModel):
+class AllostericOptions(RequestModel):
     seed: int = Field(default=0, ge=0)
     relay_spacing: FiniteFloat | None = Field(
         default=None, gt=0, description="Spacing of relay nodes between the sites (default: twice the site size)."
     )
 
 
-class AllostericRequest(BaseModel):
+class AllostericRequest(RequestModel):
     dim: Literal[2, 3]
     source: Site = Field(description="Driven site: positions and motion (k_src×d each).")
     target: Site = Field(description="Distal site: positions and prescribed motion (k_tgt×d each).")

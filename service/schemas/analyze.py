@@ -4,12 +4,12 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import BaseModel, Field
+from pydantic import Field
 
-from zeromode.service.schemas.common import AnalysisCounts, FrameModel, Points
+from zeromode.service.schemas.common import AnalysisCounts, FrameModel, Points, RequestModel
 
 
-class AnalyzeOptions(BaseModel):
+class AnalyzeOptions(RequestModel):
     rtol: float = Field(
         default=1e-9, gt=0, lt=1, description="Relative threshold: σ ≤ rtol·σ_max counts as zero."
     )
@@ -19,7 +19,7 @@ class AnalyzeOptions(BaseModel):
     bases: bool = Field(default=True, description="Return the mode and stress bases (if small enough).")
 
 
-class AnalyzeRequest(BaseModel):
+class AnalyzeRequest(RequestModel):
     frame: FrameModel
     options: AnalyzeOptions = Field(default_factory=AnalyzeOptions)
 

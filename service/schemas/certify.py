@@ -6,13 +6,13 @@ from typing import Annotated, Literal
 
 from pydantic import BaseModel, Field
 
-from zeromode.service.schemas.common import AnalysisCounts, FrameModel, Points
+from zeromode.service.schemas.common import AnalysisCounts, FrameModel, Points, RequestModel
 from zeromode.service.schemas.limits import Limited
 from zeromode.solver.certificates import PRESTRESS_TOL, SDP_MAX_DIM
 from zeromode.solver.tolerances import GIVEN_MODE_RTOL
 
 
-class CertifyOptions(BaseModel):
+class CertifyOptions(RequestModel):
     solver: Literal["clarabel", "scs"] = Field(
         default="clarabel",
         description="SDP solver tried first (through cvxpy); the other one is the fallback.",
@@ -33,7 +33,7 @@ class CertifyOptions(BaseModel):
     )
 
 
-class CertifyRequest(BaseModel):
+class CertifyRequest(RequestModel):
     frame: FrameModel
     modes: Annotated[list[Points], Limited("max_motions")] = Field(
         default_factory=list,

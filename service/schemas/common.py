@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, Field, FiniteFloat
+from pydantic import BaseModel, ConfigDict, Field, FiniteFloat
 
 from zeromode.service.schemas.limits import Limited, limit_text
 
@@ -14,7 +14,14 @@ Points = list[Point]
 SpecifiedPoints = Annotated[Points, Limited("max_specified")]
 
 
-class FrameModel(BaseModel):
+class RequestModel(BaseModel):
+    """Base of every request model: an unknown field is refused (422 naming it), because a typo
+    such as ``{"options": {"seeed": 3}}`` must not silently change the science."""
+
+    model_config = ConfigDict(extra="forbid")
+
+
+class FrameModel(RequestModel):
     """A bar-and-joint frame. Node indices are 0-based; an edge and its reverse are the same edge."""
 
     dim: Literal[2, 3] = Field(description="Spatial dimension d.")

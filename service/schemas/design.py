@@ -7,11 +7,17 @@ from typing import Annotated, Literal
 from pydantic import BaseModel, Field
 
 from zeromode.service.schemas.certify import CertifyResponse
-from zeromode.service.schemas.common import AnalysisCounts, FrameModel, Points, SpecifiedPoints
+from zeromode.service.schemas.common import (
+    AnalysisCounts,
+    FrameModel,
+    Points,
+    RequestModel,
+    SpecifiedPoints,
+)
 from zeromode.service.schemas.limits import AtMost, Limited, limit_text
 
 
-class SolutionSpaceRequest(BaseModel):
+class SolutionSpaceRequest(RequestModel):
     dim: Literal[2, 3]
     positions: SpecifiedPoints = Field(min_length=1, description="x_S, k×d.")
     motions: SpecifiedPoints = Field(min_length=1, description="u_S, k×d.")
@@ -38,7 +44,7 @@ class SolutionSpaceResponse(BaseModel):
     )
 
 
-class DesignRefineOptions(BaseModel):
+class DesignRefineOptions(RequestModel):
     """Run the nonlinear stage (casadi/IPOPT, as POST /v1/refine) on the linear design."""
 
     amplitude: float = Field(
@@ -49,7 +55,7 @@ class DesignRefineOptions(BaseModel):
     max_time_s: float = Field(default=5.0, gt=0, le=60, description="IPOPT CPU time limit per solve.")
 
 
-class DesignOptions(BaseModel):
+class DesignOptions(RequestModel):
     seed: int = Field(default=0, ge=0, description="Seed for candidate sampling: same request, same answer.")
     n_unspecified: int | None = Field(
         default=None, ge=0, le=64, description="Use exactly this many unspecified nodes (default: as few as possible)."
@@ -73,7 +79,7 @@ class DesignOptions(BaseModel):
     )
 
 
-class DesignRequest(BaseModel):
+class DesignRequest(RequestModel):
     dim: Literal[2, 3]
     positions: SpecifiedPoints = Field(min_length=1, description="x_S, k×d.")
     motions: Annotated[list[SpecifiedPoints], Limited("max_motions")] = Field(
@@ -105,7 +111,7 @@ class DesignResponse(BaseModel):
     report: DesignReport
 
 
-class TwoConfigurationRequest(BaseModel):
+class TwoConfigurationRequest(RequestModel):
     dim: Literal[2, 3]
     initial: SpecifiedPoints = Field(min_length=1, description="x_S, k×d: first configuration.")
     final: SpecifiedPoints = Field(min_length=1, description="y_S, k×d: second configuration.")

@@ -6,7 +6,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, Field
 
-from zeromode.service.schemas.common import ErrorDetail
+from zeromode.service.schemas.common import ErrorDetail, RequestModel
 
 JobEndpoint = Literal[
     "/v1/design/auxetic",
@@ -19,7 +19,7 @@ JobEndpoint = Literal[
 ]
 
 
-class JobRequest(BaseModel):
+class JobRequest(RequestModel):
     endpoint: JobEndpoint = Field(description="The endpoint to run (POST) as a job.")
     request: dict[str, Any] = Field(
         description="That endpoint's request body; validated against its model when submitted."

@@ -6,10 +6,10 @@ from typing import Literal
 
 from pydantic import BaseModel, Field, FiniteFloat
 
-from zeromode.service.schemas.common import AnalysisCounts, FrameModel, Points
+from zeromode.service.schemas.common import AnalysisCounts, FrameModel, Points, RequestModel
 
 
-class AuxeticRequest(BaseModel):
+class AuxeticRequest(RequestModel):
     dim: Literal[2, 3] = Field(default=2, description="2: a sheet of n_x × n_y modules; 3: a chain of blocks.")
     cells: list[int] = Field(
         default=[4, 4],

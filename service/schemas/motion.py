@@ -6,7 +6,13 @@ from typing import Annotated, Literal
 
 from pydantic import BaseModel, Field, model_validator
 
-from zeromode.service.schemas.common import AnalysisCounts, ErrorDetail, FrameModel, Points
+from zeromode.service.schemas.common import (
+    AnalysisCounts,
+    ErrorDetail,
+    FrameModel,
+    Points,
+    RequestModel,
+)
 from zeromode.service.schemas.limits import AtMost, limit_text
 
 FIDELITY = (
@@ -15,7 +21,7 @@ FIDELITY = (
 )
 
 
-class MotionRequest(BaseModel):
+class MotionRequest(RequestModel):
     frame: FrameModel
     mode: Points | None = Field(
         default=None,
@@ -87,7 +93,7 @@ class MotionResponse(BaseModel):
     timings_ms: dict[str, float]
 
 
-class RefineOptions(BaseModel):
+class RefineOptions(RequestModel):
     K: int = Field(
         default=8,
         ge=1,
@@ -113,7 +119,7 @@ class RefineOptions(BaseModel):
     )
 
 
-class RefineRequest(BaseModel):
+class RefineRequest(RequestModel):
     frame: FrameModel = Field(
         description="A frame with specified nodes and one nontrivial zero mode."
     )

@@ -2,16 +2,16 @@
 
 from __future__ import annotations
 
-from pydantic import BaseModel, Field, FiniteFloat
+from pydantic import Field, FiniteFloat
 
-from zeromode.service.schemas.common import FrameModel, Points
+from zeromode.service.schemas.common import FrameModel, Points, RequestModel
 from zeromode.viz.style import VIEW_3D
 
 MAX_PLOT_MODES = 16
 MAX_CONFIGURATIONS = 8
 
 
-class PlotRequest(BaseModel):
+class PlotRequest(RequestModel):
     frame: FrameModel
     modes: list[Points] | None = Field(
         default=None,
