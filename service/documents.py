@@ -15,7 +15,7 @@ from zeromode.service.schemas.allostery import AllostericRequest
 from zeromode.service.schemas.common import FrameModel, Points
 from zeromode.service.schemas.design import DesignRequest
 from zeromode.service.schemas.lattice import AuxeticRequest, LatticeState
-from zeromode.solver.allostery import design_allosteric
+from zeromode.solver.allostery import AllostericDesign, design_allosteric
 from zeromode.solver.errors import InvalidInput
 from zeromode.solver.lattice import Lattice, auxetic_chain_3d, auxetic_sheet
 from zeromode.solver.pipeline import design_pipeline
@@ -77,11 +77,7 @@ def respond(doc: dict) -> tuple[dict, BaseModel]:
     documents call the designers."""
     if "source" in doc and "target" in doc:
         r = validated(doc, AllostericRequest)
-        result = design_allosteric(
-            r.source.positions, r.source.motion, r.target.positions, r.target.motion,
-            dim=r.dim, seed=r.options.seed, relay_spacing=r.options.relay_spacing,
-        )
-        return allosteric_body(result, {}), r
+        return allosteric_body(allosteric(r), {}), r
     if "cells" in doc or "poisson_ratio" in doc:
         r = validated(doc, AuxeticRequest)
         return auxetic_body(lattice(r), {}), r
@@ -97,8 +93,17 @@ def respond(doc: dict) -> tuple[dict, BaseModel]:
     )
 
 
+def allosteric(r: AllostericRequest) -> AllostericDesign:
+    """The allosteric design of a /v1/design/allosteric request (its route calls this too)."""
+    return design_allosteric(
+        r.source.positions, r.source.motion, r.target.positions, r.target.motion,
+        dim=r.dim, seed=r.options.seed, relay_spacing=r.options.relay_spacing,
+    )
+
+
 def lattice(r: AuxeticRequest) -> Lattice:
-    """A 2D sheet (cells [n_x, n_y], cell [w, h]) or a 3D chain (cells [n], block [w, h, l])."""
+    """A 2D sheet (cells [n_x, n_y], cell [w, h]) or a 3D chain (cells [n], block [w, h, l]) of a
+    /v1/design/auxetic request (its route calls this too)."""
     cells, sizes = (2, 2) if r.dim == 2 else (1, 3)
     if len(r.cells) != cells:
         raise InvalidInput("invalid_size", f"a {r.dim}D lattice needs {cells} cell count(s).")
