@@ -9,14 +9,13 @@ them: an IPOPT iterate that diverged.
 from __future__ import annotations
 
 import math
+from dataclasses import fields
 
 import numpy as np
 
 from zeromode.solver.certificates import (
     Certificate,
     LmiSolution,
-    PrestressCertificate,
-    RigidityMargin,
     SelfStressCertificate,
 )
 from zeromode.solver.finite_motion import MotionPath
@@ -47,10 +46,6 @@ def json_safe(value):
     if isinstance(value, list):
         return [json_safe(v) for v in value]
     return value
-
-
-def _list_or_none(array: np.ndarray | None):
-    return None if array is None else array.tolist()
 
 
 # ----------------------------------------------------------------------------- frames, analysis
@@ -265,39 +260,27 @@ def self_stress_body(c: SelfStressCertificate) -> dict:
     }
 
 
-def prestress_body(c: PrestressCertificate) -> dict:
-    return {
-        "prestress_stable": c.prestress_stable,
-        "decided_by": c.decided_by,
-        "flexes": c.flexes,
-        "stresses": c.stresses,
-        "margin": c.margin,
-        "margin_upper_bound": c.margin_upper_bound,
-        "stress": _list_or_none(c.stress),
-        "threshold": c.threshold,
-        "sdp": lmi_body(c.sdp),
-    }
+def _field_body(value):
+    """One dataclass field on the wire: an array as lists, an SDP solution as its record."""
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, LmiSolution):
+        return lmi_body(value)
+    return value
 
 
-def rigidity_margin_body(m: RigidityMargin) -> dict:
-    return {
-        "designed_modes": m.designed_modes,
-        "complement_dim": m.complement_dim,
-        "undesigned_zero_modes": m.undesigned_zero_modes,
-        "uniform": m.uniform,
-        "optimal": m.optimal,
-        "optimal_upper_bound": m.optimal_upper_bound,
-        "gain": m.gain,
-        "stiffness": _list_or_none(m.stiffness),
-        "sdp": lmi_body(m.sdp),
-    }
+def fields_body(result) -> dict:
+    """A certificate whose wire fields are its dataclass fields, in order (prestress, margin)."""
+    return {f.name: _field_body(getattr(result, f.name)) for f in fields(result)}
+
+
 
 
 def certificate_body(c: Certificate) -> dict:
     return {
         "analysis": counts_body(c.analysis),
         "self_stress": self_stress_body(c.self_stress),
-        "prestress": prestress_body(c.prestress),
-        "rigidity_margin": rigidity_margin_body(c.rigidity_margin),
+        "prestress": fields_body(c.prestress),
+        "rigidity_margin": fields_body(c.rigidity_margin),
         "timings_ms": dict(c.timings_ms),
     }
