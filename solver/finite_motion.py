@@ -10,32 +10,53 @@ Finite motion (pseudo-arclength predictor–corrector continuation).
         g_e(X) = ½(|X_i − X_j|² − l_e²) = 0   for every bar e = (i, j),
     whose Jacobian is the compatibility matrix C(X) (paper Eq. 3).  All work is done on the
     normalised configuration (centred, divided by the RMS radius r), so steps, tolerances and
-    rank decisions are scale-free.  At an accepted point X_k with tangent t_k (unit, dN):
-      * nontrivial zero modes M_k = N(C(X_k)) ⊖ rigid motions (rank decided by rank.RTOL);
-        t_k = the projection of t_{k−1} (at the start: of the requested mode) onto span M_k;
-        B_k = an orthonormal basis of the rest of N(C(X_k)): the rigid motions and, if there
-        are several nontrivial modes, the ones ⟂ t_k.
+    rank decisions are scale-free.  At an accepted point X_k:
+      * W_k = [t_k, B_k] (dN × z) is an orthonormal basis of N(C(X_k)): t_k the unit tangent
+        (the projection of t_{k−1} — at the start, of the requested mode — onto the nontrivial
+        modes), B_k the rigid motions and, if there are several nontrivial modes, those ⟂ t_k;
       * predictor P = X_k + h·√N·t_k (h in units of RMS node displacement / r);
-      * corrector: Newton (Gauss–Newton when the frame has self-stresses) on
-            g(Y) = 0,  t_kᵀ(Y − P) = 0,  B_kᵀ(Y − P) = 0,
-        i.e. the rigid-motion gauge and the other mode directions are fixed out per step.
-      * the step is accepted if Newton converges fast and t turns by less than MAX_TURN;
-        h grows after easy steps, halves after hard ones, up to ``max_step``.
+      * corrector: Newton's method on the square system
+            F(Y) = [C_kᵀ g(Y); W_kᵀ(Y − P)] = 0,          C_k = C(X_k),
+        whose Jacobian is the bordered matrix (bordered.py)
+            M_k(Y) = [[C_kᵀ C(Y), W_k], [W_kᵀ, 0]].
+        Near X_k, C_kᵀ g(Y) = 0 ⇔ g(Y) = 0 (g(Y) lies in the range of C, which meets
+        N(C_kᵀ) = the self-stresses only at 0), so redundant bars (self-stresses) need no row
+        selection; W_kᵀ(Y − P) = 0 fixes the arclength, the rigid-motion gauge and the other
+        mode directions.  Every iteration refactorises M_k(Y) (a chord method that keeps
+        M_k(X_k) contracts only like h/σ_r, and designed frames have σ_r/σ_max down to ~1e-4);
+        the factorisation at the converged Y serves the tests below, so a step of m Newton
+        iterations costs m + 1 factorisations.
+      * the step is accepted if the corrector converges (every bar within NEWTON_RTOL of its
+        length) and t turns by less than MAX_TURN; h grows after easy steps, halves after hard
+        ones, up to ``max_step``.
+    The null space at the new point comes from the same factorisation: M_k(Y)[v; μ] = [0; e_i]
+    gives μ = 0 (multiply by W_kᵀ: C_k W_k = 0) and C(Y)v = 0, so z solves span N(C(Y)).
+    At the reference, N(C) is the rigid motions and the nontrivial modes: from the SVD of C
+    (dense route) or the smallest eigenvectors of CᵀC by shift-invert Lanczos (eigen.py), the
+    count always from rigidity.analyze.
     The path parameter τ is the accumulated pseudo-arclength in units of RMS node displacement
     over the frame's RMS radius: to first order X(τ) = x + τ·r·û with û the mode scaled to unit
-    RMS node displacement.
+    RMS node displacement.  Returned configurations are aligned to the reference: the proper
+    rigid motion minimising Σ_i |R X_i + b − x_i|² (Kabsch) is removed from each.
 
 Singular points.
     Where the configuration space is not a smooth curve (a branch point, or a point where the
-    frame locks), C(X) loses rank: extra zero modes appear.  Along each step the determinant of
-    the square corrector Jacobian
-        J(Y) = [C_R(Y); t_kᵀ; B_kᵀ]      (C_R: rank C(X_k) independent rows of C, pivoted QR)
-    is continuous and nonzero away from such points and changes sign through a simple one
-    (Allgower & Georg, "Numerical Continuation Methods", §8.1).  A sign change is located by
-    bisection on the step length, and confirmed by counting the zero modes of C there with the
-    relative threshold SINGULAR_RTOL (a branch point is located to about √ε ≈ 1e-8).
-    A confirmed point ends the path in that direction and is reported; it is never stepped over.
-    A step that cannot be completed even at MIN_STEP is reported as a "stalled" singularity.
+    frame locks), C(X) loses rank: extra zero modes appear.  With W_k spanning N(C_k),
+        det M_k(X_k) = det(Σ²)·(−1)^z   (Σ the nonzero singular values of C_k),
+    and along the step det M_k(Y) is continuous and nonzero until C(Y) loses rank on W_k^⊥,
+    where it changes sign through a simple singular point (Allgower & Georg, "Numerical
+    Continuation Methods", §8.1: the Galerkin factor C_kᵀ keeps the sign of the vanishing
+    singular value, which CᵀC would square away).  A sign change, or a landing on the point
+    itself (the smallest singular value of C(Y) on W_k^⊥, by inverse iteration with the same
+    factorisation, below rank.RTOL), is located by bisection on the step length and confirmed
+    by counting the zero modes of C there (rigidity.analyze with the relative threshold
+    SINGULAR_RTOL: a branch point is located to about √ε ≈ 1e-8).  A confirmed point ends the
+    path in that direction and is reported; it is never stepped over.  A step that cannot be
+    completed even at MIN_STEP is reported as a "stalled" singularity.
+
+Linear algebra.  Up to rigidity.DENSE_MAX_DOF degrees of freedom C is dense and M is factorised
+by dense LU; above, C is sparse and M by a sparse LU of its pinned interior (bordered.py), so a
+step costs a few sparse factorisations: frames of 10⁴ degrees of freedom and more.
 
 Finite-motion fidelity (the definition used by /v1/motion, /v1/refine and /v1/design).
     For a target displacement a·u_S of the specified nodes S,
@@ -51,23 +72,37 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg as sla
+import scipy.sparse.linalg as spla
 from scipy.optimize import minimize_scalar
 
+from zeromode.solver.bordered import BorderedFactor, pinned_coordinates
 from zeromode.solver.budget import check_budget
+from zeromode.solver.eigen import smallest_eigenpairs
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame, check_positions
 from zeromode.solver.normalisation import Normalisation
-from zeromode.solver.rank import RTOL, complement_within, decide_rank
-from zeromode.solver.rigidity import rigid_motions
+from zeromode.solver.rank import RTOL, complement_within, nullspace
+from zeromode.solver.rigidity import DENSE_MAX_DOF, analyze, compatibility_matrix, rigid_motions
 from zeromode.solver.tolerances import GIVEN_MODE_RTOL
 
-# Continuation runs on a dense C (full SVD per step); at 600 degrees of freedom a step costs
-# about 0.1 s, beyond that a path would not fit in a request's time budget.
-MAX_DOF = 600
+# Largest frame traced (d·N). A sparse step costs a few factorisations of a dN × dN stiffness
+# pattern: about 0.1 s each at dN = 15 000 (the 50 × 50 auxetic sheet), so a path of a few dozen
+# steps fits a request's time budget up to a few 10⁴; beyond, the refusal comes before any work.
+MAX_DOF = 60_000
+# Nontrivial modes handled at once: each one is a column of the border W (a solve per factor).
+MAX_MODES = 64
 # Newton stops when every bar is within this relative length error (the API promises ≤ 1e-9).
 NEWTON_RTOL = 1e-12
 NEWTON_MAX_ITER = 12
+# Locating a singular point, Newton goes on while each correction is below this fraction of the
+# previous one (rate 1/2 next to a singular root, where a bar error δ² leaves δ in position),
+# for at most TIGHT_MAX_ITER iterations: 2⁻³⁰ takes δ from 1e-3 to round-off.
+TIGHT_CONTRACTION = 0.75
+TIGHT_MAX_ITER = 40
+# A step converged in at most this many Newton steps is easy: the next one may be longer.
+EASY_ITERATIONS = 3
+# A correction larger than this (normalised units: a fraction of the RMS radius) has diverged.
+MAX_CORRECTION = 0.5
 # A step is accepted only if the tangent turns by less than this (radians) ...
 MAX_TURN = 0.15
 # ... and it is halved down to this before the continuation gives up ("stalled").
@@ -76,6 +111,20 @@ MIN_STEP = 1e-9
 # point can be located only to about √(machine ε) ≈ 1e-8, and σ vanishes linearly there.
 SINGULAR_RTOL = 1e-6
 BISECTION_STEPS = 60
+# A singular point counts as located once the vanishing singular value is this far below the
+# counting threshold (two decades of margin for the count at SINGULAR_RTOL).
+LOCATED_RTOL = 1e-2 * SINGULAR_RTOL
+# ... measured only once the bracket on the step length is this narrow (relative).
+MEASURED_WIDTH = 1e-5
+# Inverse iterations for the smallest singular value of C(Y) on W^⊥ (evidence, not a decision:
+# the count at a located point is always taken by rigidity.analyze).
+INVERSE_ITERATIONS = 3
+# Relative accuracy of σ_max(C), the scale of the reported singular values, and of the
+# vanishing singular value measured while locating a singular point (evidence, not decisions:
+# a node collision makes dozens of singular values vanish together, and resolving that
+# cluster to machine precision would cost minutes).
+SIGMA_MAX_RTOL = 1e-2
+SIGMA_RTOL = 1e-2
 
 
 @dataclass(frozen=True)
@@ -97,7 +146,10 @@ class MotionPath:
     """A traced finite motion.
 
     positions: (P, N, d) configurations in the frame's coordinates, ordered by ``parameter``
-    (P,), strictly increasing, 0 at the reference configuration (index ``reference_index``).
+    (P,), strictly increasing, 0 at the reference configuration (index ``reference_index``,
+    the input positions exactly). Every other configuration is aligned to the reference by the
+    proper rigid motion that minimises the sum of squared node distances (Kabsch).
+    method: "dense" or "sparse", the linear algebra the continuation used.
     """
 
     positions: np.ndarray
@@ -106,6 +158,7 @@ class MotionPath:
     max_relative_bar_error: float
     singularities: tuple[Singularity, ...]
     edges: np.ndarray
+    method: str = "dense"
 
     @property
     def status(self) -> str:
@@ -147,127 +200,180 @@ def relative_bar_error(positions: np.ndarray, edges: np.ndarray, lengths: np.nda
     return float(np.max(np.abs(bar_lengths(positions, edges) - lengths) / lengths))
 
 
-class _Constraints:
-    """g(X) = ½(|X_i − X_j|² − l_e²) and its Jacobian C(X) for a fixed bar set (normalised)."""
+class BarConstraints:
+    """g(X) = ½(|X_i − X_j|² − l_e²) and its Jacobian C(X) for a fixed bar set (normalised);
+    C dense or sparse by ``method``; ``sigma_max`` = σ_max(C) at the reference, the scale of
+    the relative singular values reported along the path.
 
-    def __init__(self, edges: np.ndarray, reference: np.ndarray):
+    The continuation (``follow``) sees a constraint system only through this interface: the
+    configuration x is an (n, d) array, ``rigid(x)`` the trivial motions, ``count`` and
+    ``null_space`` the rank decisions. periodic.py subclasses it for one cell of a periodic
+    frame, whose rows are its nodes and its lattice vectors.
+    """
+
+    def __init__(self, edges: np.ndarray, reference: np.ndarray, method: str):
         self.edges = edges
         self.lengths = bar_lengths(reference, edges)
         self.n, self.d = reference.shape
-        # Signed incidence E (N_B × N): +1 at i, −1 at j, so E·X stacks the bar vectors.
-        self.incidence = np.zeros((len(edges), self.n))
-        self.incidence[np.arange(len(edges)), edges[:, 0]] = 1.0
-        self.incidence[np.arange(len(edges)), edges[:, 1]] = -1.0
+        self.method = method
+        self.sigma_max = self.largest_singular_value(self.jacobian(reference))
 
     def residual(self, x: np.ndarray) -> np.ndarray:
         diff = x[self.edges[:, 0]] - x[self.edges[:, 1]]
         return 0.5 * (np.sum(diff * diff, axis=1) - self.lengths**2)
 
-    def jacobian(self, x: np.ndarray) -> np.ndarray:
-        """C(X) dense, row e = E_e ⊗ (X_i − X_j): rigidity.compatibility_matrix without the sparse
-        assembly, which would dominate the cost of a continuation step on small frames."""
-        diff = self.incidence @ x
-        return (self.incidence[:, :, None] * diff[:, None, :]).reshape(len(self.edges), -1)
+    def jacobian(self, x: np.ndarray):
+        return compatibility_matrix(x, self.edges, dense=self.method == "dense")
 
     def error(self, x: np.ndarray) -> float:
         return relative_bar_error(x, self.edges, self.lengths)
 
+    def largest_singular_value(self, c) -> float:
+        if c.shape[0] == 0:
+            return 1.0
+        if self.method == "dense":
+            return float(np.linalg.norm(c, 2))
+        # Lanczos to 1 %: σ_max only scales the reported evidence, and lattices have clusters of
+        # equal largest singular values that a tight tolerance would resolve for minutes.
+        gram = spla.LinearOperator((c.shape[1],) * 2, matvec=lambda v: c.T @ (c @ v), dtype=float)
+        start = np.random.default_rng(0).standard_normal(c.shape[1])
+        return float(np.sqrt(spla.eigsh(gram, k=1, which="LA", tol=SIGMA_MAX_RTOL, v0=start)[0][0]))
+
+    def galerkin(self, point: _Point, y: np.ndarray, c_y=None) -> BorderedFactor:
+        """The factorised Jacobian M_k(Y) = [[C_kᵀ C(Y), W_k], [W_kᵀ, 0]] of the step from ``point``."""
+        c_y = self.jacobian(y) if c_y is None else c_y
+        return BorderedFactor(point.c.T @ c_y, point.w, point.pins)
+
+    def rigid(self, x: np.ndarray) -> np.ndarray:
+        """Orthonormal basis of the trivial motions of configuration x (dN × ρ)."""
+        return rigid_motions(x, RTOL)
+
+    def vanishing_sigma(self, x: np.ndarray, c, zero_modes: int) -> float:
+        """σ_{dN−z}(C(x))/σ_max: the singular value that vanishes where C(x) has more than
+        z = ``zero_modes`` zero modes (dense: SVD; sparse: the eigenvalue of CᵀC after the
+        z − ρ nontrivial ones, ⟂ rigid motions, by eigen.py)."""
+        rank = self.n * self.d - zero_modes
+        if self.method == "dense":
+            s = np.linalg.svd(c, compute_uv=False)
+            return float(s[rank - 1]) / self.sigma_max if 0 < rank <= s.size else 0.0
+        rigid = self.rigid(x)
+        f = zero_modes - rigid.shape[1]
+        values = smallest_eigenpairs((c.T @ c).tocsc(), f + 1, deflate=rigid, tol=SIGMA_RTOL**2).values
+        return float(np.sqrt(max(values[f], 0.0))) / self.sigma_max
+
+    def count(self, x: np.ndarray, rtol: float) -> tuple[int, int, float, float]:
+        """(dim N(C(x)), nontrivial zero modes, σ_r/σ_max, σ_{r+1}/σ_max), the rank decided
+        by rigidity.analyze with relative threshold ``rtol``."""
+        analysis = analyze(Frame.build(x, self.edges), rtol=rtol, method=self.method, bases=False)
+        sigma_max = self.largest_singular_value(self.jacobian(x))
+        gap = analysis.rank_gap
+        return (
+            analysis.zero_modes,
+            analysis.nontrivial_zero_modes,
+            gap.last_nonzero / sigma_max,
+            gap.first_zero / sigma_max,
+        )
+
+    def null_space(self, x: np.ndarray, nontrivial: int) -> np.ndarray:
+        """Orthonormal basis of N(C(x)) (dN × z) with ``nontrivial`` zero modes beyond the
+        rigid motions: the SVD of C (dense) or the smallest eigenvectors of CᵀC ⟂ rigid
+        motions by shift-invert Lanczos (sparse, eigen.py)."""
+        rigid = self.rigid(x)
+        c = self.jacobian(x)
+        if self.method == "dense":
+            return nullspace(c, RTOL)[0] if c.shape[0] else np.eye(x.size)
+        modes = smallest_eigenpairs((c.T @ c).tocsc(), nontrivial, deflate=rigid).vectors
+        return np.column_stack([rigid, modes])
+
 
 @dataclass(frozen=True, eq=False)
 class _Point:
-    """An accepted point: configuration (N, d), unit tangent t (dN), the complement basis B
-    (dN × (z − 1)), the rows R of C kept for the determinant test, its sign and the counts."""
+    """An accepted point: configuration x (N, d), W (dN × z) orthonormal basis of N(C(x)) with
+    the unit tangent t in column 0, C(x), and the coordinates pinned to factorise M_k sparsely."""
 
     x: np.ndarray
-    t: np.ndarray
-    b: np.ndarray
-    rows: np.ndarray
-    zero_modes: int
-    rank: int
-    sign: float
+    w: np.ndarray
+    c: object
+
+    @property
+    def pins(self) -> np.ndarray:
+        if "_pins" not in self.__dict__:  # once per point: every factorisation of its step shares W
+            self.__dict__["_pins"] = pinned_coordinates(self.w)
+        return self.__dict__["_pins"]
+
+    @property
+    def t(self) -> np.ndarray:
+        return self.w[:, 0]
+
+    @property
+    def zero_modes(self) -> int:
+        return self.w.shape[1]
+
+    @property
+    def regular_sign(self) -> int:
+        """sign det M_k(X_k) = (−1)^z: the sign det M_k(Y) keeps until a singular point."""
+        return -1 if self.zero_modes % 2 else 1
 
 
-def _zero_modes(c: np.ndarray, x: np.ndarray):
-    """N(C) (dN × z), the rigid motions R (dN × ρ), the nontrivial modes N(C) ⊖ R and rank C,
-    for C = C(x) dense and x normalised (full SVD; the rank decided by rank.decide_rank)."""
-    ndof = c.shape[1]
-    if c.shape[0]:
-        _, s, vt = np.linalg.svd(c, full_matrices=True)
-        rank, _ = decide_rank(s, RTOL)
-    else:
-        vt, rank = np.eye(ndof), 0
-    null = vt[rank:].T
-    rigid = rigid_motions(x, RTOL)
-    return null, rigid, complement_within(null, rigid), rank
-
-
-def _local_frame(cons: _Constraints, x: np.ndarray, direction: np.ndarray, c=None):
-    """Zero modes of C(x): the unit tangent (projection of ``direction`` onto the nontrivial
-    modes), the complement B, the pivot rows of C and the rank; None if no nontrivial mode has
-    a component along ``direction``."""
-    c = cons.jacobian(x) if c is None else c
-    ndof = c.shape[1]
-    _, rigid, modes, rank = _zero_modes(c, x)
+def _tangent_frame(cons, x: np.ndarray, null: np.ndarray, direction: np.ndarray):
+    """W = [t, rigid motions, other nontrivial modes] from an orthonormal basis of N(C(x)): t is
+    the unit projection of ``direction`` onto the nontrivial modes; None if it has none there."""
+    rigid = cons.rigid(x)
+    modes = complement_within(null, rigid)
     t = modes @ (modes.T @ direction)
     norm = np.linalg.norm(t)
     if modes.shape[1] == 0 or norm <= 1e-8 * np.linalg.norm(direction):
         return None
     t /= norm
-    others = complement_within(modes, t[:, None])
-    b = np.column_stack([rigid, others])
-    if rank == c.shape[0]:
-        rows = np.arange(rank)
-    else:  # self-stresses: keep rank C independent rows (pivoted QR of Cᵀ)
-        _, _, piv = sla.qr(c.T, mode="economic", pivoting=True)
-        rows = np.sort(piv[:rank])
-    return t, b, rows, ndof - rank, rank
+    return np.column_stack([t, rigid, complement_within(modes, t[:, None])])
 
 
-def _det_sign(c: np.ndarray, rows: np.ndarray, t: np.ndarray, b: np.ndarray) -> float:
-    sign, _ = np.linalg.slogdet(np.vstack([c[rows], t[None, :], b.T]))
-    return float(sign)
+def _null_basis(factor: BorderedFactor) -> np.ndarray:
+    """Orthonormal basis of N(C(Y)) from the factorised M_k(Y): the solutions of M[v; μ] = [0; e_i]."""
+    v, _ = factor.solve(np.zeros((factor.n, factor.z)), np.eye(factor.z))
+    return np.linalg.qr(v)[0]
 
 
-def _solve(matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-    """Newton step: LU when the system is square and regular, least squares otherwise (a frame
-    with self-stresses has redundant bar rows; the system is consistent at a solution)."""
-    if matrix.shape[0] == matrix.shape[1]:
-        try:
-            return np.linalg.solve(matrix, rhs)
-        except np.linalg.LinAlgError:
-            pass
-    return np.linalg.lstsq(matrix, rhs, rcond=None)[0]
+def _soft_on_complement(cons: BarConstraints, factor: BorderedFactor, c_y) -> float:
+    """σ/σ_max of the smallest singular value of C(Y) on W_k^⊥ (inverse iteration with the
+    factorised M_k(Y)): small when Y is at, or close to, a point where C(Y) loses rank."""
+    v = np.random.default_rng(0).standard_normal(factor.n)
+    for _ in range(INVERSE_ITERATIONS):
+        v, _ = factor.solve(v)
+        v /= np.linalg.norm(v)
+    return float(np.linalg.norm(c_y @ v)) / cons.sigma_max
 
 
-def _correct(
-    cons: _Constraints, pred: np.ndarray, t: np.ndarray, b: np.ndarray, start=None, tight=False
-):
-    """Newton on g(Y) = 0, tᵀ(Y − P) = 0, Bᵀ(Y − P) = 0 from ``start`` (default the predictor P).
+def _correct(cons, point: _Point, pred, start=None, tight=False):
+    """Newton's method on F(Y) = [C_kᵀ g(Y); W_kᵀ(Y − P)] from ``start`` (default the predictor P).
 
     Converged when every bar is within NEWTON_RTOL of its length.  With ``tight`` Newton then
     goes on while its steps still shrink, because next to a singular point a bar error of δ²
-    leaves a position error of δ along the soft direction.  Returns (Y, iterations) or None."""
+    leaves a position error of δ along the soft direction.  Returns (Y, Newton steps taken,
+    M_k(Y) factorised — None when it is exactly singular —, C(Y)) or None."""
     y = pred.copy() if start is None else start.copy()
-    fixed = np.column_stack([t, b])
+    gauge = point.w.T @ pred.ravel()
     last = np.inf
-    for it in range(1, NEWTON_MAX_ITER + 1):
-        c = cons.jacobian(y)
-        f = np.concatenate([cons.residual(y), fixed.T @ (y - pred).ravel()])
-        step = _solve(np.vstack([c, fixed.T]), -f)
+    max_iter = TIGHT_MAX_ITER if tight else NEWTON_MAX_ITER
+    for it in range(max_iter + 1):
+        c_y = cons.jacobian(y)
+        converged = cons.error(y) <= NEWTON_RTOL
+        try:
+            factor = cons.galerkin(point, y, c_y)
+        except np.linalg.LinAlgError:
+            return (y, it, None, c_y) if converged else None
+        if converged and (not tight or it == max_iter):
+            return y, it, factor, c_y
+        step = factor.solve(-(point.c.T @ cons.residual(y)), gauge - point.w.T @ y.ravel())[0]
         size = float(np.max(np.abs(step)))
-        if cons.error(y) <= NEWTON_RTOL and (not tight or size >= 0.5 * last or size <= 1e-15):
-            return y, it - 1
-        y = y + step.reshape(y.shape)
-        if not np.all(np.isfinite(y)):
+        # At a singular root Newton converges linearly with rate 1/2: go on while it contracts.
+        if converged and (size >= TIGHT_CONTRACTION * last or size <= 1e-15):
+            return y, it, factor, c_y
+        if not size <= MAX_CORRECTION:  # diverging (also catches NaN)
             return None
+        y = y + step.reshape(y.shape)
         last = size
-    return (y, NEWTON_MAX_ITER) if cons.error(y) <= NEWTON_RTOL else None
-
-
-def _zero_modes_at(cons: _Constraints, x: np.ndarray, rtol: float) -> tuple[int, np.ndarray]:
-    s = np.linalg.svd(cons.jacobian(x), compute_uv=False) if len(cons.edges) else np.zeros(0)
-    rank, _ = decide_rank(s, rtol)
-    return cons.n * cons.d - rank, s
+    return None
 
 
 def _trace_one_way(cons, start: _Point, amplitude, max_step, max_steps):
@@ -285,51 +391,39 @@ def _trace_one_way(cons, start: _Point, amplitude, max_step, max_steps):
         h = min(h, amplitude - tau)
         accepted = None
         while h >= MIN_STEP:
-            got = _correct(
-                cons, point.x + h * sqrt_n * point.t.reshape(point.x.shape), point.t, point.b
-            )
+            got = _correct(cons, point, point.x + h * sqrt_n * point.t.reshape(point.x.shape))
             if got is not None:
-                y, iters = got
-                c = cons.jacobian(y)
-                local = _local_frame(cons, y, point.t, c)
-                if local is not None and float(local[0] @ point.t) >= np.cos(MAX_TURN):
-                    accepted = (y, iters, c, local)
-                    break
-                if (
-                    local is None
-                ):  # no nontrivial mode continues t here: can only be a singular point
-                    accepted = (y, iters, c, None)
+                y, iters, f_y, c_y = got
+                # f_y None: M_k(Y) is exactly singular, Y is on the singular point.
+                w = None if f_y is None else _tangent_frame(cons, y, _null_basis(f_y), point.t)
+                if w is None or float(w[:, 0] @ point.t) >= np.cos(MAX_TURN):
+                    accepted = (y, iters, c_y, f_y, w)
                     break
             h *= 0.5
         if accepted is None:
-            n_zero, s = _zero_modes_at(cons, point.x, SINGULAR_RTOL)
-            sig = _vanishing_sigma(s, point.rank)
-            return (
-                xs,
-                taus,
-                Singularity(len(xs), tau, max(n_zero - point.zero_modes, 0), sig, "stalled"),
-            )
-        y, iters, c, local = accepted
-        crossed = local is None or _det_sign(c, point.rows, point.t, point.b) != point.sign
-        if local is not None and local[3] > point.zero_modes:
-            crossed = True  # landed on the singular point itself
+            extra, sigma = _extra_zero_modes(cons, point.x, point.zero_modes)
+            return xs, taus, Singularity(len(xs), tau, max(extra, 0), sigma, "stalled")
+        y, iters, c_y, f_y, w = accepted
+        crossed = (
+            w is None
+            or f_y.sign != point.regular_sign
+            or _soft_on_complement(cons, f_y, c_y) <= RTOL  # landed on the singular point itself
+        )
         if crossed:
-            found = _locate(cons, point, h, y)
+            found = _locate(cons, point, h, y, f_y, c_y)
             if found is not None:
-                y_star, s_star, extra, sig = found
+                y_star, s_star, extra, sigma = found
                 xs.append(y_star)
                 taus.append(tau + s_star)
-                return xs, taus, Singularity(len(xs), tau + s_star, extra, sig, "rank_drop")
-            if local is None:
+                return xs, taus, Singularity(len(xs), tau + s_star, extra, sigma, "rank_drop")
+            if w is None:
                 h *= 0.5
                 continue
-        t, b, rows, zero_modes, rank = local
-        sign = _det_sign(c, rows, t, b)
-        point = _Point(y, t, b, rows, zero_modes, rank, sign)
+        point = _Point(y, w, c_y)
         tau += h
         xs.append(y)
         taus.append(tau)
-        if iters <= 3:
+        if iters <= EASY_ITERATIONS:
             h = min(1.5 * h, max_step)
     raise DomainError(
         "step_limit",
@@ -338,74 +432,167 @@ def _trace_one_way(cons, start: _Point, amplitude, max_step, max_steps):
     )
 
 
-def _vanishing_sigma(s: np.ndarray, rank: int) -> float:
-    """σ_rank/σ_max: the relative size of the last singular value that was nonzero at the start."""
-    if rank == 0 or s.size == 0 or s[0] == 0:
-        return 0.0
-    return float(s[rank - 1] / s[0])
+def _extra_zero_modes(cons, x: np.ndarray, zero_modes: int) -> tuple[int, float]:
+    """(zero modes of C(x) beyond ``zero_modes`` at SINGULAR_RTOL, σ/σ_max of the singular value
+    that vanished — or of the smallest nonzero one when none did)."""
+    count, _, last_nonzero, first_zero = cons.count(x, SINGULAR_RTOL)
+    extra = count - zero_modes
+    return extra, first_zero if extra > 0 else last_nonzero
 
 
-def _locate(cons, point: _Point, h: float, y_end: np.ndarray):
-    """Bisect the step length s ∈ (0, h) on the sign of det J (fixed t, B, rows of the step)
-    and confirm a rank drop of C there.  Returns (Y*, s*, extra zero modes, σ/σ_max) or None.
+def signed_determinant(factor: BorderedFactor, sign: int, reference: float) -> float:
+    """sign·det M / exp(reference): det M relative to a reference |det| (log), oriented so that
+    the regular side of a step (sign det = ``sign``) is positive."""
+    return factor.sign * sign * float(np.exp(min(factor.logabsdet - reference, 700.0)))
 
-    Next to a branch point the corrector is ill-conditioned (two branches lie within O(|s − s*|)
-    of each other), so the bracket may wobble by ~√ε; the point with the smallest vanishing
-    singular value seen during the bisection is the one reported."""
-    sqrt_n = np.sqrt(cons.n)
 
-    def measured(s_val, y):
-        n_zero, sv = _zero_modes_at(cons, y, SINGULAR_RTOL)
-        return (_vanishing_sigma(sv, point.rank), n_zero - point.zero_modes, s_val, y)
+def bracket_sign_change(evaluate, measure, h: float, d_end: float, state_end):
+    """The point of smallest vanishing σ seen while bracketing the sign change of a continuous
+    d(s) on (0, h], d(0) = 1 > 0 > d(h) = ``d_end``: the Illinois variant of regula falsi,
+    with a bisection step whenever two steps did not halve the bracket (a node collision makes
+    dozens of singular values vanish at once, det ∝ (s − s*)^m, where regula falsi crawls).
 
-    best = measured(h, y_end)
-    lo, y_lo, hi = 0.0, point.x, h
-    for _ in range(BISECTION_STEPS):
-        if hi - lo <= 1e-15 * max(h, 1.0) or best[0] <= 1e-3 * SINGULAR_RTOL:
+    evaluate(s, lo, state_lo) → (d(s), state) — d None where exactly singular — or None when
+    the point cannot be computed; ``state_lo`` is the state at the bracket's regular end lo
+    (None at s = 0), for warm starts on the caller's own branch. measure(state) → σ, called
+    only once the bracket is within MEASURED_WIDTH of h (σ costs an eigen-solve on a large
+    frame, the sign a factorisation). Stops once σ ≤ LOCATED_RTOL or the bracket is at
+    round-off. Returns (σ, s, state)."""
+    lo, hi, state_lo, state_hi, d_lo, d_hi = 0.0, h, None, state_end, 1.0, d_end
+    stale = None  # the end kept twice in a row (Illinois: halve its value)
+    widths = [h, h]  # the bracket two steps ago must have been at least twice as wide
+    best = None
+    for _ in range(BISECTION_STEPS if d_hi < 0 else 0):
+        if hi - lo <= 1e-15 * max(h, 1.0) or best is not None and best[0] <= LOCATED_RTOL:
             break
-        mid = 0.5 * (lo + hi)
-        pred = point.x + mid * sqrt_n * point.t.reshape(point.x.shape)
-        # Warm start from our own branch, so Newton does not hop onto the crossing one.
-        warm = y_lo + (mid - lo) * sqrt_n * point.t.reshape(point.x.shape)
-        got = _correct(cons, pred, point.t, point.b, start=warm, tight=True)
+        check_budget()
+        mid = (lo * d_hi - hi * d_lo) / (d_hi - d_lo) if d_lo > d_hi else lo
+        if not lo + 0.01 * (hi - lo) <= mid <= hi - 0.01 * (hi - lo) or hi - lo > 0.5 * widths[0]:
+            mid = 0.5 * (lo + hi)
+        widths = [widths[1], hi - lo]
+        got = evaluate(mid, lo, state_lo)
         if got is None:
             break
-        y = got[0]
-        best = min(best, measured(mid, y), key=lambda m: m[0])
-        if _det_sign(cons.jacobian(y), point.rows, point.t, point.b) == point.sign:
-            lo, y_lo = mid, y
+        d, state = got
+        if d is None:
+            return 0.0, mid, state
+        if hi - lo <= MEASURED_WIDTH * h:
+            best = min(best or (np.inf,), (measure(state), mid, state), key=lambda m: m[0])
+        if d > 0:
+            lo, state_lo, d_lo = mid, state, d
+            d_hi, stale = (0.5 * d_hi, "hi") if stale == "hi" else (d_hi, "hi")
         else:
-            hi = mid
-    sigma, extra, s_star, y_star = best
+            hi, state_hi, d_hi = mid, state, d
+            d_lo, stale = (0.5 * d_lo, "lo") if stale == "lo" else (d_lo, "lo")
+    return best if best is not None else (measure(state_hi), hi, state_hi)
+
+
+def located_sigma(cons: BarConstraints, x: np.ndarray, c, factor, zero_modes: int) -> float:
+    """σ/σ_max of the singular value that vanishes at a singular point, near x: the cheap
+    indicator on W_k^⊥ (inverse iteration with the step's factorisation ``factor``, None where
+    it is exactly singular) until it falls below SINGULAR_RTOL, then cons.vanishing_sigma (an
+    eigen-solve at every bracketing step would dominate the cost on large frames)."""
+    if factor is None:
+        return 0.0
+    soft = _soft_on_complement(cons, factor, c)
+    return cons.vanishing_sigma(x, c, zero_modes) if soft <= SINGULAR_RTOL else soft
+
+
+def _locate(cons, point: _Point, h: float, y_end: np.ndarray, f_end, c_end):
+    """Locate the root s* ∈ (0, h] of det M_k(Y(s)) along the step and confirm a rank drop of C
+    there.  Returns (Y*, s*, extra zero modes, σ/σ_max) or None.
+
+    det M_k(Y(s)) is smooth in s with a simple root at a simple singular point, so regula falsi
+    brackets it in a handful of corrector solves (bracket_sign_change). Next to a branch point
+    the corrector is ill-conditioned (two branches lie within O(|s − s*|) of each other), so
+    the bracket may wobble by ~√ε; the point with the smallest vanishing singular value of C
+    seen is the one confirmed and reported."""
+    sqrt_n = np.sqrt(cons.n)
+    along = point.t.reshape(point.x.shape)
+    reference = cons.galerkin(point, point.x, point.c).logabsdet
+
+    def measure(state) -> float:
+        y, f, c_y = state
+        return located_sigma(cons, y, c_y, f, point.zero_modes)
+
+    def evaluate(s, lo, state_lo):
+        # Warm start from our own branch, so Newton does not hop onto the crossing one.
+        warm = (point.x if state_lo is None else state_lo[0]) + (s - lo) * sqrt_n * along
+        got = _correct(cons, point, point.x + s * sqrt_n * along, start=warm, tight=True)
+        if got is None:
+            return None
+        y, _, f, c_y = got
+        return (None if f is None else signed_determinant(f, point.regular_sign, reference)), (y, f, c_y)
+
+    if f_end is None:  # the step ended exactly on the singular point
+        s_star, y_star = h, y_end
+    else:
+        d_end = signed_determinant(f_end, point.regular_sign, reference)
+        _, s_star, (y_star, _, _) = bracket_sign_change(evaluate, measure, h, d_end, (y_end, f_end, c_end))
+    extra, sigma_star = _extra_zero_modes(cons, y_star, point.zero_modes)
     if extra <= 0:
         return None
-    return y_star, s_star, extra, sigma
+    return y_star, s_star, extra, sigma_star
+
+
+def curve_chart(cons: BarConstraints, x: np.ndarray, direction: np.ndarray):
+    """s ↦ the configuration of ``cons`` at pseudo-arclength s from the regular configuration x
+    (normalised) along its tangent nearest ``direction``, by the corrector of the continuation:
+    a function (s, start) → (configuration or None), ``start`` a warm start (default the
+    predictor)."""
+    _, f, _, _ = cons.count(x, RTOL)
+    point = _Point(x, _tangent_frame(cons, x, cons.null_space(x, f), direction), cons.jacobian(x))
+    sqrt_n = np.sqrt(cons.n)
+
+    def at(s: float, start=None):
+        got = _correct(cons, point, x + s * sqrt_n * point.t.reshape(x.shape), start=start, tight=True)
+        return None if got is None else got[0]
+
+    return at
 
 
 # ----------------------------------------------------------------------------------------------
 # Public API
 
 
-def _start_direction(frame: Frame, x: np.ndarray, cons: _Constraints, mode) -> np.ndarray:
-    """The unit starting tangent (dN) in normalised coordinates; DomainError if there is none."""
+def _reference_null_space(cons: BarConstraints, x: np.ndarray, explicit_mode: bool):
+    """Orthonormal bases of N(C(x)) (dN × z) and of its nontrivial part (dN × f), x normalised.
+
+    Without ``explicit_mode`` a frame with f ≠ 1 is refused before any basis is computed
+    (``no_motion`` / ``ambiguous_mode``)."""
+    _, f, _, _ = cons.count(x, RTOL)
+    if f == 0:
+        raise DomainError("no_motion", "the frame has no nontrivial zero mode: it cannot move.")
+    if f > 1 and not explicit_mode:
+        raise DomainError(
+            "ambiguous_mode",
+            f"the frame has {f} nontrivial zero modes; give `mode` to choose the motion.",
+        )
+    if f > MAX_MODES:
+        raise DomainError(
+            "too_expensive",
+            f"the frame has {f} nontrivial zero modes; motions are traced for up to {MAX_MODES}.",
+        )
+    null = cons.null_space(x, f)
+    return null, complement_within(null, cons.rigid(x))
+
+
+def start_direction(cons: BarConstraints, x: np.ndarray, mode):
+    """(unit starting tangent (dN), orthonormal basis of N(C(x))) in normalised coordinates;
+    ``mode`` (n, d) or None (then the single nontrivial mode, largest entry positive).
+    DomainError if there is no tangent."""
     n = x.shape[0]
-    null, _, modes, _ = _zero_modes(cons.jacobian(x), x)
-    if mode is None:
-        if modes.shape[1] == 0:
-            raise DomainError("no_motion", "the frame has no nontrivial zero mode: it cannot move.")
-        if modes.shape[1] > 1:
-            raise DomainError(
-                "ambiguous_mode",
-                f"the frame has {modes.shape[1]} nontrivial zero modes; give `mode` to choose the motion.",
+    if mode is not None:
+        u = check_positions(mode, x.shape[1], name="mode")
+        if u.shape[0] != n:
+            raise InvalidInput(
+                "invalid_shape", f"mode must have one row per node ({n}), got {u.shape[0]}."
             )
+    null, modes = _reference_null_space(cons, x, explicit_mode=mode is not None)
+    if mode is None:
         u = modes[:, 0]
         # Deterministic sign: the largest entry positive (ties: the first).
-        return u * (1.0 if u[np.argmax(np.abs(u))] > 0 else -1.0)
-    u = check_positions(mode, frame.dim, name="mode")
-    if u.shape[0] != n:
-        raise InvalidInput(
-            "invalid_shape", f"mode must have one row per node ({n}), got {u.shape[0]}."
-        )
+        return u * (1.0 if u[np.argmax(np.abs(u))] > 0 else -1.0), null
     u = u.ravel()
     norm = np.linalg.norm(u)
     if norm == 0:
@@ -419,7 +606,37 @@ def _start_direction(frame: Frame, x: np.ndarray, cons: _Constraints, mode) -> n
     t = modes @ (modes.T @ u)
     if np.linalg.norm(t) <= GIVEN_MODE_RTOL * norm:
         raise DomainError("rigid_mode", "mode is a rigid motion of the frame; it deforms nothing.")
-    return t / np.linalg.norm(t)
+    return t / np.linalg.norm(t), null
+
+
+def follow(cons: BarConstraints, x0, t0, null, amplitude, max_step, direction, max_steps):
+    """Continuation of the constraint system ``cons`` from x0 (normalised) along ±t0, with
+    ``null`` an orthonormal basis of N(C(x0)): (configurations (normalised, ordered by
+    parameter), parameters, index of x0, singular points (path indices))."""
+    c0 = cons.jacobian(x0)
+    branches = {}
+    for sign, name in ((1.0, "forward"), (-1.0, "backward")):
+        if direction in (name, "both"):
+            start = _Point(x0, _tangent_frame(cons, x0, null, sign * t0), c0)
+            branches[name] = _trace_one_way(cons, start, amplitude, max_step, max_steps)
+    back_x, back_tau, back_sing = branches.get("backward", ([], [], None))
+    fwd_x, fwd_tau, fwd_sing = branches.get("forward", ([], [], None))
+    ref = len(back_x)
+    singularities = []
+    for sing, sign in ((back_sing, -1), (fwd_sing, 1)):
+        if sing is not None:
+            singularities.append(
+                Singularity(
+                    ref + sign * sing.step,
+                    sign * sing.parameter,
+                    sing.extra_zero_modes,
+                    sing.sigma,
+                    sing.kind,
+                )
+            )
+    configs = back_x[::-1] + [x0] + fwd_x
+    params = np.asarray([-p for p in back_tau[::-1]] + [0.0] + fwd_tau)
+    return configs, params, ref, tuple(singularities)
 
 
 def trace_motion(
@@ -429,6 +646,7 @@ def trace_motion(
     max_step: float = 0.02,
     direction: str = "both",
     max_steps: int = 5000,
+    method: str = "auto",
 ) -> MotionPath:
     """Follow the finite motion of ``frame`` along ``mode`` to parameter ±``amplitude``.
 
@@ -436,8 +654,10 @@ def trace_motion(
     (DomainError ``ambiguous_mode`` if there are several, ``no_motion`` if none).
     amplitude, max_step: in units of RMS node displacement over the frame's RMS radius.
     direction: "forward" (along +mode), "backward" or "both".
+    method: "dense", "sparse" or "auto" (dense up to rigidity.DENSE_MAX_DOF degrees of freedom).
     Singular points stop the path in their direction and are listed in ``singularities``
     (``status`` "singular_path"); the path up to them is returned.
+    Frames above MAX_DOF degrees of freedom are refused (``too_expensive``) before any work.
     """
     if direction not in ("both", "forward", "backward"):
         raise InvalidInput(
@@ -451,47 +671,23 @@ def trace_motion(
             "too_expensive",
             f"finite motion is traced for frames of up to {MAX_DOF} degrees of freedom (d·N); this one has {ndof}.",
         )
+    if method == "auto":
+        method = "dense" if ndof <= DENSE_MAX_DOF else "sparse"
+    if method not in ("dense", "sparse"):
+        raise InvalidInput("invalid_method", "method must be 'auto', 'dense' or 'sparse'.")
     norm = Normalisation.of(frame.positions)
     x0 = norm.positions_in(frame.positions)
-    cons = _Constraints(frame.edges, x0)
-    t0 = _start_direction(frame, x0, cons, mode)
-
-    branches = {}
-    for sign, name in ((1.0, "forward"), (-1.0, "backward")):
-        if direction not in (name, "both"):
-            continue
-        local = _local_frame(cons, x0, sign * t0)
-        t, b, rows, zero_modes, rank = local
-        start = _Point(x0, t, b, rows, zero_modes, rank, _det_sign(cons.jacobian(x0), rows, t, b))
-        branches[name] = _trace_one_way(cons, start, amplitude, max_step, max_steps)
-
-    back_x, back_tau, back_sing = branches.get("backward", ([], [], None))
-    fwd_x, fwd_tau, fwd_sing = branches.get("forward", ([], [], None))
-    configs = back_x[::-1] + [x0] + fwd_x
-    params = [-p for p in back_tau[::-1]] + [0.0] + fwd_tau
-    ref = len(back_x)
-    singularities = []
-    if back_sing is not None:
-        singularities.append(
-            Singularity(
-                ref - back_sing.step,
-                -back_sing.parameter,
-                back_sing.extra_zero_modes,
-                back_sing.sigma,
-                back_sing.kind,
-            )
-        )
-    if fwd_sing is not None:
-        singularities.append(
-            Singularity(
-                ref + fwd_sing.step,
-                fwd_sing.parameter,
-                fwd_sing.extra_zero_modes,
-                fwd_sing.sigma,
-                fwd_sing.kind,
-            )
-        )
-    positions = norm.positions_out(np.stack(configs))
+    cons = BarConstraints(frame.edges, x0, method)
+    t0, null = start_direction(cons, x0, mode)
+    configs, params, ref, singularities = follow(
+        cons, x0, t0, null, amplitude, max_step, direction, max_steps
+    )
+    positions = np.stack(
+        [
+            frame.positions if i == ref else align_to(norm.positions_out(y), frame.positions)
+            for i, y in enumerate(configs)
+        ]
+    )
     lengths = bar_lengths(frame.positions, frame.edges)
     error = max(relative_bar_error(p, frame.edges, lengths) for p in positions)
     return MotionPath(
@@ -499,24 +695,39 @@ def trace_motion(
         parameter=np.asarray(params),
         reference_index=ref,
         max_relative_bar_error=error,
-        singularities=tuple(singularities),
+        singularities=singularities,
         edges=frame.edges,
+        method=method,
     )
 
 
-def kabsch_distance(moving: np.ndarray, target: np.ndarray) -> float:
-    """min over proper rigid motions R (rotation, det +1, and translation) of ‖R·moving − target‖_F.
+def _kabsch(moving: np.ndarray, target: np.ndarray):
+    """(centred moving p, centred target q, rotation R) with p @ R ≈ q the best proper fit.
 
-    moving, target: (k, d).  Kabsch: centre both, SVD of the covariance, flip the last axis if
-    the optimal orthogonal map would be a reflection.  The residual is formed explicitly (not
-    from the singular values) so that distances near 1e-12 of the size keep their digits.
-    """
+    Kabsch: SVD of the covariance pᵀq, the last axis flipped if the optimal orthogonal map
+    would be a reflection (det R = +1)."""
     p = moving - moving.mean(axis=0)
     q = target - target.mean(axis=0)
     u, _, vt = np.linalg.svd(p.T @ q)
     flip = np.ones(p.shape[1])
     flip[-1] = np.sign(np.linalg.det(u @ vt)) or 1.0
-    rotation = (u * flip) @ vt  # maps row vectors: p @ rotation ≈ q
+    return p, q, (u * flip) @ vt  # maps row vectors: p @ rotation ≈ q
+
+
+def align_to(moving: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """``moving`` (N, d) after the proper rigid motion that minimises its sum of squared node
+    distances to ``reference`` (N, d): centroids matched, rotation by Kabsch."""
+    p, _, rotation = _kabsch(moving, reference)
+    return p @ rotation + reference.mean(axis=0)
+
+
+def kabsch_distance(moving: np.ndarray, target: np.ndarray) -> float:
+    """min over proper rigid motions R (rotation, det +1, and translation) of ‖R·moving − target‖_F.
+
+    moving, target: (k, d). The residual is formed explicitly (not from the singular values) so
+    that distances near 1e-12 of the size keep their digits.
+    """
+    p, q, rotation = _kabsch(moving, target)
     return float(np.linalg.norm(p @ rotation - q))
 
 
@@ -560,20 +771,22 @@ def _polish(path: MotionPath, k: int, distance):
     between samples k−1 and k+1; (parameter, distance) or None if the corrector fails."""
     ref = path.positions[path.reference_index]
     norm = Normalisation.of(ref)
-    cons = _Constraints(path.edges, norm.positions_in(ref))
+    cons = BarConstraints(path.edges, norm.positions_in(ref), path.method)
     xs = norm.positions_in(path.positions)
     lo, hi = max(k - 1, 0), min(k + 1, len(xs) - 1)
-    local = _local_frame(cons, xs[k], (xs[hi] - xs[lo]).ravel())
-    if local is None:
+    null, _ = _reference_null_space(cons, xs[k], explicit_mode=True)
+    w = _tangent_frame(cons, xs[k], null, (xs[hi] - xs[lo]).ravel())
+    if w is None:
         return None
-    t, b = local[0], local[1]
+    point = _Point(xs[k], w, cons.jacobian(xs[k]))
     sqrt_n = np.sqrt(cons.n)
     # Pseudo-arclength offsets of the neighbours along t (the path parameter's own units).
-    bounds = [float(t @ (xs[j] - xs[k]).ravel()) / sqrt_n for j in (lo, hi)]
+    bounds = [float(point.t @ (xs[j] - xs[k]).ravel()) / sqrt_n for j in (lo, hi)]
     fallback = distance(path.positions[k])
 
     def along(s: float) -> float:
-        got = _correct(cons, xs[k] + s * sqrt_n * t.reshape(xs[k].shape), t, b, tight=True)
+        pred = xs[k] + s * sqrt_n * point.t.reshape(xs[k].shape)
+        got = _correct(cons, point, pred, tight=True)
         return fallback if got is None else distance(norm.positions_out(got[0]))
 
     res = minimize_scalar(along, bounds=bounds, method="bounded", options={"xatol": 1e-12})
@@ -594,7 +807,8 @@ def motion_fidelity(frame: Frame, displacement_s: np.ndarray, horizon: float = 0
     x_s = frame.positions[spec]
     norm = Normalisation.of(frame.positions)
     x0 = norm.positions_in(frame.positions)
-    u = _start_direction(frame, x0, _Constraints(frame.edges, x0), None).reshape(x0.shape)
+    method = "dense" if frame.dim * frame.n_nodes <= DENSE_MAX_DOF else "sparse"
+    u = start_direction(BarConstraints(frame.edges, x0, method), x0, None)[0].reshape(x0.shape)
     # Linear estimate: X_S(τ) ≈ x_S + τ·r·√N·u_S (u unit in dN), fitted to Δ_S in least squares.
     along = norm.length * np.sqrt(frame.n_nodes) * u[spec]
     tau_lin = abs(float(np.sum(along * displacement_s) / max(np.sum(along * along), 1e-300)))

@@ -31,7 +31,6 @@ from oracles.rigidity import (
 from zeromode.solver import DomainError, Frame
 from zeromode.solver.finite_motion import (
     MotionPath,
-    _Constraints,
     fidelity,
     kabsch_distance,
     motion_fidelity,
@@ -51,15 +50,6 @@ def the_mode(frame: Frame) -> np.ndarray:
     flexes = nontrivial_flexes(frame.positions, frame.edges)
     assert flexes.shape[1] == 1
     return flexes[:, 0]
-
-
-def test_dense_jacobian_is_the_compatibility_matrix():
-    rng = np.random.default_rng(3)
-    for d in (2, 3):
-        x = rng.standard_normal((7, d))
-        edges = np.array([[i, j] for i in range(7) for j in range(i + 1, 7) if rng.random() < 0.5])
-        cons = _Constraints(edges, x)
-        assert np.array_equal(cons.jacobian(x), compatibility_matrix(x, edges))
 
 
 def test_four_bar_path_keeps_every_bar_and_starts_along_the_mode():
