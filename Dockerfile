@@ -20,6 +20,7 @@ COPY pyproject.toml README.md ./
 COPY solver ./solver
 COPY service ./service
 COPY viz ./viz
+COPY export ./export
 RUN pip install --no-cache-dir --no-deps --no-build-isolation . \
     && rm -rf build ./*.egg-info
 

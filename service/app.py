@@ -19,6 +19,7 @@ from zeromode.service.routes import (
     certify,
     design,
     examples,
+    export,
     health,
     jobs,
     lattice,
@@ -97,7 +98,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     )
     install_error_handlers(app)
     app.state.settings = settings  # the job store reads its directory and limits here
-    for module in (health, analyze, certify, design, examples, lattice, plot, motion, jobs):
+    for module in (health, analyze, certify, design, examples, lattice, plot, export, motion, jobs):
         app.include_router(module.router)
 
     app.add_middleware(LimitsAndAuth, settings=settings)

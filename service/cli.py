@@ -1,4 +1,4 @@
-"""The ``zeromode`` command line: serve the API, analyse frames, show examples."""
+"""The ``zeromode`` command line: serve the API; analyse, design, plot and export frames; show examples."""
 
 from __future__ import annotations
 
@@ -128,6 +128,55 @@ def cmd_plot(args) -> int:
     return 0
 
 
+def cmd_design(args) -> int:
+    from zeromode.service.documents import respond
+
+    body, _ = respond(_load_json(args.request))
+    text = json.dumps(body, allow_nan=False)
+    if args.output:
+        with open(args.output, "w", encoding="utf-8") as fh:
+            fh.write(text + "\n")
+    else:
+        print(text)
+    return 0
+
+
+# File suffixes that name one export format (.svg is a cut file or an animation: say which).
+EXPORT_SUFFIXES = {
+    ".vtu": "vtk", ".xdmf": "xdmf", ".graphml": "graphml", ".json": "node_link_json", ".dxf": "dxf",
+    ".stl": "stl", ".csv": "kit_csv", ".gif": "gif", ".mp4": "mp4",
+}
+
+
+def cmd_export(args) -> int:
+    from pathlib import Path
+
+    from zeromode.service.documents import validated
+    from zeromode.service.exporting import export_file
+    from zeromode.service.schemas.export import ExportRequest
+
+    output = Path(args.output)
+    fmt = args.format or EXPORT_SUFFIXES.get(output.suffix.lower())
+    if fmt is None:
+        print(f"error: give --format (the suffix {output.suffix or '(none)'} does not name one format).", file=sys.stderr)
+        return 2
+    body = {
+        "format": fmt,
+        "document": _load_json(args.document),
+        "fabrication": {k: v for k, v in (
+            ("mm_per_unit", args.mm_per_unit), ("pin_diameter_mm", args.pin_diameter),
+            ("link_width_mm", args.link_width), ("thickness_mm", args.thickness),
+        ) if v is not None},
+        "animation": {"frames": args.frames, "fps": args.fps, "title": args.title},
+    }
+    if args.frame:
+        frame = _load_json(args.frame)
+        body["frame"] = frame.get("frame", frame)
+    content, _, _ = export_file(validated(body, ExportRequest))
+    output.write_bytes(content)
+    return 0
+
+
 def _http_json(method: str, url: str, api_key: str | None, body: dict | None = None) -> dict:
     """One JSON request with the standard library (the service package needs no HTTP client);
     an error answer raises DomainError with the service's code and sentence."""
@@ -185,7 +234,10 @@ def cmd_job(args) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from zeromode.service import __version__  # importlib.metadata only: --help stays fast
+
     parser = argparse.ArgumentParser(prog="zeromode", description=__doc__)
+    parser.add_argument("--version", action="version", version=f"zeromode {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     serve = sub.add_parser("serve", help="run the REST service")
     serve.add_argument("--host", default="127.0.0.1")
@@ -221,6 +273,32 @@ def build_parser() -> argparse.ArgumentParser:
     )
     jb.add_argument("--poll", type=float, default=0.5, help="seconds between status requests")
     jb.set_defaults(func=cmd_job)
+    de = sub.add_parser(
+        "design", help="run a /v1/design, /v1/design/auxetic or /v1/design/allosteric request here (no "
+        "service needed) and print its response"
+    )
+    de.add_argument("request", help="the request body: JSON file (or - for stdin)")
+    de.add_argument("-o", "--output", default=None, help="write the response here instead of stdout")
+    de.set_defaults(func=cmd_design)
+    exp = sub.add_parser(
+        "export", help="write a design, lattice, allosteric design, refinement or motion (a response, or a "
+        "request designed first) for ParaView, networkx, a laser cutter, a 3D printer, or as an animation"
+    )
+    exp.add_argument("document", help="JSON file (or - for stdin)")
+    exp.add_argument("-o", "--output", required=True, help="e.g. out.vtu, out.graphml, out.dxf, out.stl, out.gif")
+    exp.add_argument(
+        "--format", default=None, help="vtk, xdmf, graphml, node_link_json, dxf, cut_svg, stl, kit_csv, "
+        "svg_animation, gif or mp4 (GET /v1/export/formats); default: from the output's suffix",
+    )
+    exp.add_argument("--frame", default=None, help="the frame (JSON) a /v1/motion response moved")
+    exp.add_argument("--mm-per-unit", type=float, default=None, help="cut files: mm per frame unit")
+    exp.add_argument("--pin-diameter", type=float, default=None, help="cut files: pin hole diameter, mm (3)")
+    exp.add_argument("--link-width", type=float, default=None, help="cut files: link width, mm (8)")
+    exp.add_argument("--thickness", type=float, default=None, help="stl: plate thickness, mm (3)")
+    exp.add_argument("--frames", type=int, default=40, help="animations: configurations shown (40)")
+    exp.add_argument("--fps", type=float, default=20.0, help="animations: frames per second (20)")
+    exp.add_argument("--title", default=None, help="animations: a title")
+    exp.set_defaults(func=cmd_export)
     return parser
 
 

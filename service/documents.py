@@ -3,7 +3,8 @@ POST /v1/plot and POST /v1/export accept besides their own bodies.
 
 A document is a request or response body of /v1/design, /v1/design/auxetic or
 /v1/design/allosteric — a request is designed first (``respond``), so a request and its response
-give the same document — a /v1/refine response, or any other body with a ``frame``.
+give the same document — a /v1/refine response, a /v1/motion response (which has no frame: the
+frame it moved comes with it), or any other body with a ``frame``.
 """
 
 from __future__ import annotations
@@ -18,10 +19,12 @@ from zeromode.service.schemas.lattice import AuxeticRequest, LatticeState
 from zeromode.solver.allostery import AllostericDesign, design_allosteric
 from zeromode.solver.errors import InvalidInput
 from zeromode.solver.lattice import Lattice, auxetic_chain_3d, auxetic_sheet
-from zeromode.solver.pipeline import design_pipeline
+from zeromode.solver.pipeline import RefineStage, design_pipeline
 
 # What a document is, by its fields (``kind``).
-DESIGN, AUXETIC, ALLOSTERIC, REFINEMENT, FRAME = "design", "auxetic", "allosteric", "refinement", "frame"
+DESIGN, AUXETIC, ALLOSTERIC, REFINEMENT, MOTION, FRAME = (
+    "design", "auxetic", "allosteric", "refinement", "motion", "frame"
+)
 
 
 # The fields of each response the plotting and export code read (pydantic ignores the rest).
@@ -51,16 +54,22 @@ class AllostericDocument(DesignDocument):
     report: AllostericReportFields
 
 
-class RefinementDocument(BaseModel):
-    frame: FrameModel
+class PathDocument(BaseModel):
+    """A finite motion: a /v1/motion response, or the path of a /v1/refine response."""
+
     path: list[Points]
+    parameter: list[float] | None = None
+    reference_index: int | None = None
 
 
 def kind(doc: dict) -> str:
-    """The kind of a response document (one with a ``frame``): AUXETIC (``states`` and
-    ``poisson_ratio``), ALLOSTERIC (``report`` with ``source``, ``target``, ``relays``), DESIGN
-    (any other ``report``), REFINEMENT (``path`` and ``epsilon_after``), else FRAME."""
+    """The kind of a response document: AUXETIC (``states`` and ``poisson_ratio``), ALLOSTERIC
+    (``report`` with ``source``, ``target``, ``relays``), DESIGN (any other ``report``),
+    REFINEMENT (``path`` and ``epsilon_after``), MOTION (``path`` and ``parameter``, no
+    ``frame``), else FRAME."""
     report = doc.get("report") if isinstance(doc.get("report"), dict) else {}
+    if "frame" not in doc and "path" in doc and "parameter" in doc:
+        return MOTION
     if "states" in doc and "poisson_ratio" in doc:
         return AUXETIC
     if {"source", "target", "relays"} <= report.keys():
@@ -73,8 +82,8 @@ def kind(doc: dict) -> str:
 
 
 def respond(doc: dict) -> tuple[dict, BaseModel]:
-    """Design a request document: (the response body, the validated request). The one place
-    documents call the designers."""
+    """Design a request document as its endpoint does, every option included: (the response
+    body, the validated request). The one place documents call the designers."""
     if "source" in doc and "target" in doc:
         r = validated(doc, AllostericRequest)
         return allosteric_body(allosteric(r), {}), r
@@ -83,9 +92,13 @@ def respond(doc: dict) -> tuple[dict, BaseModel]:
         return auxetic_body(lattice(r), {}), r
     if "positions" in doc and "motions" in doc:
         r = validated(doc, DesignRequest)
-        result = design_pipeline(r.positions, r.motions, dim=r.dim, seed=r.options.seed,
-                                 n_unspecified=r.options.n_unspecified)
-        return design_body(result, {}), r
+        o = r.options
+        result = design_pipeline(
+            r.positions, r.motions, dim=r.dim, seed=o.seed, n_unspecified=o.n_unspecified,
+            refine_stage=None if o.refine is None else RefineStage(**o.refine.model_dump()),
+            certify_stage=o.certify,
+        )
+        return design_body(result, result.timings_ms), r
     raise InvalidInput(
         "invalid_document",
         "the document is neither a body with a frame nor a request or response of /v1/design, "

@@ -234,7 +234,7 @@ def layout(picture: Picture) -> Scene:
             panel.append(Group(tuple(_solution_shapes(solution, space_colours, unit, basis, to_px, d_lo, d_span, radius)),
                                clip=clips[k]))
         p = to_px(s)
-        panel += _bar_shapes(p, e, fade, bar_w)
+        panel += bar_shapes(p, e, fade, bar_w)
         if k == frame_panel:
             for t, colour in zip(target_vec, target_colours):
                 panel += _arrow_shapes(p[spec], t * np.array([px, -px]), fade[spec], colour,
@@ -242,8 +242,8 @@ def layout(picture: Picture) -> Scene:
             for m, colour in zip(mode_vec, mode_colours):
                 panel += _arrow_shapes(p[arrow_nodes], m * np.array([px, -px]), fade[arrow_nodes], colour,
                                        shaft, head_w, head_l, False, arrow_nodes)
-        panel += _node_shapes(p, is_spec, fade, radius)
-        panel += _marker_shapes(p, picture.source, picture.target_nodes, fade, radius)
+        panel += node_shapes(p, is_spec, fade, radius)
+        panel += marker_shapes(p, picture.source, picture.target_nodes, fade, radius)
         shapes.append(Group(tuple(panel), cls="panel", id=f"panel-{k}"))
     shapes.append(legend)
     return Scene(width, height, tuple(shapes))
@@ -284,7 +284,7 @@ def _solution_shapes(solution, colours, unit, basis, to_px, d_lo, d_span, radius
     return out
 
 
-def _bar_shapes(p, e, fade, width) -> list:
+def bar_shapes(p, e, fade, width) -> list:
     bar_fade = 0.5 * (fade[e[:, 0]] + fade[e[:, 1]]) if len(e) else np.zeros(0)
     return [
         Line(p[e[b]], mix_white(BAR, DEPTH_FADE * bar_fade[b]), width * (1 - DEPTH_SHRINK * bar_fade[b]),
@@ -312,7 +312,7 @@ def _arrow_shapes(p, vec, fade, colour, shaft, head_w, head_l, hollow: bool, nod
     return out
 
 
-def _node_shapes(p, is_spec, fade, radius) -> list:
+def node_shapes(p, is_spec, fade, radius) -> list:
     out = []
     for i in _order(fade):
         fill, line = SPECIFIED if is_spec[i] else UNSPECIFIED
@@ -324,7 +324,7 @@ def _node_shapes(p, is_spec, fade, radius) -> list:
     return out
 
 
-def _marker_shapes(p, source, target_nodes, fade, radius) -> list:
+def marker_shapes(p, source, target_nodes, fade, radius) -> list:
     return [
         Polygon(marker_polygon(p[i], 1.75 * radius * (1 - DEPTH_SHRINK * fade[i]), kind), None, colour,
                 max(1.2, 0.3 * radius), cls=f"marker {kind}", data=(("node", int(i)),))

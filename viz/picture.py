@@ -69,11 +69,11 @@ class Picture:
         invalid_shape, invalid_targets, invalid_nodes, invalid_labels, invalid_captions,
         invalid_frame_panel or no_motion."""
         n, d, k = frame.n_nodes, frame.dim, len(frame.specified)
-        mode_arr = _stack(modes, n, d, "modes", "the frame's nodes")
+        mode_arr = stacked(modes, n, d, "modes", "the frame's nodes")
         if targets is not None and len(targets) and k == 0:
             raise InvalidInput("invalid_targets", "targets need specified nodes in the frame (specified is empty).")
-        target_arr = _stack(targets, k, d, "targets", "the specified nodes")
-        configs = _stack(configurations, n, d, "configurations", "the frame's nodes")
+        target_arr = stacked(targets, k, d, "targets", "the specified nodes")
+        configs = stacked(configurations, n, d, "configurations", "the frame's nodes")
         node_lists = [("source", source), ("target_nodes", target_nodes)]
         if arrow_nodes is not None:
             node_lists.append(("arrow_nodes", arrow_nodes))
@@ -106,7 +106,7 @@ class Picture:
         return self.targets if len(self.targets) else self.modes[:, list(self.frame.specified)]
 
 
-def _stack(arrays, rows: int, d: int, name: str, what: str) -> np.ndarray:
+def stacked(arrays, rows: int, d: int, name: str, what: str) -> np.ndarray:
     """A list of (rows × d) finite arrays as one (count, rows, d) array, or raise InvalidInput."""
     if arrays is None or not len(arrays):
         return np.zeros((0, rows, d))

@@ -46,6 +46,15 @@ def raster_bytes(scene: Scene, fmt: str = "png", scale: float = 1.5) -> bytes:
     up to whole pixels of ``scale`` as the PNG's is)."""
     if fmt not in FORMATS:
         raise ValueError(f"format must be one of {FORMATS}, got {fmt!r}")
+    fig, ax = scene_figure(scene, scale)
+    draw_shapes(ax, scene.shapes)
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format=fmt, dpi=POINTS_PER_INCH * scale, facecolor=WHITE)
+    return buffer.getvalue()
+
+
+def scene_figure(scene: Scene, scale: float):
+    """(figure, axes) of the scene's page: data units are SVG pixels, y down, no axes drawn."""
     # Whole output pixels (the last one partly blank), so that no rounding squeezes the page.
     width, height = (math.ceil(v * scale) / scale for v in (scene.width, scene.height))
     fig = Figure(figsize=(width / POINTS_PER_INCH, height / POINTS_PER_INCH), facecolor=WHITE)
@@ -53,9 +62,15 @@ def raster_bytes(scene: Scene, fmt: str = "png", scale: float = 1.5) -> bytes:
     ax.set_xlim(0.0, width)
     ax.set_ylim(height, 0.0)  # y down, as in SVG
     ax.set_axis_off()
-    flat = list(_flatten(scene.shapes, np.zeros(2), None))
+    return fig, ax
+
+
+def draw_shapes(ax, shapes, z0: int = 0) -> list:
+    """Draw shapes in order on the axes (zorder from z0 up); returns the artists."""
+    flat = list(_flatten(shapes, np.zeros(2), None))
+    drawn = []
     for z, ((kind, offset, clip), run) in enumerate(
-        groupby(flat, key=lambda item: (type(item[0]), tuple(item[1]), item[2]))
+        groupby(flat, key=lambda item: (type(item[0]), tuple(item[1]), item[2])), start=z0
     ):
         artists = _draw(ax, kind, [shape for shape, _, _ in run], np.asarray(offset))
         for artist in artists:
@@ -63,9 +78,8 @@ def raster_bytes(scene: Scene, fmt: str = "png", scale: float = 1.5) -> bytes:
             if clip is not None:
                 x, y, w, h = clip
                 artist.set_clip_path(Rectangle((x, y), w, h, transform=ax.transData))
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format=fmt, dpi=POINTS_PER_INCH * scale, facecolor=WHITE)
-    return buffer.getvalue()
+        drawn += artists
+    return drawn
 
 
 def write_raster(scene: Scene, path: str | Path, scale: float = 1.5) -> None:

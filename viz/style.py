@@ -63,3 +63,16 @@ def ramp(light: str, dark: str, n: int, single: str) -> list[str]:
     a = np.array([int(light[i : i + 2], 16) for i in (1, 3, 5)], dtype=float)
     b = np.array([int(dark[i : i + 2], 16) for i in (1, 3, 5)], dtype=float)
     return ["#" + "".join(f"{round(v):02x}" for v in a + (b - a) * k / (n - 1)) for k in range(n)]
+
+# A finite motion's trajectories are coloured by progress, from blue (start) to yellow (end) as in
+# the supplement's figures of nonlinear trajectories (Fig. S1c): a parula-like ramp.
+PROGRESS = ("#352a87", "#1283d4", "#33b7a0", "#f9fb0e")
+
+
+def progress_colour(t: float) -> str:
+    """The PROGRESS ramp at t ∈ [0, 1] (piecewise linear between its stops)."""
+    stops = np.array([[int(c[i : i + 2], 16) for i in (1, 3, 5)] for c in PROGRESS], dtype=float)
+    s = min(max(float(t), 0.0), 1.0) * (len(stops) - 1)
+    k = min(int(s), len(stops) - 2)
+    rgb = stops[k] + (stops[k + 1] - stops[k]) * (s - k)
+    return "#" + "".join(f"{round(v):02x}" for v in rgb)

@@ -1,0 +1,111 @@
+"""What leaves zeromode: a frame, what it does, and what was said about it.
+
+A Takeaway is the neutral content every export writes in its own format: the frame's nodes and
+bars, the role of each node (specified or unspecified; source, target or relay of an allosteric
+design), its zero modes, a finite motion (configurations with their path parameter, aligned to
+the reference: the rigid motion removed by a Kabsch step, solver.finite_motion.align_to), named
+further configurations (a lattice's states) and metadata (numbers and sentences of the report).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from zeromode.solver.errors import InvalidInput
+from zeromode.solver.finite_motion import align_to
+from zeromode.solver.frame import Frame
+from zeromode.viz.picture import stacked
+
+# Sites of a node, as exported (point data "site" in VTK, attribute "site" in graphs).
+SITES = ("none", "source", "target", "relay")
+
+
+@dataclass(frozen=True, eq=False)
+class Takeaway:
+    """frame: the Frame (N nodes, N_B bars); modes (M, N, d); path (T, N, d) with parameter (T,)
+    and reference_index (the input configuration), or None; configurations: {name: (N, d)};
+    source, target, relays: node indices of an allosteric design's sites; metadata: JSON-ready
+    mapping (the document's kind and report, a tolerance report, units)."""
+
+    frame: Frame
+    modes: np.ndarray
+    path: np.ndarray | None = None
+    parameter: np.ndarray | None = None
+    reference_index: int = 0
+    configurations: Mapping[str, np.ndarray] = field(default_factory=dict)
+    source: tuple[int, ...] = ()
+    target: tuple[int, ...] = ()
+    relays: tuple[int, ...] = ()
+    metadata: Mapping = field(default_factory=dict)
+
+    @classmethod
+    def build(
+        cls,
+        frame: Frame,
+        modes=None,
+        path=None,
+        parameter=None,
+        reference_index: int | None = None,
+        configurations: Mapping[str, Sequence] | None = None,
+        source: Sequence[int] = (),
+        target: Sequence[int] = (),
+        relays: Sequence[int] = (),
+        metadata: Mapping | None = None,
+    ) -> Takeaway:
+        """Check shapes against the frame (InvalidInput ``invalid_shape`` naming the field) and
+        align every configuration of the path to the reference one (Kabsch: a finite motion is
+        defined modulo rigid motions, so each configuration is shown in the pose nearest the
+        frame's). The reference is ``reference_index`` (default: the configuration with
+        parameter 0, else the first)."""
+        n, d = frame.n_nodes, frame.dim
+        modes = stacked(modes, n, d, "modes", "the frame's nodes")
+        traced = stacked(path, n, d, "path", "the frame's nodes")
+        t = None
+        ref = 0
+        if len(traced):
+            t = np.arange(len(traced), dtype=float) if parameter is None else np.asarray(parameter, dtype=float)
+            if t.shape != (len(traced),):
+                raise InvalidInput("invalid_shape", f"parameter has {t.size} values for {len(traced)} configurations.")
+            ref = int(np.argmin(np.abs(t))) if reference_index is None else int(reference_index)
+            if not 0 <= ref < len(traced):
+                raise InvalidInput("invalid_shape", f"reference_index {ref} is outside 0..{len(traced) - 1}.")
+            traced = np.stack([align_to(x, frame.positions) for x in traced])
+        else:
+            traced = None
+        configs = {
+            name: stacked([x], n, d, f"configurations.{name}", "the frame's nodes")[0]
+            for name, x in (configurations or {}).items()
+        }
+        for name, nodes in (("source", source), ("target", target), ("relays", relays)):
+            if any(not 0 <= int(i) < n for i in nodes):
+                raise InvalidInput("invalid_nodes", f"{name} names a node outside 0..{n - 1}.")
+        return cls(
+            frame, modes, traced, t, ref, configs,
+            tuple(int(i) for i in source), tuple(int(i) for i in target), tuple(int(i) for i in relays),
+            dict(metadata or {}),
+        )
+
+    @property
+    def specified_mask(self) -> np.ndarray:
+        """(N,) bool: the specified nodes V_S."""
+        mask = np.zeros(self.frame.n_nodes, bool)
+        mask[list(self.frame.specified)] = True
+        return mask
+
+    @property
+    def sites(self) -> np.ndarray:
+        """(N,) int: index into SITES of each node (0 none, 1 source, 2 target, 3 relay)."""
+        site = np.zeros(self.frame.n_nodes, int)
+        for code, nodes in ((1, self.source), (2, self.target), (3, self.relays)):
+            site[list(nodes)] = code
+        return site
+
+    @property
+    def lengths(self) -> np.ndarray:
+        """(N_B,) bar lengths of the reference configuration."""
+        x, e = self.frame.positions, self.frame.edges
+        return np.linalg.norm(x[e[:, 0]] - x[e[:, 1]], axis=1)
+

@@ -1,0 +1,89 @@
+"""What POST /v1/export and ``zeromode export`` write: a document (documents.py) read into a
+zeromode.export Takeaway — its frame, modes, sites, states and report — with its finite motion
+traced (solver.finite_motion, as POST /v1/motion does) when a motion format needs one and the
+document carries none, then written by zeromode.export.
+"""
+
+from __future__ import annotations
+
+from zeromode.export import FORMATS, AnimationOptions, Fabrication, export_bytes
+from zeromode.export.takeaway import Takeaway
+from zeromode.service.convert import frame_from_model
+from zeromode.service.documents import (
+    ALLOSTERIC,
+    AUXETIC,
+    FRAME,
+    MOTION,
+    AllostericDocument,
+    AuxeticDocument,
+    DesignDocument,
+    PathDocument,
+    kind,
+    respond,
+    validated,
+)
+from zeromode.service.responses import json_safe
+from zeromode.service.schemas.export import ExportRequest
+from zeromode.solver.errors import InvalidInput
+from zeromode.solver.finite_motion import trace_motion
+
+
+def export_file(request: ExportRequest) -> tuple[bytes, str, str]:
+    """(content, media type, file name) of the export the request asks for."""
+    fmt = FORMATS[request.format]
+    takeaway = takeaway_for(request)
+    f, a = request.fabrication, request.animation
+    content = export_bytes(
+        takeaway,
+        request.format,
+        Fabrication(f.mm_per_unit, f.pin_diameter_mm, f.link_width_mm, f.thickness_mm, f.sheet_width_mm, f.gap_mm),
+        AnimationOptions(a.frames, a.fps, a.scale, a.title),
+    )
+    return content, fmt.media_type, f"zeromode-{takeaway.metadata['kind']}{fmt.suffix}"
+
+
+def takeaway_for(request: ExportRequest) -> Takeaway:
+    """The request's document (designed first when it is a request) with the request's own
+    frame, modes and path taking precedence; the path traced when the format needs one."""
+    doc = request.document or {}
+    if doc and "frame" not in doc and kind(doc) != MOTION:
+        doc, _ = respond(doc)
+    what = kind(doc) if doc else FRAME
+    frame_model = request.frame or (validated(doc, DesignDocument).frame if "frame" in doc else None)
+    if frame_model is None:
+        raise InvalidInput("invalid_request", "the export needs a frame: give `frame`, or a document with one.")
+    frame = frame_from_model(frame_model)
+    modes = request.modes if request.modes is not None else (doc.get("modes") or [])
+    metadata: dict = {"kind": what}
+    if isinstance(doc.get("report"), dict):
+        metadata["report"] = doc["report"]
+    sites, configurations = {}, {}
+    if what == ALLOSTERIC:
+        report = validated(doc, AllostericDocument).report
+        sites = {"source": report.source, "target": report.target, "relays": report.relays}
+    elif what == AUXETIC:
+        lattice = validated(doc, AuxeticDocument)
+        metadata["poisson_ratio"] = lattice.poisson_ratio
+        configurations = {state.name: state.positions for state in lattice.states}
+    path, parameter, reference = None, None, None
+    if request.path is not None:
+        path, parameter = request.path, request.parameter
+    elif "path" in doc:
+        traced = validated(doc, PathDocument)
+        path, parameter, reference = traced.path, traced.parameter, traced.reference_index
+    elif FORMATS[request.format].motion:
+        m = request.motion
+        if modes and m.mode >= len(modes):
+            raise InvalidInput("invalid_options", f"motion.mode is {m.mode}; the document has {len(modes)} mode(s).")
+        motion = trace_motion(
+            frame, mode=modes[m.mode] if modes else None, amplitude=m.amplitude, max_step=m.max_step
+        )
+        path, parameter, reference = motion.positions, motion.parameter, motion.reference_index
+        metadata["motion"] = {
+            "status": motion.status,
+            "max_relative_bar_error": motion.max_relative_bar_error,
+            "singularities": len(motion.singularities),
+        }
+    return Takeaway.build(
+        frame, modes, path, parameter, reference, configurations, **sites, metadata=json_safe(metadata)
+    )
