@@ -23,6 +23,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from oracles.motion import boundary_strains
 from PIL import Image
+from scipy.ndimage import binary_dilation
 
 from zeromode.service.cli import main
 from zeromode.service.examples import example_request
@@ -422,8 +423,11 @@ def test_pdf_page_is_the_svg_size(tmp_path):
 
 def test_png_draws_the_ink_an_independent_svg_renderer_draws(tmp_path):
     """cairosvg renders the SVG; matplotlib's PNG puts ink (any channel below 200) on nearly the
-    same pixels: an intersection over union of 0.9 or more (measured 0.92–0.97 on the pictures
-    here; 0.72–0.93 for a PNG that lost its arrows or its nodes)."""
+    same pixels outside the text. Text is left out (where cairosvg draws glyphs, dilated by 3 px):
+    the two renderers pick their fonts from the system, so glyphs differ with the fonts installed
+    (installing Debian's chromium, which brings fonts, moved the allosteric picture's IoU with text
+    from 0.92 to 0.85). Measured without text: 0.945–0.975 on the pictures here; 0.71–0.93 against
+    a render that lost its nodes or its arrows."""
     try:
         import cairosvg
     except (ImportError, OSError) as exc:  # OSError: cairocffi found no libcairo on the system
@@ -435,7 +439,12 @@ def test_png_draws_the_ink_an_independent_svg_renderer_draws(tmp_path):
         theirs = np.asarray(Image.open(io.BytesIO(rendered)).convert("RGB"))
         h, w = min(ours.shape[0], theirs.shape[0]), min(ours.shape[1], theirs.shape[1])
         a, b = ours[:h, :w].min(axis=2) < 200, theirs[:h, :w].min(axis=2) < 200
-        assert (a & b).sum() / (a | b).sum() >= 0.9, name
+        no_text = re.sub(r"<text[^>]*>.*?</text>", "", (tmp_path / "a.svg").read_text(), flags=re.DOTALL)
+        shapes = np.asarray(
+            Image.open(io.BytesIO(cairosvg.svg2png(bytestring=no_text.encode(), scale=1.5))).convert("RGB")
+        )[:h, :w].min(axis=2) < 200
+        keep = ~binary_dilation(b & ~shapes, iterations=3)
+        assert (a & b & keep).sum() / ((a | b) & keep).sum() >= 0.935, name
 
 
 # --------------------------------------------------------------------------------------------
