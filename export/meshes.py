@@ -33,7 +33,7 @@ def vtu_bytes(takeaway: Takeaway) -> bytes:
         point_data=_point_data(takeaway),
         cell_data=_cell_data(takeaway),
     )
-    vtu = ET.fromstring(written_bytes(lambda path: meshio.write(path, mesh, file_format="vtu", binary=False), ".vtu"))
+    vtu = ET.fromstring(written_bytes(lambda path: meshio.write(path, mesh, file_format="vtu"), ".vtu"))
     fields = ET.Element("FieldData")
     for name, value in _field_data(takeaway.metadata).items():
         array = ET.SubElement(fields, "DataArray", type="Float64", Name=name, NumberOfTuples="1", format="ascii")

@@ -25,6 +25,7 @@ from zeromode.service.routes import (
     lattice,
     motion,
     plot,
+    viewer,
 )
 from zeromode.service.settings import Settings, settings_scope
 from zeromode.solver.budget import time_budget
@@ -98,7 +99,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     )
     install_error_handlers(app)
     app.state.settings = settings  # the job store reads its directory and limits here
-    for module in (health, analyze, certify, design, examples, lattice, plot, export, motion, jobs):
+    for module in (health, analyze, certify, design, examples, lattice, plot, export, motion, jobs, viewer):
         app.include_router(module.router)
 
     app.add_middleware(LimitsAndAuth, settings=settings)
