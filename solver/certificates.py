@@ -40,8 +40,12 @@ Every solution is verified outside the solver: the lower bound is λ_min at the 
 {Y ⪰ 0, tr Y = 1}); both are exact bounds on the optimum whatever the solver's accuracy.
 
 Size: the SDPs have one LMI of size f (prestress) or p (margin). Clarabel factorises a dense
-block of size n(n+1)/2 for an n × n LMI, so its time grows like n⁶: SDP_MAX_DIM caps n, and a
-larger LMI is refused with ``too_expensive`` rather than left to run for minutes.
+block of size n(n+1)/2 for an n × n LMI, so its time grows like n⁶: SDP_MAX_DIM caps n.
+Beyond it: the prestress SDP is reduced exactly to the stresses that matter (prestress_program:
+m̃ ≤ f(f+1)/2 variables however many self-stresses), its LMI stays f × f and is refused past
+SDP_MAX_DIM; the optimal-stiffness margin goes to the spectral bundle route (stiffness.py, up
+to OPTIMAL_MAX_DIM), with the same verified bracket; the uniform margin is one shift-invert
+eigen-solve (eigen.py). Sizes are checked from the request before any analysis (check_size).
 """
 
 from __future__ import annotations
@@ -51,9 +55,12 @@ import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from zeromode.solver.bordered import BorderedFactor
 from zeromode.solver.budget import check_budget, remaining
+from zeromode.solver.eigen import nontrivial_zero_modes, smallest_eigenpairs
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame
 from zeromode.solver.progress import report_progress
@@ -65,14 +72,21 @@ from zeromode.solver.rigidity import (
     compatibility_matrix,
     zero_mode_residual,
 )
+from zeromode.solver.stiffness import optimal_stiffness
 from zeromode.solver.tolerances import GIVEN_MODE_RTOL
 
 SOLVERS = ("clarabel", "scs")
 # Largest LMI (f or p) handed to a solver. Measured with Clarabel on the shared 2-core machine:
-# 1–4 s at n = 37, 3–7 s at n = 47, 10–20 s at n = 57 (growing like n⁶).
+# 1–4 s at n = 37, 3–7 s at n = 47, 10–20 s at n = 57 (growing like n⁶). Larger complements
+# go to the spectral bundle route (stiffness.py), prestress LMIs beyond it are refused.
 SDP_MAX_DIM = 48
-# A dense orthonormal complement P is formed up to this many degrees of freedom (dN).
-MARGIN_MAX_DOF = DENSE_MAX_DOF
+# Largest frame certified (d·N): the analysis, the prestress projections and the uniform margin
+# are sparse (a few seconds at dN = 15 000, the 50 × 50 auxetic sheet).
+MAX_DOF = 60_000
+# Largest complement p = dN − ρ − M for the optimal-stiffness margin (spectral bundle route:
+# each iteration factorises a dN × dN stiffness matrix and solves a master problem with one
+# variable per bar; the 20 × 20 auxetic sheet has p = 2478).
+OPTIMAL_MAX_DIM = 2_500
 # t* ≤ PRESTRESS_TOL counts as zero. t* is dimensionless (unit stress, unit flexes); Clarabel
 # brackets it to ~1e-9, SCS to ~1e-6, stable frames of interest have t* ≳ 1e-4.
 PRESTRESS_TOL = 1e-6
@@ -134,9 +148,39 @@ def stress_energy_forms(flexes: np.ndarray, stresses: np.ndarray, edges: np.ndar
     return np.tensordot(stresses, per_bar, axes=1)
 
 
-def prestress_program(analysis: Analysis, edges: np.ndarray) -> LmiProgram:
-    """The prestress-stability SDP over the orthonormal flex and stress bases of ``analysis``."""
-    return LmiProgram(stress_energy_forms(analysis.modes, analysis.stresses, edges), "ball")
+def bar_products(flexes: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """q^{ab}_e = (F_a,i − F_a,j)·(F_b,i − F_b,j) for a ≤ b, shape (N_B, f(f+1)/2), from flexes
+    (f, N, d): the stress energy of stress ω on flexes a, b is ωᵀq^{ab}."""
+    diff = flexes[:, edges[:, 0], :] - flexes[:, edges[:, 1], :]  # (f, N_B, d)
+    a, b = np.triu_indices(len(flexes))
+    return np.einsum("aed,aed->ea", diff[a], diff[b])
+
+
+def stress_projection(q: np.ndarray, c, stresses: np.ndarray | None, null: np.ndarray) -> np.ndarray:
+    """Π q: the projection of the columns of q (N_B × m) onto the self-stresses N(Cᵀ).
+
+    With a stress basis S (s × N_B, orthonormal): S Sᵀ q. Without one (too large to keep): q − C y
+    with CᵀC y = Cᵀq, y ⟂ N(C), solved with the bordered matrix [[CᵀC, W], [Wᵀ, 0]] (W = the
+    orthonormal basis ``null`` of N(C), bordered.py), plus one refinement step on the residual
+    Cᵀ(Π q) — which vanishes exactly for a projection."""
+    if stresses is not None:
+        return stresses.T @ (stresses @ q)
+    gram = BorderedFactor(sp.csc_matrix(c.T @ c), null)
+    projected = q - c @ gram.solve(c.T @ q)[0]
+    return projected - c @ gram.solve(c.T @ projected)[0]
+
+
+def prestress_program(flexes: np.ndarray, projected: np.ndarray, edges: np.ndarray):
+    """The prestress-stability SDP over the flexes F (f, N, d) and an orthonormal basis S̃ of
+    span{Π q^{ab}} (N_B × m̃, m̃ ≤ f(f+1)/2); returns (LmiProgram, S̃).
+
+    Exact reduction: the energy form of a stress ω is G(ω)_ab = ωᵀq^{ab} = ωᵀΠq^{ab}, so the part
+    of ω orthogonal to S̃ (still a stress) changes no G but spends norm; the optimum over the unit
+    ball of stresses lies in S̃, and the dual objective ‖(⟨G_k, Y⟩)_k‖ over S̃ equals the one over
+    any orthonormal stress basis (‖Π q(Y)‖ with Π q(Y) ∈ S̃). So the SDP has m̃ variables however
+    many stresses the frame has."""
+    basis = orthonormal_range(projected, RTOL)
+    return LmiProgram(stress_energy_forms(flexes, basis.T, edges), "ball"), basis
 
 
 def stiffness_program(a: np.ndarray) -> LmiProgram:
@@ -333,9 +377,12 @@ def self_stress_certificate(analysis: Analysis, c) -> SelfStressCertificate:
 
 
 def prestress_certificate(
-    analysis: Analysis, edges: np.ndarray, solver: str = "clarabel", **solve_options
+    analysis: Analysis, edges: np.ndarray, c, null, solver: str = "clarabel", **solve_options
 ) -> PrestressCertificate:
-    """Decide prestress stability; run the SDP only when there are both flexes and stresses."""
+    """Decide prestress stability; run the SDP only when there are both flexes and stresses.
+
+    c: the normalised C; null: a callable returning (rigid motions, nontrivial flexes) as
+    orthonormal columns (computed only when the SDP runs)."""
     f, s = analysis.nontrivial_zero_modes, analysis.self_stresses
     if f == 0:
         return PrestressCertificate(
@@ -350,12 +397,15 @@ def prestress_certificate(
             "too_expensive",
             f"the frame has {f} nontrivial flexes; the prestress SDP is limited to {SDP_MAX_DIM}.",
         )
-    if not analysis.bases_included:
-        raise DomainError(
-            "too_expensive",
-            f"the frame's {f} flexes and {s} self-stresses are too large a basis to certify with.",
-        )
-    program = prestress_program(analysis, edges)
+    rigid, flexes = null()
+    n, d = analysis.nodes, analysis.dim
+    q = bar_products(flexes.T.reshape(f, n, d), edges)
+    stresses = analysis.stresses if analysis.bases_included else None
+    program, basis = prestress_program(
+        flexes.T.reshape(f, n, d),
+        stress_projection(q, c, stresses, np.column_stack([rigid, flexes])),
+        edges,
+    )
     # The bracket must fall on one side of the threshold, or the solve does not decide anything.
     solution = solve_lmi(
         program,
@@ -364,7 +414,7 @@ def prestress_certificate(
         **solve_options,
     )
     stable = solution.lower > PRESTRESS_TOL
-    stress = solution.x @ analysis.stresses if stable else None
+    stress = basis @ solution.x if stable else None
     return PrestressCertificate(
         stable,
         "sdp",
@@ -437,22 +487,20 @@ def rigidity_margin(
         # An undesigned zero mode q has K(k)q = 0 for every k: all margins vanish, no SDP needed.
         zero = 0.0 if stiffness else None
         return RigidityMargin(m, p, undesigned, 0.0, optimal=zero, optimal_upper_bound=zero)
-    if n_dof > MARGIN_MAX_DOF:
-        raise DomainError(
-            "too_expensive",
-            f"the rigidity margin is computed for up to {MARGIN_MAX_DOF} degrees of freedom; the frame has {n_dof}.",
-        )
+    if n_dof > DENSE_MAX_DOF:
+        # λ_min of CᵀC on span^⊥ by shift-invert Lanczos; span ⊆ N(C) up to the given modes'
+        # tolerance, so this is σ_{dN−ρ−M}(C)² (eigen.py: a Rayleigh quotient, residual ~1e-16).
+        uniform = float(smallest_eigenpairs(sp.csc_matrix(c.T @ c), 1, deflate=span).values[0])
+        if not stiffness:
+            return RigidityMargin(m, p, 0, uniform)
+        return _bundle_margin(m, p, uniform, c, span)
     complement, _, _ = nullspace(span.T)
     a = c @ complement  # (N_B, p): rows a_e = Pᵀ c_e
     uniform = float(np.linalg.svd(a, compute_uv=False)[-1] ** 2) if a.shape[0] >= p else 0.0
     if not stiffness:
         return RigidityMargin(m, p, 0, uniform)
     if p > SDP_MAX_DIM:
-        raise DomainError(
-            "too_expensive",
-            f"the stiffness allocation SDP has a {p}×{p} LMI (dN − ρ − M); the limit is {SDP_MAX_DIM}. "
-            "Without the stiffness SDP (stiffness = false) the uniform margin alone is computed.",
-        )
+        return _bundle_margin(m, p, uniform, c, span)
     solution = solve_lmi(
         stiffness_program(a),
         solver,
@@ -473,6 +521,52 @@ def rigidity_margin(
         solution.x,
         solution,
     )
+
+
+def _bundle_margin(m: int, p: int, uniform: float, c, span) -> RigidityMargin:
+    """The optimal margin of a complement beyond SDP_MAX_DIM: the spectral bundle route
+    (stiffness.py), its verified bracket recorded like an SDP solution (solver
+    "spectral_bundle", status "optimal" or "gap_not_closed")."""
+    result = optimal_stiffness(c, span, uniform)
+    run = SolverRun("spectral_bundle", result.status, result.time_ms)
+    record = LmiSolution(
+        result.stiffness, result.lower, result.upper, run.solver, run.status, run.time_ms, (run,)
+    )
+    return RigidityMargin(
+        m,
+        p,
+        0,
+        uniform,
+        result.lower,
+        result.upper,
+        result.lower / uniform if uniform > 0 else None,
+        result.stiffness,
+        record,
+    )
+
+
+def check_size(frame: Frame, n_modes: int, stiffness: bool) -> None:
+    """Refuse (DomainError ``too_expensive``) a request beyond the limits, from its sizes alone.
+
+    dN > MAX_DOF, or with ``stiffness`` a complement p = dN − d(d+1)/2 − M beyond
+    OPTIMAL_MAX_DIM (ρ = d(d+1)/2 unless the nodes are degenerate, so p is never
+    underestimated by more than the few rigid motions a degenerate frame lacks)."""
+    n_dof = frame.dim * frame.n_nodes
+    if n_dof > MAX_DOF:
+        raise DomainError(
+            "too_expensive",
+            f"certificates are computed for frames of up to {MAX_DOF} degrees of freedom (d·N); "
+            f"this one has {n_dof}.",
+        )
+    p = n_dof - frame.dim * (frame.dim + 1) // 2 - n_modes
+    if stiffness and p > OPTIMAL_MAX_DIM:
+        raise DomainError(
+            "too_expensive",
+            f"the optimal-stiffness margin is computed for complements of up to {OPTIMAL_MAX_DIM} "
+            f"motions (p = dN − ρ − M); this frame has p = {p}. With stiffness = false the "
+            "uniform margin alone is computed, for frames up to "
+            f"{MAX_DOF} degrees of freedom.",
+        )
 
 
 def certify(
@@ -499,13 +593,22 @@ def certify(
             "invalid_solver", f"solver must be one of {', '.join(SOLVERS)}, got {solver!r}."
         )
     t0 = time.perf_counter()
+    check_size(frame, len(modes or ()), stiffness)
     if analysis is None:
         analysis = analyze(frame)
     c = compatibility_matrix(frame.normalised_positions(), frame.edges)
     t1 = time.perf_counter()
     report_progress(0.2, "analysed the frame")
     certificate = self_stress_certificate(analysis, c)
-    prestress = prestress_certificate(analysis, frame.edges, solver, max_iters=max_iters)
+
+    def null():
+        """(rigid motions, nontrivial flexes) of the analysis, or from CᵀC when it kept none."""
+        if analysis.bases_included:
+            return analysis.rigid_basis, analysis.modes.reshape(len(analysis.modes), -1).T
+        f = analysis.nontrivial_zero_modes
+        return analysis.rigid_basis, nontrivial_zero_modes(c, analysis.rigid_basis, f)
+
+    prestress = prestress_certificate(analysis, frame.edges, c, null, solver, max_iters=max_iters)
     t2 = time.perf_counter()
     report_progress(0.5, "decided prestress stability")
     margin = rigidity_margin(

@@ -103,3 +103,10 @@ def _rayleigh_ritz(matrix, vectors: np.ndarray, d: np.ndarray) -> Eigenpairs:
     residual = kv - v * values
     residual -= d @ (d.T @ residual)
     return Eigenpairs(values, v, np.linalg.norm(residual, axis=0))
+
+
+def nontrivial_zero_modes(c, rigid: np.ndarray, count: int) -> np.ndarray:
+    """Orthonormal basis (dN × count) of N(C) ⊖ rigid motions: the ``count`` smallest
+    eigenvectors of CᵀC ⟂ ``rigid`` (count = dim N(C) − ρ, decided by rigidity.analyze), for a
+    sparse C whose analysis did not keep its bases."""
+    return smallest_eigenpairs(sp.csc_matrix(c.T @ c), count, deflate=rigid).vectors

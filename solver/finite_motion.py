@@ -77,7 +77,7 @@ from scipy.optimize import minimize_scalar
 
 from zeromode.solver.bordered import BorderedFactor, pinned_coordinates
 from zeromode.solver.budget import check_budget
-from zeromode.solver.eigen import smallest_eigenpairs
+from zeromode.solver.eigen import nontrivial_zero_modes, smallest_eigenpairs
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame, check_positions
 from zeromode.solver.normalisation import Normalisation
@@ -282,8 +282,7 @@ class BarConstraints:
         c = self.jacobian(x)
         if self.method == "dense":
             return nullspace(c, RTOL)[0] if c.shape[0] else np.eye(x.size)
-        modes = smallest_eigenpairs((c.T @ c).tocsc(), nontrivial, deflate=rigid).vectors
-        return np.column_stack([rigid, modes])
+        return np.column_stack([rigid, nontrivial_zero_modes(c, rigid, nontrivial)])
 
 
 @dataclass(frozen=True, eq=False)

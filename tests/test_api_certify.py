@@ -25,7 +25,8 @@ from oracles.wire import frame_body
 
 from zeromode.service.app import create_app
 from zeromode.service.settings import Settings
-from zeromode.solver.certificates import SDP_MAX_DIM
+from zeromode.solver.certificates import OPTIMAL_MAX_DIM
+from zeromode.solver.lattice import auxetic_sheet
 
 # A triangle whose three sides each carry a taut midpoint joint: 3 flexes, 3 stresses.
 _TAUT_X, _TAUT_E = triangle_with_taut_sides(3)
@@ -114,14 +115,39 @@ def test_solver_failure_is_422_certificate_failed(client):
     assert "clarabel" in r.json()["detail"]["message"] and "scs" in r.json()["detail"]["message"]
 
 
-def test_large_allocation_is_422_too_expensive_and_uniform_margin_still_available(client):
-    n = SDP_MAX_DIM // 2 + 4
+def test_a_sheet_with_default_options_gets_its_optimal_margin_with_a_verified_bracket(client):
+    # A 3 × 3 auxetic sheet: p = 2N − 3 − 1 = 64 > SDP_MAX_DIM, so the spectral bundle route.
+    lattice = auxetic_sheet(3, 3, poisson=-0.5)
+    frame = {"dim": 2, "positions": lattice.frame.positions.tolist(), "edges": lattice.frame.edges.tolist()}
+    body = ok(certify(client, frame, modes=[lattice.mode.tolist()]))
+    rm = body["rigidity_margin"]
+    assert rm["complement_dim"] == 64 and rm["sdp"]["solver"] == "spectral_bundle"
+    assert rm["sdp"]["status"] == "optimal"
+    assert rm["uniform"] <= rm["optimal"] <= rm["optimal_upper_bound"]
+    assert rm["optimal_upper_bound"] - rm["optimal"] <= 1e-3 * rm["optimal_upper_bound"]
+    # From scratch: the returned allocation attains the lower bound (λ_min with numpy) ...
+    x = normalised(frame["positions"])
+    c = compatibility_matrix(x, frame["edges"])
+    p = kernel(span(np.column_stack([rigid_generators(x), lattice.mode.ravel()])).T)
+    k = np.array(rm["stiffness"])
+    assert np.all(k >= 0) and k.sum() == pytest.approx(len(frame["edges"]))
+    attained = np.linalg.eigvalsh(p.T @ c.T @ np.diag(k) @ c @ p)[0]
+    assert rm["optimal"] <= attained * (1 + 1e-9) and rm["optimal"] == pytest.approx(attained, rel=1e-6)
+    # ... and no allocation beats the upper bound.
+    for trial in np.random.default_rng(0).dirichlet(np.ones(len(k)), size=50) * len(k):
+        assert np.linalg.eigvalsh(p.T @ c.T @ np.diag(trial) @ c @ p)[0] <= rm["optimal_upper_bound"]
+
+
+def test_a_frame_beyond_the_allocation_limit_is_refused_naming_it(client):
+    n = OPTIMAL_MAX_DIM // 2 + 4  # a triangulated strip: p = 2n − 3 > OPTIMAL_MAX_DIM
     strip = {
         "dim": 2,
         "positions": [[i // 2, i % 2 + 0.01 * i] for i in range(n)],
         "edges": [[i, i + 1] for i in range(n - 1)] + [[i, i + 2] for i in range(n - 2)],
     }
-    assert error_code(certify(client, strip)) == "too_expensive"
+    response = certify(client, strip)
+    assert error_code(response) == "too_expensive"
+    assert str(OPTIMAL_MAX_DIM) in response.json()["detail"]["message"]
     body = ok(certify(client, strip, options={"stiffness": False}))
     assert body["rigidity_margin"]["uniform"] > 0 and body["rigidity_margin"]["optimal"] is None
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import scipy.sparse as sp
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from oracles import pyrigi_adapter
@@ -29,8 +30,16 @@ from oracles.rigidity import (
 )
 
 from zeromode.solver import Frame
-from zeromode.solver.certificates import SDP_MAX_DIM, certify
+from zeromode.solver.certificates import (
+    MAX_DOF,
+    OPTIMAL_MAX_DIM,
+    SDP_MAX_DIM,
+    certify,
+    solve_lmi,
+    stiffness_program,
+)
 from zeromode.solver.errors import DomainError, InvalidInput
+from zeromode.solver.stiffness import optimal_stiffness
 
 # ----------------------------------------------------------------------------- frames
 
@@ -375,18 +384,85 @@ def test_invalid_designed_modes_are_named():
         certify(frame, [np.zeros((3, 2))])
 
 
-def test_large_allocation_sdp_is_refused_but_uniform_margin_is_given():
-    # A triangulated strip: rigid, p = 2N − 3 > SDP_MAX_DIM.
-    n = SDP_MAX_DIM // 2 + 4
+def triangulated_strip(n: int):
+    """A rigid triangulated strip of n nodes (no symmetry): p = 2n − 3 motions to isolate."""
     x = [[i // 2, i % 2 + 0.1 * (i // 2) ** 1.5 / n] for i in range(n)]
     e = [[i, i + 1] for i in range(n - 1)] + [[i, i + 2] for i in range(n - 2)]
-    frame = Frame.build(x, e)
-    with pytest.raises(DomainError, match="stiffness") as info:
-        certify(frame)
-    assert info.value.code == "too_expensive"
-    got = certify(frame, stiffness=False).rigidity_margin
-    assert got.complement_dim > SDP_MAX_DIM and got.optimal is None
+    return x, e
+
+
+def test_large_allocation_goes_to_the_spectral_bundle_with_a_verified_bracket():
+    x, e = triangulated_strip(SDP_MAX_DIM // 2 + 4)  # p = 2N − 3 > SDP_MAX_DIM
+    got = certify(Frame.build(x, e)).rigidity_margin
+    assert got.complement_dim > SDP_MAX_DIM and got.sdp.solver == "spectral_bundle"
+    k = got.stiffness
+    assert np.all(k >= 0) and k.sum() == pytest.approx(len(e))
+    # The lower bound is attained: λ_min at the returned allocation, from scratch.
+    attained = reference_margin(x, e, [], k)
+    assert got.optimal <= attained * (1 + 1e-9)
+    assert got.optimal == pytest.approx(attained, rel=1e-6)
+    # The upper bound is an upper bound: no allocation does better, the uniform one included.
     assert got.uniform == pytest.approx(reference_margin(x, e, [], np.ones(len(e))), rel=1e-8)
+    for trial in np.random.default_rng(2).dirichlet(np.ones(len(e)), size=100) * len(e):
+        assert reference_margin(x, e, [], trial) <= got.optimal_upper_bound
+    assert got.uniform <= got.optimal <= got.optimal_upper_bound
+    if got.sdp.status == "optimal":
+        assert got.optimal_upper_bound - got.optimal <= 1e-3 * got.optimal_upper_bound
+
+
+def test_spectral_bundle_and_the_sdp_bracket_the_same_optimum():
+    """Below SDP_MAX_DIM both routes apply: each verified bracket must contain the other's."""
+    frame = outward_square()
+    xn = normalised(frame.positions)
+    c = compatibility_matrix(xn, frame.edges)
+    fixed = span(np.column_stack([rigid_generators(xn), outward_mode(frame).ravel()]))
+    p = kernel(fixed.T)
+    sdp = solve_lmi(stiffness_program(c @ p))
+    uniform = float(np.linalg.eigvalsh(p.T @ c.T @ c @ p)[0])
+    bundle = optimal_stiffness(sp.csr_matrix(c), fixed, uniform)
+    assert bundle.status == "optimal"
+    assert bundle.lower <= sdp.upper * (1 + 1e-9) and sdp.lower <= bundle.upper * (1 + 1e-9)
+    assert bundle.lower == pytest.approx(sdp.lower, rel=2e-3)
+    k = bundle.stiffness
+    assert float(np.linalg.eigvalsh(p.T @ c.T @ np.diag(k) @ c @ p)[0]) >= bundle.lower
+
+
+def test_sizes_beyond_the_limits_are_refused_with_the_limit_named():
+    x, e = triangulated_strip((OPTIMAL_MAX_DIM + 3) // 2 + 2)  # p > OPTIMAL_MAX_DIM
+    frame = Frame.build(x, e)
+    with pytest.raises(DomainError, match=str(OPTIMAL_MAX_DIM)) as info:
+        certify(frame)
+    assert info.value.code == "too_expensive" and "stiffness = false" in info.value.message
+    # Without the allocation the uniform margin is computed (sparse route), from scratch equal.
+    got = certify(frame, stiffness=False).rigidity_margin
+    assert got.optimal is None and got.complement_dim == 2 * frame.n_nodes - 3
+    assert got.uniform == pytest.approx(reference_margin(x, e, [], np.ones(len(e))), rel=1e-6)
+    huge = Frame.build(np.column_stack([np.arange(MAX_DOF), np.zeros(MAX_DOF)]), [[0, 1]])
+    with pytest.raises(DomainError, match=str(MAX_DOF)) as info:
+        certify(huge, stiffness=False)
+    assert info.value.code == "too_expensive"
+
+
+@pytest.mark.parametrize("name", GENERAL_CASE)
+def test_prestress_without_a_stress_basis_matches_the_full_basis(name):
+    """A frame too large to keep its bases is certified through the projections onto N(Cᵀ)
+    (bordered solves); the reduced SDP must give the full-basis answer and a stress checked
+    from scratch."""
+    from zeromode.solver.rigidity import analyze
+
+    (x, e), expected = GENERAL_CASE[name]
+    frame = Frame.build(x, e)
+    full = certify(frame, stiffness=False).prestress
+    reduced = certify(frame, stiffness=False, analysis=analyze(frame, bases=False)).prestress
+    assert reduced.prestress_stable is expected is full.prestress_stable
+    assert reduced.margin == pytest.approx(full.margin, rel=1e-6, abs=1e-8)
+    assert brute_force_prestress_margin(x, e) <= reduced.margin_upper_bound + 1e-9
+    if expected:
+        c = compatibility_matrix(normalised(x), e)
+        assert np.linalg.norm(c.T @ reduced.stress) <= 1e-8 * np.linalg.norm(c)
+        flexes, _ = reference_bases(x, e)
+        energy = stress_energy(flexes, reduced.stress, e, np.shape(x)[1])
+        assert np.linalg.eigvalsh(energy)[0] == pytest.approx(reduced.margin, rel=1e-6)
 
 
 @pytest.mark.parametrize("stiffness", [False, True])

@@ -8,7 +8,8 @@ from pydantic import BaseModel, Field
 
 from zeromode.service.schemas.common import AnalysisCounts, FrameModel, Points, RequestModel
 from zeromode.service.schemas.limits import Limited
-from zeromode.solver.certificates import PRESTRESS_TOL, SDP_MAX_DIM
+from zeromode.solver.certificates import MAX_DOF, OPTIMAL_MAX_DIM, PRESTRESS_TOL, SDP_MAX_DIM
+from zeromode.solver.stiffness import GAP_RTOL
 from zeromode.solver.tolerances import GIVEN_MODE_RTOL
 
 
@@ -20,9 +21,12 @@ class CertifyOptions(RequestModel):
     stiffness: bool = Field(
         default=True,
         description=(
-            "Also run the stiffness-allocation SDP for the optimal rigidity margin. Its LMI has "
-            f"size dN − ρ − M and is limited to {SDP_MAX_DIM} (422 too_expensive beyond); "
-            "false gives the uniform margin alone, for any size."
+            "Also compute the optimal-stiffness rigidity margin. Its LMI has size p = dN − ρ − M: "
+            f"up to {SDP_MAX_DIM} it is solved as an SDP (Clarabel or SCS), up to {OPTIMAL_MAX_DIM} by "
+            "a spectral bundle method (first-order, sparse eigen-solves), both with a verified "
+            f"bracket; beyond {OPTIMAL_MAX_DIM} the request is refused (422 too_expensive) before any "
+            f"analysis. false gives the uniform margin alone, for frames up to {MAX_DOF} degrees "
+            "of freedom."
         ),
     )
     max_iters: int | None = Field(
@@ -47,11 +51,13 @@ class CertifyRequest(RequestModel):
 
 
 class SolverRunModel(BaseModel):
-    solver: Literal["clarabel", "scs"]
+    solver: Literal["clarabel", "scs", "spectral_bundle"]
     status: str = Field(
         description=(
             "cvxpy status (optimal, optimal_inaccurate, user_limit, solver_error, ...); "
-            "'<status>_unverified' when the verified bounds did not decide the question."
+            "'<status>_unverified' when the verified bounds did not decide the question; for "
+            f"spectral_bundle 'optimal' (relative bracket ≤ {GAP_RTOL:g}) or 'gap_not_closed' (its "
+            "time ran out: the bracket is still verified, only wider)."
         )
     )
     time_ms: float = Field(description="Wall time of this attempt, including modelling in cvxpy.")
@@ -60,10 +66,19 @@ class SolverRunModel(BaseModel):
 class SdpModel(BaseModel):
     """How an SDP was solved: the accepted attempt and every attempt in order."""
 
-    solver: Literal["clarabel", "scs"] = Field(description="Solver of the accepted attempt.")
-    status: str = Field(description="Its cvxpy status: optimal or optimal_inaccurate.")
+    solver: Literal["clarabel", "scs", "spectral_bundle"] = Field(
+        description="Solver of the accepted attempt (spectral_bundle: the optimal margin beyond the SDP size)."
+    )
+    status: str = Field(
+        description="Its status: optimal or optimal_inaccurate (cvxpy); optimal or gap_not_closed (spectral_bundle)."
+    )
     time_ms: float = Field(description="Wall time of the accepted attempt.")
-    size: int = Field(description="Number of SDP variables (stresses, or bars).")
+    size: int = Field(
+        description=(
+            "Number of variables: the stresses that matter to the prestress SDP (at most "
+            "f(f+1)/2, however many self-stresses), or the bars of the stiffness allocation."
+        )
+    )
     attempts: list[SolverRunModel] = Field(description="Every attempt, the accepted one last.")
 
 
