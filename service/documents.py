@@ -19,7 +19,7 @@ from zeromode.service.schemas.lattice import AuxeticRequest, LatticeState
 from zeromode.solver.allostery import AllostericDesign, design_allosteric
 from zeromode.solver.errors import InvalidInput
 from zeromode.solver.lattice import Lattice, auxetic_chain_3d, auxetic_sheet
-from zeromode.solver.pipeline import RefineStage, design_pipeline
+from zeromode.solver.pipeline import RefineStage, ToleranceStage, design_pipeline
 
 # What a document is, by its fields (``kind``).
 DESIGN, AUXETIC, ALLOSTERIC, REFINEMENT, MOTION, FRAME = (
@@ -97,6 +97,7 @@ def respond(doc: dict) -> tuple[dict, BaseModel]:
             r.positions, r.motions, dim=r.dim, seed=o.seed, n_unspecified=o.n_unspecified,
             refine_stage=None if o.refine is None else RefineStage(**o.refine.model_dump()),
             certify_stage=o.certify,
+            tolerance_stage=None if o.tolerance is None else ToleranceStage(**o.tolerance.model_dump()),
         )
         return design_body(result, result.timings_ms), r
     raise InvalidInput(

@@ -22,6 +22,7 @@ from zeromode.solver.finite_motion import MotionPath
 from zeromode.solver.frame import Frame
 from zeromode.solver.rank import RankGap
 from zeromode.solver.rigidity import Analysis
+from zeromode.solver.tolerance import ToleranceEstimate, ToleranceReport
 
 # The integer fields of /v1/analyze, in the contract's order (docs/API.md).
 COUNT_FIELDS = (
@@ -119,6 +120,8 @@ def design_body(result, timings_ms: dict) -> dict:
         report["refinement"] = refinement_body(result.refinement)
     if result.certificate is not None:
         report["certificate"] = certificate_body(result.certificate)
+    if result.tolerance is not None:
+        report["tolerance"] = tolerance_body(result.tolerance)
     return {"frame": frame_body(d.frame), "modes": d.modes.tolist(), "report": report}
 
 
@@ -200,6 +203,7 @@ def motion_body(path: MotionPath, timings_ms: dict | None = None) -> dict:
         ],
         "status": path.status,
         "steps": int(len(path.parameter) - 1),
+        "method": path.method,
     }
     if timings_ms is not None:
         body["timings_ms"] = timings_ms
@@ -284,3 +288,80 @@ def certificate_body(c: Certificate) -> dict:
         "rigidity_margin": fields_body(c.rigidity_margin),
         "timings_ms": dict(c.timings_ms),
     }
+
+
+# ----------------------------------------------------------------------------- tolerance
+
+# How the tolerance report names its quantities and errors in sentences.
+QUANTITY_WORDS = {
+    "mode": "the designed motion",
+    "poisson_ratio": "the Poisson ratio",
+    "target_response": "the target response",
+    "rigidity_margin": "the rigidity margin",
+    "mode_stiffness": "the mechanism's energy",
+}
+
+
+def _percent(v: float) -> str:
+    return f"{100 * v:.2g} %"
+
+
+def _tolerance_statement(e: ToleranceEstimate, report: ToleranceReport) -> str:
+    """One estimate as a sentence: the tolerance, what it keeps, and what the Monte Carlo found."""
+    what = QUANTITY_WORDS[e.quantity]
+    errors = "bar lengths" if e.error == "bar_lengths" else "pin positions"
+    if e.tolerance is None:
+        return f"{what[0].upper()}{what[1:]} does not change to first order with errors in {errors}."
+    size = _percent(e.tested_error)
+    if e.error == "pin_positions":
+        size += f" of the mean bar length (±{e.tested_error * report.mean_bar_length:.3g})"
+    keeps = (f"below {_percent(e.predicted)} of the rigidity margin (mean)" if e.quantity == "mode_stiffness"
+             else f"within {_percent(e.predicted)} (RMS)")
+    capped = " (the largest error considered)" if e.tested_error < e.tolerance else ""
+    sentence = f"{errors[0].upper()}{errors[1:]} within ±{size}{capped} keep {what} {keeps}"
+    if e.monte_carlo is None:
+        return sentence + f"; no perturbed frame could be assembled ({e.failed} of {report.samples})."
+    found = f"a Monte Carlo of {report.samples} perturbed frames gives {_percent(e.monte_carlo)}"
+    if e.agrees:
+        return sentence + f"; {found}."
+    failed = f", and {e.failed} could not be assembled" if e.failed else ""
+    return sentence + f" by the linear estimate, which does not hold here: {found}{failed}."
+
+
+def tolerance_body(report: ToleranceReport) -> dict:
+    """report.tolerance of /v1/design: every estimate with its sentence, the tightest tolerance
+    per kind of error, a summary and the estimates the Monte Carlo does not confirm."""
+    estimates = []
+    for e in report.estimates:
+        body = {f.name: getattr(e, f.name) for f in fields(e)}
+        body["tolerance_absolute"] = (
+            None if e.tolerance is None or e.error != "pin_positions" else e.tolerance * report.mean_bar_length
+        )
+        body["statement"] = _tolerance_statement(e, report)
+        estimates.append(body)
+    tightest = {
+        error: min((e.tolerance for e in report.estimates if e.error == error and e.tolerance is not None), default=None)
+        for error in ("bar_lengths", "pin_positions")
+    }
+    parts = []
+    if tightest["bar_lengths"] is not None:
+        parts.append(f"bar lengths within ±{_percent(tightest['bar_lengths'])}")
+    if tightest["pin_positions"] is not None:
+        pins = tightest["pin_positions"]
+        parts.append(f"pins within ±{_percent(pins)} of the mean bar length (±{pins * report.mean_bar_length:.3g})")
+    summary = (
+        f"Build {' and '.join(parts)} to keep every quantity within {_percent(report.budget)} (linear estimate)."
+        if parts else "No quantity changes to first order with fabrication errors."
+    )
+    return json_safe({
+        "budget": report.budget,
+        "samples": report.samples,
+        "seed": report.seed,
+        "agreement_factor": report.agreement_factor,
+        "mean_bar_length": report.mean_bar_length,
+        "self_stresses": report.self_stresses,
+        **tightest,
+        "summary": summary,
+        "disagreements": [b["statement"] for b in estimates if b["agrees"] is False],
+        "estimates": estimates,
+    })

@@ -11,6 +11,9 @@ Stages (each only when asked: model no more than the scene needs):
                  analyses the refined frame once (plus a counts-only check of its far end);
   3. certify     self-stress, prestress stability and rigidity margin of the linear design
                  (certificates.certify), which reuses the design's analysis.
+  4. tolerance   how precisely the linear design must be built: linear sensitivities to bar
+                 length and pin position errors checked by a seeded Monte Carlo
+                 (tolerance.tolerance_report).
 So a design + refine + certify request runs the full analysis twice: the designed frame and the
 refined frame.
 
@@ -29,6 +32,7 @@ from zeromode.solver.certificates import SDP_MAX_DIM, Certificate, certify
 from zeromode.solver.design import Design, design
 from zeromode.solver.errors import InvalidInput
 from zeromode.solver.refine import Refinement, RefinementFailed, refine
+from zeromode.solver.tolerance import ToleranceReport, tolerance_report
 
 
 @dataclass(frozen=True)
@@ -42,6 +46,15 @@ class RefineStage:
     max_time_s: float = 5.0
 
 
+@dataclass(frozen=True)
+class ToleranceStage:
+    """Options of the tolerance stage, passed to tolerance.tolerance_report under these names: the
+    relative change tolerated and the Monte Carlo's sample count."""
+
+    budget: float = 0.01
+    samples: int = 64
+
+
 @dataclass(frozen=True, eq=False)
 class PipelineResult:
     """What the pipeline produced.
@@ -49,13 +62,15 @@ class PipelineResult:
     design: the verified linear design (its frame and modes are the contract's answer).
     refinement: the refined frame, or after a failure the best one found (``ok`` False), or
     None when not asked. certificate: the certificates of the linear design, or None.
-    timings_ms: wall time of each stage that ran and the total.
+    timings_ms: wall time of each stage that ran and the total. tolerance: the fabrication
+    tolerances of the linear design, or None.
     """
 
     design: Design
     refinement: Refinement | None
     certificate: Certificate | None
     timings_ms: dict[str, float]
+    tolerance: ToleranceReport | None = None
 
 
 def stiffness_sdp_fits(design_result: Design) -> bool:
@@ -73,6 +88,7 @@ def design_pipeline(
     n_unspecified: int | None = None,
     refine_stage: RefineStage | None = None,
     certify_stage: bool = False,
+    tolerance_stage: ToleranceStage | None = None,
 ) -> PipelineResult:
     """Design, then (if asked) refine and certify; see the module docstring.
 
@@ -110,5 +126,10 @@ def design_pipeline(
             analysis=result.analysis,
         )
         timings["certify"] = 1e3 * (time.perf_counter() - t2)
+    tolerance = None
+    if tolerance_stage is not None:
+        t3 = time.perf_counter()
+        tolerance = tolerance_report(result.frame, result.modes, seed=seed, **asdict(tolerance_stage))
+        timings["tolerance"] = 1e3 * (time.perf_counter() - t3)
     timings["total"] = 1e3 * (time.perf_counter() - t0)
-    return PipelineResult(result, refined, certificate, timings)
+    return PipelineResult(result, refined, certificate, timings, tolerance)

@@ -17,7 +17,7 @@ from zeromode.service.schemas.design import (
     TwoConfigurationRequest,
     TwoConfigurationResponse,
 )
-from zeromode.solver.pipeline import RefineStage, design_pipeline
+from zeromode.solver.pipeline import RefineStage, ToleranceStage, design_pipeline
 from zeromode.solver.solution_space import seeded_samples, solution_space
 from zeromode.solver.two_configuration import design_two_configurations
 
@@ -48,6 +48,7 @@ def post_design(request: DesignRequest) -> dict:
         if r is None
         else RefineStage(amplitude=r.amplitude, K=r.K, tol=r.tol, max_time_s=r.max_time_s),
         certify_stage=opts.certify,
+        tolerance_stage=None if opts.tolerance is None else ToleranceStage(**opts.tolerance.model_dump()),
     )
     return design_body(result, result.timings_ms)
 

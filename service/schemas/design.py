@@ -15,6 +15,7 @@ from zeromode.service.schemas.common import (
     SpecifiedPoints,
 )
 from zeromode.service.schemas.limits import AtMost, Limited, limit_text
+from zeromode.service.schemas.tolerance import ToleranceOptions, ToleranceReportModel
 
 
 class SolutionSpaceRequest(RequestModel):
@@ -77,6 +78,14 @@ class DesignOptions(RequestModel):
             "when IPOPT fails)."
         ),
     )
+    tolerance: ToleranceOptions | None = Field(
+        default=None,
+        description=(
+            "Report in `report.tolerance` how precisely the design must be built: the bar-length and "
+            "pin-position errors that keep the designed motion and the rigidity margin within the "
+            "budget, by linearisation, each checked by a seeded Monte Carlo of perturbed frames."
+        ),
+    )
 
 
 class DesignRequest(RequestModel):
@@ -103,6 +112,9 @@ class DesignReport(BaseModel):
         default=None, description="SDP certificates (as POST /v1/certify) when options.certify."
     )
     refinement: dict | None = Field(default=None, description="The /v1/refine result when options.refine.")
+    tolerance: ToleranceReportModel | None = Field(
+        default=None, description="Fabrication tolerances when options.tolerance."
+    )
 
 
 class DesignResponse(BaseModel):

@@ -7,12 +7,12 @@ from typing import Literal
 from pydantic import BaseModel, Field, FiniteFloat
 
 from zeromode.export import FORMATS
-from zeromode.service.schemas.common import FrameModel, Points
+from zeromode.service.schemas.common import FrameModel, Points, RequestModel
 
 ExportFormat = Literal[tuple(FORMATS)]  # the names of zeromode.export.FORMATS
 
 
-class FabricationOptions(BaseModel):
+class FabricationOptions(RequestModel):
     """Physical sizes of the cut and printed parts (dxf, cut_svg, stl, kit_csv), in millimetres."""
 
     mm_per_unit: float | None = Field(
@@ -25,7 +25,7 @@ class FabricationOptions(BaseModel):
     gap_mm: float = Field(default=3.0, ge=0, le=1000, description="Space between parts and around the sheet.")
 
 
-class AnimationOptions(BaseModel):
+class AnimationOptions(RequestModel):
     """How the finite motion is played (svg_animation, gif, mp4)."""
 
     frames: int = Field(default=40, ge=2, le=200, description="Configurations picked evenly from the path; played there and back (2·frames − 2 animation frames).")
@@ -34,7 +34,7 @@ class AnimationOptions(BaseModel):
     title: str | None = Field(default=None, max_length=200, description="A title above the picture.")
 
 
-class MotionOptions(BaseModel):
+class MotionOptions(RequestModel):
     """The finite motion traced (as POST /v1/motion does) when a motion format is asked for and
     the document carries no path."""
 
@@ -43,7 +43,7 @@ class MotionOptions(BaseModel):
     max_step: FiniteFloat = Field(default=0.02, gt=0, le=1, description="As POST /v1/motion.")
 
 
-class ExportRequest(BaseModel):
+class ExportRequest(RequestModel):
     format: ExportFormat = Field(description="The file to write (GET /v1/export/formats lists them).")
     document: dict | None = Field(
         default=None,
