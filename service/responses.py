@@ -142,8 +142,8 @@ def two_configuration_body(result, timings_ms: dict) -> dict:
     }
 
 
-def auxetic_body(lattice, timings_ms: dict) -> dict:
-    return {
+def auxetic_body(lattice, timings_ms: dict, tolerance: ToleranceReport | None = None) -> dict:
+    body = {
         "frame": frame_body(lattice.frame),
         "modes": [lattice.mode.tolist()],
         "poisson_ratio": lattice.poisson_ratio,
@@ -161,9 +161,9 @@ def auxetic_body(lattice, timings_ms: dict) -> dict:
     }
 
 
-def allosteric_body(result, timings_ms: dict) -> dict:
+def allosteric_body(result, timings_ms: dict, tolerance: ToleranceReport | None = None) -> dict:
     d = result.design
-    return {
+    body = {
         "frame": frame_body(d.frame, specified=list(result.source) + list(result.target)),
         "modes": d.modes.tolist(),
         "report": {

@@ -4,10 +4,11 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 from oracles.mechanisms import four_bar, outward_square, parallelogram
-from oracles.motion import fidelity, relative_bar_error
+from oracles.motion import fidelity, relative_bar_error, rigid_distance
 from oracles.wire import frame_body
 
 from zeromode.service.app import create_app
+from zeromode.solver.finite_motion import MAX_DOF
 
 
 @pytest.fixture(scope="module")
@@ -167,11 +168,30 @@ def test_openapi_documents_both_endpoints(client):
     assert "description" in props["amplitude"]
 
 
-def test_motion_of_a_frame_too_large_to_trace_is_refused_quickly(client):
-    n = 301  # a zigzag chain: 602 degrees of freedom, one past the dense continuation limit
+def test_motion_of_a_frame_too_large_to_trace_is_refused_naming_the_limit(client):
+    n = MAX_DOF // 2 + 1  # a zigzag chain one node past the continuation's limit
     positions = [[float(i), float(i % 2)] for i in range(n)]
     edges = [[i, i + 1] for i in range(n - 1)]
     r = client.post(
         "/v1/motion", json={"frame": {"dim": 2, "positions": positions, "edges": edges}}
     )
     assert r.status_code == 422 and r.json()["detail"]["code"] == "too_expensive"
+    assert str(MAX_DOF) in r.json()["detail"]["message"]
+
+
+@pytest.mark.parametrize("frame", [four_bar(), outward_square(), parallelogram()])
+def test_configurations_are_aligned_to_the_reference(client, frame):
+    """No proper rigid motion brings any returned configuration closer to the input frame
+    (oracles.motion.rigid_distance, an independent alignment), and the input comes back as is."""
+    r = client.post(
+        "/v1/motion",
+        json={"frame": frame_body(frame), "amplitude": 0.6, "on_singularity": "report"},
+    )
+    body = r.json()
+    reference = frame.positions
+    assert body["path"][body["reference_index"]] == reference.tolist()
+    for configuration in np.array(body["path"]):
+        plain = np.linalg.norm(configuration - reference)
+        assert rigid_distance(configuration, reference) == pytest.approx(plain, rel=1e-9, abs=1e-12)
+        assert np.allclose(configuration.mean(axis=0), reference.mean(axis=0), atol=1e-12)
+    assert body["method"] == "dense"

@@ -22,7 +22,6 @@ from oracles.mechanisms import (
 from oracles.motion import fidelity as reference_fidelity
 from oracles.motion import relative_bar_error, rigid_distance
 from oracles.rigidity import (
-    compatibility_matrix,
     nontrivial_flexes,
     reference_counts,
     rigid_motions,
@@ -227,3 +226,113 @@ def test_kabsch_distance_properties(seed, angle, dim):
     mirror = np.eye(dim)
     mirror[0, 0] = -1
     assert kabsch_distance(p @ mirror, p) > 1e-6
+
+
+# ----------------------------------------------------------------------------- at scale
+
+
+@pytest.mark.parametrize(
+    "frame, amplitude",
+    [(parallelogram(np.pi / 3), 3.0), (bipartite_design(*random_targets(4, 3, seed=1), 5, seed=1), 0.2)],
+)
+def test_sparse_route_follows_the_dense_one(frame, amplitude):
+    """The sparse bordered LU (pinned coordinates, block elimination) and the dense LU of the
+    same bordered Jacobian take the same steps: same configurations, same singular points."""
+    dense = trace_motion(frame, amplitude=amplitude, max_step=0.05, method="dense")
+    sparse = trace_motion(frame, amplitude=amplitude, max_step=0.05, method="sparse")
+    assert (dense.method, sparse.method) == ("dense", "sparse")
+    assert sparse.parameter.shape == dense.parameter.shape
+    assert np.allclose(sparse.parameter, dense.parameter, atol=1e-7)
+    assert np.allclose(sparse.positions, dense.positions, atol=1e-6)
+    assert [s.extra_zero_modes for s in sparse.singularities] == [
+        s.extra_zero_modes for s in dense.singularities
+    ]
+    assert relative_bar_error(sparse.positions, frame.edges, frame.positions) <= 1e-9
+
+
+def two_bodies(per_body: int, angle_deg: float = 75.0) -> tuple[Frame, tuple[int, int]]:
+    """Two rigid jittered triangulated patches (many self-stresses) joined by two equal parallel
+    bars: a parallelogram linkage. One nontrivial mode; it flattens — a branch point — when the
+    bars line up with their anchors. Returns the frame and the anchor nodes of body A."""
+    rng = np.random.default_rng(0)
+    side = int(np.sqrt(per_body))
+    i, j = np.meshgrid(np.arange(side), np.arange(side))
+    x = np.column_stack([i.ravel() + 0.5 * j.ravel(), np.sqrt(3) / 2 * j.ravel()])
+    x = x + 0.1 * rng.uniform(-1, 1, x.shape)
+    node = np.arange(side * side).reshape(side, side)
+    edges = np.vstack(
+        [
+            np.column_stack([node[:, :-1].ravel(), node[:, 1:].ravel()]),
+            np.column_stack([node[:-1, :].ravel(), node[1:, :].ravel()]),
+            np.column_stack([node[:-1, 1:].ravel(), node[1:, :-1].ravel()]),
+        ]
+    )
+    top, bottom = int(node[-1, -1]), int(node[0, -1])
+    shift = 1.5 * np.ptp(x[:, 0]) * np.array([np.cos(np.deg2rad(angle_deg)), np.sin(np.deg2rad(angle_deg))])
+    n = len(x)
+    frame = Frame.build(
+        np.vstack([x, x + shift]),
+        np.vstack([edges, edges + n, [[top, top + n], [bottom, bottom + n]]]),
+    )
+    return frame, (top, bottom)
+
+
+def test_sparse_route_locates_the_branch_point_of_a_frame_with_self_stresses():
+    frame, (top, bottom) = two_bodies(225)  # 900 degrees of freedom: the sparse route
+    counts = reference_counts(frame.positions, frame.edges)
+    assert counts["nontrivial_zero_modes"] == 1 and counts["self_stresses"] > 100
+    path = trace_motion(frame, amplitude=1.0, max_step=0.05)
+    assert path.method == "sparse" and path.status == "singular_path"
+    assert relative_bar_error(path.positions, frame.edges, frame.positions) <= 1e-9
+    n = frame.n_nodes // 2
+    for sing in path.singularities:
+        x = path.positions[sing.step]
+        # The analytic branch point: both bars parallel to the line through their anchors.
+        anchors, bar = x[top] - x[bottom], x[top + n] - x[top]
+        cross = anchors[0] * bar[1] - anchors[1] * bar[0]
+        assert abs(cross) <= 1e-6 * np.linalg.norm(anchors) * np.linalg.norm(bar)
+        # Independent count at the reported configuration: C has lost one rank.
+        assert reference_counts(x, frame.edges, rtol=1e-6)["zero_modes"] == counts["zero_modes"] + 1
+    inner = path.positions[[i for i in range(len(path.positions)) if i not in {s.step for s in path.singularities}]]
+    assert min(reference_counts(x, frame.edges)["zero_modes"] for x in inner[::5]) == counts["zero_modes"]
+
+
+def sheet_tiling(nx: int, ny: int) -> np.ndarray:
+    """lattice.auxetic_sheet's node order as (cell node, cell x, cell y): corners first (row-major
+    in y, then x) as node 0 of their cell, then the two nodes of each module as nodes 1 and 2."""
+    p, q = np.meshgrid(np.arange(nx + 1), np.arange(ny + 1))
+    corners = np.column_stack([np.zeros(p.size, int), p.ravel(), q.ravel()])
+    i, j = np.meshgrid(np.arange(nx), np.arange(ny))
+    cells = np.column_stack([i.ravel(), j.ravel()])
+    inner = np.stack(
+        [np.column_stack([np.full(len(cells), 1 + s), cells]) for s in (0, 1)], axis=1
+    ).reshape(-1, 3)
+    return np.vstack([corners, inner])
+
+
+def test_periodic_cell_motion_tiled_on_a_sheet_matches_the_sheet_continuation():
+    from zeromode.solver.lattice import auxetic_sheet
+    from zeromode.solver.periodic import PeriodicCell, tiled_motion, trace_periodic_motion
+
+    # 4 × 4: three columns of node pairs collide at once, an odd number of vanishing singular
+    # values, which the determinant test sees (an even number would cancel in its sign).
+    lattice = auxetic_sheet(4, 4, poisson=-0.5)
+    frame, tiling = lattice.frame, sheet_tiling(4, 4)
+    cell = PeriodicCell.from_frame(frame, tiling, [[2.0, 0.0], [0.0, 2.0]])
+    assert (len(cell.positions), len(cell.edges)) == (3, 8)
+    path = tiled_motion(frame, tiling, cell, trace_periodic_motion(cell, amplitude=0.4))
+    assert path.method == "periodic"
+    assert relative_bar_error(path.positions, frame.edges, frame.positions) <= 1e-9
+    # The sheet's motion ends where nodes of neighbouring modules collide: a singular point of
+    # the sheet that the cell, whose configuration space is smooth there, does not have.
+    (sing,) = path.singularities
+    end = path.positions[sing.step]
+    assert sing.extra_zero_modes >= 1
+    assert reference_counts(end, frame.edges, rtol=1e-6)["zero_modes"] == 4 + sing.extra_zero_modes
+    gaps = np.linalg.norm(end[:, None] - end[None], axis=2)[np.triu_indices(frame.n_nodes, 1)]
+    assert gaps.min() <= 1e-5
+    # The same point by the sheet's own continuation (every node, no periodicity assumed).
+    direct = trace_motion(frame, mode=lattice.mode, amplitude=0.4)
+    (direct_sing,) = direct.singularities
+    assert direct_sing.extra_zero_modes == sing.extra_zero_modes
+    assert np.abs(direct.positions[direct_sing.step] - end).max() <= 1e-4 * np.ptp(frame.positions)

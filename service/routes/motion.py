@@ -39,9 +39,12 @@ RESPONSES = {
 def post_motion(request: MotionRequest):
     """Follow the finite motion of a frame along a zero mode by predictor–corrector continuation.
 
-    Every configuration keeps every bar length (max_relative_bar_error ≤ 1e-9). Singular points
-    (extra zero modes: a branch point, or the frame locks) end the path in their direction and
-    are reported; by default they answer 422 `singular_path` with the path up to them.
+    Every configuration keeps every bar length (max_relative_bar_error ≤ 1e-9) and is aligned to
+    the input frame (rigid motion removed). Singular points (extra zero modes: a branch point, or
+    the frame locks) end the path in their direction and are reported; by default they answer
+    422 `singular_path` with the path up to them. Sparse linear algebra above 400 degrees of
+    freedom; frames beyond the continuation's limit (finite_motion.MAX_DOF) answer 422
+    `too_expensive` before any work.
     """
     t0 = time.perf_counter()
     frame = frame_from_model(request.frame)

@@ -14,6 +14,7 @@ from zeromode.service.schemas.common import (
     RequestModel,
 )
 from zeromode.service.schemas.limits import AtMost, limit_text
+from zeromode.solver.rigidity import DENSE_MAX_DOF
 
 FIDELITY = (
     "Finite-motion fidelity ε(a) = min over path points X(τ) and proper rigid motions R of "
@@ -77,7 +78,14 @@ class SingularityModel(BaseModel):
 
 
 class MotionResponse(BaseModel):
-    path: list[Points] = Field(description="Configurations (N×d each) ordered by `parameter`.")
+    path: list[Points] = Field(
+        description=(
+            "Configurations (N×d each) ordered by `parameter`, each aligned to the input frame: "
+            "the proper rigid motion that minimises the sum of squared node distances to it "
+            "(Kabsch) is removed, so panels of a motion can be drawn without rotating. The "
+            "input configuration itself is returned unchanged at `reference_index`."
+        )
+    )
     parameter: list[float] = Field(
         description="Path parameter of each configuration (0 at the input frame)."
     )
@@ -90,6 +98,13 @@ class MotionResponse(BaseModel):
     )
     status: Literal["ok", "singular_path"]
     steps: int = Field(description="Number of continuation steps taken (len(path) − 1).")
+    method: Literal["dense", "sparse", "periodic"] = Field(
+        description=(
+            f"Linear algebra of the continuation: dense LU up to {DENSE_MAX_DOF} degrees of freedom, "
+            "sparse LU of the bordered Jacobian above (periodic: one cell's motion, tiled and "
+            "checked on the frame)."
+        )
+    )
     timings_ms: dict[str, float]
 
 
