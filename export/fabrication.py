@@ -134,6 +134,7 @@ def dxf_document(takeaway: Takeaway, fab: Fabrication):
         "zeromode.pin_diameter_mm": f"{fab.pin_diameter:g}",
         "zeromode.link_width_mm": f"{fab.link_width:g}",
         "zeromode.metadata": json.dumps(dict(takeaway.metadata)),
+        **({"zeromode.tolerance": takeaway.metadata["tolerance"]["summary"]} if takeaway.metadata.get("tolerance") else {}),
     }
     for tag, value in properties.items():
         doc.header.custom_vars.append(tag, value)
@@ -268,6 +269,8 @@ def kit_csv_bytes(takeaway: Takeaway, fab: Fabrication) -> bytes:
     out = io.StringIO()
     out.write(f"# zeromode strut-and-hub kit: {takeaway.frame.n_nodes} hubs, {takeaway.frame.n_edges} struts\n")
     out.write(f"# mm_per_unit: {scale:.12g}\n")
+    if takeaway.metadata.get("tolerance"):
+        out.write(f"# tolerance: {takeaway.metadata['tolerance']['summary']}\n")
     out.write(f"# metadata: {json.dumps(dict(takeaway.metadata))}\n")
     writer = csv.writer(out, lineterminator="\n")
     writer.writerow(["bar", "node_i", "node_j", "length", "length_mm"])

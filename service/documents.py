@@ -20,6 +20,7 @@ from zeromode.solver.allostery import AllostericDesign, design_allosteric
 from zeromode.solver.errors import InvalidInput
 from zeromode.solver.lattice import Lattice, auxetic_chain_3d, auxetic_sheet
 from zeromode.solver.pipeline import RefineStage, ToleranceStage, design_pipeline
+from zeromode.solver.tolerance import ToleranceReport, tolerance_report
 
 # What a document is, by its fields (``kind``).
 DESIGN, AUXETIC, ALLOSTERIC, REFINEMENT, MOTION, FRAME = (
@@ -86,10 +87,12 @@ def respond(doc: dict) -> tuple[dict, BaseModel]:
     body, the validated request). The one place documents call the designers."""
     if "source" in doc and "target" in doc:
         r = validated(doc, AllostericRequest)
-        return allosteric_body(allosteric(r), {}), r
+        result = allosteric(r)
+        return allosteric_body(result, {}, allosteric_tolerance(r, result)), r
     if "cells" in doc or "poisson_ratio" in doc:
         r = validated(doc, AuxeticRequest)
-        return auxetic_body(lattice(r), {}), r
+        lat = lattice(r)
+        return auxetic_body(lat, {}, lattice_tolerance(r, lat)), r
     if "positions" in doc and "motions" in doc:
         r = validated(doc, DesignRequest)
         o = r.options
@@ -138,3 +141,21 @@ def validated(body: dict, model: type[BaseModel]):
         first = exc.errors()[0]
         where = ".".join(str(p) for p in first.get("loc", ())) or "document"
         raise InvalidInput("invalid_request", f"{where}: {first.get('msg', 'invalid value')}.") from exc
+
+
+def allosteric_tolerance(r: AllostericRequest, result: AllostericDesign) -> ToleranceReport | None:
+    """The tolerance report a /v1/design/allosteric request asks for (options.tolerance), or None."""
+    o = r.options.tolerance
+    if o is None:
+        return None
+    return tolerance_report(
+        result.design.frame, result.design.modes, source=result.source, target=result.target,
+        seed=r.options.seed, **o.model_dump(),
+    )
+
+
+def lattice_tolerance(r: AuxeticRequest, lat: Lattice) -> ToleranceReport | None:
+    """The tolerance report a /v1/design/auxetic request asks for (tolerance), or None."""
+    if r.tolerance is None:
+        return None
+    return tolerance_report(lat.frame, [lat.mode], boundary=lat.boundary, seed=r.seed, **r.tolerance.model_dump())

@@ -1,7 +1,8 @@
 """What POST /v1/export and ``zeromode export`` write: a document (documents.py) read into a
 zeromode.export Takeaway — its frame, modes, sites, states and report — with its finite motion
 traced (solver.finite_motion, as POST /v1/motion does) when a motion format needs one and the
-document carries none, then written by zeromode.export.
+document carries none, and its fabrication tolerances (solver.tolerance) in the metadata when
+asked, then written by zeromode.export.
 """
 
 from __future__ import annotations
@@ -22,10 +23,11 @@ from zeromode.service.documents import (
     respond,
     validated,
 )
-from zeromode.service.responses import json_safe
+from zeromode.service.responses import json_safe, tolerance_body
 from zeromode.service.schemas.export import ExportRequest
 from zeromode.solver.errors import InvalidInput
 from zeromode.solver.finite_motion import trace_motion
+from zeromode.solver.tolerance import tolerance_report
 
 
 def export_file(request: ExportRequest) -> tuple[bytes, str, str]:
@@ -57,7 +59,7 @@ def takeaway_for(request: ExportRequest) -> Takeaway:
     metadata: dict = {"kind": what}
     if isinstance(doc.get("report"), dict):
         metadata["report"] = doc["report"]
-    sites, configurations = {}, {}
+    sites, configurations, boundary = {}, {}, None
     if what == ALLOSTERIC:
         report = validated(doc, AllostericDocument).report
         sites = {"source": report.source, "target": report.target, "relays": report.relays}
@@ -65,6 +67,15 @@ def takeaway_for(request: ExportRequest) -> Takeaway:
         lattice = validated(doc, AuxeticDocument)
         metadata["poisson_ratio"] = lattice.poisson_ratio
         configurations = {state.name: state.positions for state in lattice.states}
+        boundary = lattice.report.boundary
+    if request.tolerance is not None:
+        tolerance = tolerance_report(
+            frame, modes, boundary=boundary, source=sites.get("source", ()), target=sites.get("target", ()),
+            **request.tolerance.model_dump(),
+        )
+        metadata["tolerance"] = tolerance_body(tolerance)
+    elif metadata.get("report", {}).get("tolerance"):
+        metadata["tolerance"] = metadata["report"]["tolerance"]
     path, parameter, reference = None, None, None
     if request.path is not None:
         path, parameter = request.path, request.parameter

@@ -159,6 +159,9 @@ def auxetic_body(lattice, timings_ms: dict, tolerance: ToleranceReport | None = 
             "timings_ms": timings_ms,
         },
     }
+    if tolerance is not None:
+        body["report"]["tolerance"] = tolerance_body(tolerance)
+    return body
 
 
 def allosteric_body(result, timings_ms: dict, tolerance: ToleranceReport | None = None) -> dict:
@@ -180,6 +183,9 @@ def allosteric_body(result, timings_ms: dict, tolerance: ToleranceReport | None 
             "timings_ms": timings_ms,
         },
     }
+    if tolerance is not None:
+        body["report"]["tolerance"] = tolerance_body(tolerance)
+    return body
 
 
 # ----------------------------------------------------------------------------- finite motion

@@ -202,3 +202,39 @@ def test_design_endpoint_reports_tolerances(client):
     assert "tolerance" in body["report"]["timings_ms"]
     bad = client.post("/v1/design", json={**request, "options": {"tolerance": {"samples": 1}}})
     assert bad.status_code == 422
+
+
+def test_auxetic_and_allosteric_endpoints_report_tolerances(client):
+    sheet = client.post("/v1/design/auxetic", json={"cells": [2, 2], "poisson_ratio": -0.5,
+                                                    "tolerance": {"samples": 16}}).json()
+    quantities = {e["quantity"] for e in sheet["report"]["tolerance"]["estimates"]}
+    assert quantities == {"mode", "poisson_ratio", "rigidity_margin", "mode_stiffness"}
+    body = {"dim": 2, "source": {"positions": SOURCE[0], "motion": SOURCE[1]},
+            "target": {"positions": TARGET[0], "motion": TARGET[1]}, "options": {"tolerance": {"samples": 16}}}
+    allo = client.post("/v1/design/allosteric", json=body).json()
+    tolerance = allo["report"]["tolerance"]
+    assert {e["quantity"] for e in tolerance["estimates"]} == {"mode", "target_response", "rigidity_margin"}
+    assert tolerance["bar_lengths"] < 1e-3  # the long relay amplifies length errors (measured 3e-5)
+
+
+def test_exports_carry_the_tolerance_report(client, tmp_path):
+    import csv
+    import io
+    import json
+
+    import ezdxf
+
+    request = example_request("outward_2d")
+    doc = client.post("/v1/design", json=request).json()
+    graph = json.loads(client.post("/v1/export", json={
+        "format": "node_link_json", "document": doc, "tolerance": {"samples": 8}}).content)
+    tolerance = graph["graph"]["metadata"]["tolerance"]
+    assert tolerance["summary"].startswith("Build") and len(tolerance["estimates"]) == 4
+    request["options"]["tolerance"] = {"samples": 8}
+    carried = client.post("/v1/design", json=request).json()  # report.tolerance passes on by itself
+    text = client.post("/v1/export", json={"format": "kit_csv", "document": carried}).text
+    assert f"# tolerance: {carried['report']['tolerance']['summary']}" in text
+    rows = list(csv.reader(line for line in text.splitlines() if not line.startswith("#")))
+    assert rows[0] == ["bar", "node_i", "node_j", "length", "length_mm"]
+    dxf = ezdxf.read(io.StringIO(client.post("/v1/export", json={"format": "dxf", "document": carried}).text))
+    assert dxf.header.custom_vars.get("zeromode.tolerance") == carried["report"]["tolerance"]["summary"]

@@ -6,7 +6,7 @@ import time
 
 from fastapi import APIRouter
 
-from zeromode.service.documents import allosteric, lattice
+from zeromode.service.documents import allosteric, allosteric_tolerance, lattice, lattice_tolerance
 from zeromode.service.responses import allosteric_body, auxetic_body
 from zeromode.service.schemas.allostery import AllostericRequest, AllostericResponse
 from zeromode.service.schemas.common import ERROR_RESPONSES
@@ -21,7 +21,8 @@ def post_auxetic(request: AuxeticRequest) -> dict:
     (negative) Poisson ratio, with its expanded and contracted finite states."""
     t0 = time.perf_counter()
     lat = lattice(request)
-    return auxetic_body(lat, {"total": 1e3 * (time.perf_counter() - t0)})
+    tolerance = lattice_tolerance(request, lat)
+    return auxetic_body(lat, {"total": 1e3 * (time.perf_counter() - t0)}, tolerance)
 
 
 @router.post("/allosteric", response_model=AllostericResponse, responses=ERROR_RESPONSES)
@@ -29,4 +30,5 @@ def post_allosteric(request: AllostericRequest) -> dict:
     """Source nodes driven by their motion move the distal target nodes exactly as prescribed."""
     t0 = time.perf_counter()
     result = allosteric(request)
-    return allosteric_body(result, {"total": 1e3 * (time.perf_counter() - t0)})
+    tolerance = allosteric_tolerance(request, result)
+    return allosteric_body(result, {"total": 1e3 * (time.perf_counter() - t0)}, tolerance)

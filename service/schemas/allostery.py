@@ -13,6 +13,7 @@ from zeromode.service.schemas.common import (
     RequestModel,
     SpecifiedPoints,
 )
+from zeromode.service.schemas.tolerance import ToleranceOptions, ToleranceReportModel
 
 
 class Site(RequestModel):
@@ -24,6 +25,9 @@ class AllostericOptions(RequestModel):
     seed: int = Field(default=0, ge=0)
     relay_spacing: FiniteFloat | None = Field(
         default=None, gt=0, description="Spacing of relay nodes between the sites (default: twice the site size)."
+    )
+    tolerance: ToleranceOptions | None = Field(
+        default=None, description="Report in `report.tolerance` how precisely the design must be built (as /v1/design)."
     )
 
 
@@ -48,6 +52,7 @@ class AllostericReport(BaseModel):
     bars: int
     mode_residual: float
     timings_ms: dict[str, float]
+    tolerance: ToleranceReportModel | None = Field(default=None, description="Fabrication tolerances when asked.")
 
 
 class AllostericResponse(BaseModel):

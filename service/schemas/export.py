@@ -8,6 +8,7 @@ from pydantic import BaseModel, Field, FiniteFloat
 
 from zeromode.export import FORMATS
 from zeromode.service.schemas.common import FrameModel, Points, RequestModel
+from zeromode.service.schemas.tolerance import ToleranceOptions
 
 ExportFormat = Literal[tuple(FORMATS)]  # the names of zeromode.export.FORMATS
 
@@ -59,6 +60,13 @@ class ExportRequest(RequestModel):
     fabrication: FabricationOptions = Field(default_factory=FabricationOptions)
     animation: AnimationOptions = Field(default_factory=AnimationOptions)
     motion: MotionOptions = Field(default_factory=MotionOptions)
+    tolerance: ToleranceOptions | None = Field(
+        default=None,
+        description=(
+            "Compute the fabrication tolerance report (as options.tolerance of /v1/design, seed 0) into the "
+            "export's metadata; a document that carries report.tolerance passes it on without this."
+        ),
+    )
 
 
 class ExportFormatInfo(BaseModel):

@@ -7,6 +7,7 @@ from typing import Literal
 from pydantic import BaseModel, Field, FiniteFloat
 
 from zeromode.service.schemas.common import AnalysisCounts, FrameModel, Points, RequestModel
+from zeromode.service.schemas.tolerance import ToleranceOptions, ToleranceReportModel
 
 
 class AuxeticRequest(RequestModel):
@@ -29,6 +30,9 @@ class AuxeticRequest(RequestModel):
         default=0.1, ge=1e-4, lt=0.9, description="Axial strain (2D) or path parameter (3D) of the finite states."
     )
     seed: int = Field(default=0, ge=0)
+    tolerance: ToleranceOptions | None = Field(
+        default=None, description="Report in `report.tolerance` how precisely the design must be built (as /v1/design)."
+    )
 
 
 class LatticeState(BaseModel):
@@ -43,6 +47,7 @@ class AuxeticReport(BaseModel):
     mode_residual: float
     max_relative_bar_error: float = Field(description="Largest relative bar-length change over the states.")
     timings_ms: dict[str, float]
+    tolerance: ToleranceReportModel | None = Field(default=None, description="Fabrication tolerances when asked.")
 
 
 class AuxeticResponse(BaseModel):
