@@ -16,6 +16,7 @@ from zeromode_client._errors import ZeromodeConnectionError, ZeromodeError, Zero
 from zeromode_client._models import (
     Analysis,
     Design,
+    ExportFile,
     Frame,
     Health,
     JobStatus,
@@ -30,6 +31,7 @@ __all__ = [
     "AsyncClient",
     "Client",
     "Design",
+    "ExportFile",
     "Frame",
     "Health",
     "JobStatus",

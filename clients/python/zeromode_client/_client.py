@@ -17,6 +17,7 @@ from zeromode_client._errors import ZeromodeError, ZeromodeTimeoutError
 from zeromode_client._models import (
     Analysis,
     Design,
+    ExportFile,
     Frame,
     Health,
     JobStatus,
@@ -167,6 +168,31 @@ class Client(_BaseClient):
         """POST /v1/design/two-configuration with ``fields`` (dim, initial, final, options)."""
         return self._send(ep.capability("/v1/design/two-configuration", fields))
 
+    def plot(self, frame: FrameLike, **fields: Any) -> str:
+        """POST /v1/plot with ``{"frame": frame, **fields}`` (modes, targets, solution_space, …):
+        the picture as SVG text."""
+        return self._send(ep.plot(frame, fields))
+
+    def examples(self) -> list[dict[str, str]]:
+        """GET /v1/examples: the named examples, each ``{"name", "description"}``."""
+        return self._send(ep.examples())
+
+    def example(self, name: str) -> dict[str, Any]:
+        """GET /v1/examples/{name}/request: a ready /v1/design request body."""
+        return self._send(ep.example(name))
+
+    def export(self, document: Any = None, format: str = "vtk", **fields: Any) -> ExportFile:
+        """POST /v1/export: ``document`` — a result of this client (its JSON answer is sent), a
+        response or request body, or None with ``frame=`` — written in ``format`` (vtk, xdmf,
+        graphml, node_link_json, dxf, cut_svg, stl, kit_csv, svg_animation, gif, mp4);
+        ``fields`` are the request's other fields (frame, modes, path, fabrication, animation,
+        motion, tolerance). Returns an ExportFile (``.content``, ``.save(path)``)."""
+        return self._send(ep.export(document, format, fields))
+
+    def export_formats(self) -> list[dict[str, Any]]:
+        """GET /v1/export/formats: name, media type, suffix and availability of each format."""
+        return self._send(ep.export_formats())
+
     def submit_job(self, endpoint: str, request: Mapping[str, Any]) -> str:
         """POST /v1/jobs: run ``endpoint`` (e.g. ``"/v1/design/auxetic"``) with ``request`` as its
         body in the background, under the service's longer job time budget; returns the job id.
@@ -276,6 +302,21 @@ class AsyncClient(_BaseClient):
 
     async def design_two_configuration(self, **fields: Any) -> Result:
         return await self._send(ep.capability("/v1/design/two-configuration", fields))
+
+    async def plot(self, frame: FrameLike, **fields: Any) -> str:
+        return await self._send(ep.plot(frame, fields))
+
+    async def examples(self) -> list[dict[str, str]]:
+        return await self._send(ep.examples())
+
+    async def example(self, name: str) -> dict[str, Any]:
+        return await self._send(ep.example(name))
+
+    async def export(self, document: Any = None, format: str = "vtk", **fields: Any) -> ExportFile:
+        return await self._send(ep.export(document, format, fields))
+
+    async def export_formats(self) -> list[dict[str, Any]]:
+        return await self._send(ep.export_formats())
 
     async def submit_job(self, endpoint: str, request: Mapping[str, Any]) -> str:
         return await self._send(ep.submit_job(endpoint, request))

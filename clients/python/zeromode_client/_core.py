@@ -30,18 +30,22 @@ DEFAULT_TIMEOUT = httpx.Timeout(120.0, connect=10.0)
 
 @dataclass(frozen=True)
 class Call(Generic[T]):
-    """One endpoint call: what to send and how to read a successful answer."""
+    """One endpoint call: what to send and how to read a successful answer — its decoded JSON,
+    or with ``raw`` the httpx response itself (pictures and files)."""
 
     method: str
     path: str
     body: dict[str, Any] | None
     parse: Callable[[Any], T]
+    raw: bool = False
 
 
 def jsonable(value: Any) -> Any:
     """``value`` with every Frame, numpy array and numpy scalar turned into plain JSON types."""
     if isinstance(value, Frame):
         return value.to_json()
+    if hasattr(value, "raw") and isinstance(value.raw, Mapping):  # a result: its JSON answer
+        return jsonable(value.raw)
     if isinstance(value, np.ndarray | np.generic):
         return value.tolist()
     if isinstance(value, Mapping):
@@ -79,7 +83,7 @@ def parse(call: Call[T], response: httpx.Response) -> T:
     if response.status_code >= 400:
         raise error_from_response(response)
     try:
-        return call.parse(response.json())
+        return call.parse(response if call.raw else response.json())
     except (ValueError, KeyError, TypeError) as exc:  # not JSON, or not the contract's shape
         raise ZeromodeError(
             f"{call.path} answered with a body this client cannot read ({type(exc).__name__}: {exc}).",

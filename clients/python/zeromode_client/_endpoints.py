@@ -13,6 +13,7 @@ from zeromode_client._core import Call, jsonable
 from zeromode_client._models import (
     Analysis,
     Design,
+    ExportFile,
     Frame,
     Health,
     JobStatus,
@@ -85,6 +86,37 @@ def capability(
     """A capability endpoint: ``{"frame": frame, **fields}`` is sent as the JSON object, unchanged."""
     body = {"frame": as_frame(frame), **fields} if frame is not None else dict(fields)
     return Call("POST", path, jsonable(body), lambda data: Result(path, data))
+
+
+def plot(frame: Frame | Mapping[str, Any], fields: Mapping[str, Any]) -> Call[str]:
+    """POST /v1/plot: the SVG document (text)."""
+    body = jsonable({"frame": as_frame(frame), **fields})
+    return Call("POST", "/v1/plot", body, lambda response: response.text, raw=True)
+
+
+def examples() -> Call[list[dict[str, str]]]:
+    return Call("GET", "/v1/examples", None, lambda data: [dict(item) for item in data])
+
+
+def example(name: str) -> Call[dict[str, Any]]:
+    return Call("GET", f"/v1/examples/{quote(name, safe='')}/request", None, dict)
+
+
+def export(document: Any, fmt: str, fields: Mapping[str, Any]) -> Call[ExportFile]:
+    """POST /v1/export: ``document`` (a result of this client, or any JSON document) in ``fmt``."""
+    body = {"format": fmt, **({"document": document} if document is not None else {}), **fields}
+
+    def read(response: Any) -> ExportFile:
+        disposition = response.headers.get("content-disposition", "")
+        name = disposition.split("filename=")[-1].strip('"') if "filename=" in disposition else f"zeromode-export.{fmt}"
+        media_type = response.headers.get("content-type", "application/octet-stream").split(";")[0]
+        return ExportFile(response.content, media_type, name)
+
+    return Call("POST", "/v1/export", jsonable(body), read, raw=True)
+
+
+def export_formats() -> Call[list[dict[str, Any]]]:
+    return Call("GET", "/v1/export/formats", None, lambda data: [dict(item) for item in data])
 
 
 def submit_job(endpoint: str, request: Mapping[str, Any]) -> Call[str]:

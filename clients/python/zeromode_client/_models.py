@@ -7,8 +7,10 @@ them with numpy, not with ``==`` on the dataclass.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -219,6 +221,21 @@ class Result:
             return None
         frame = self.frame
         return readonly(self.raw["modes"], frame.positions.shape if frame is not None else ())
+
+
+@dataclass(frozen=True, eq=False)
+class ExportFile:
+    """A file written by POST /v1/export: its bytes, media type and the file name the service
+    suggests. ``save(path)`` writes it (default: that name, in the working directory)."""
+
+    content: bytes = field(repr=False)
+    media_type: str
+    filename: str
+
+    def save(self, path: str | os.PathLike[str] | None = None) -> Path:
+        target = Path(self.filename if path is None else path)
+        target.write_bytes(self.content)
+        return target
 
 
 @dataclass(frozen=True, eq=False)
