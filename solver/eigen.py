@@ -28,10 +28,13 @@ from zeromode.solver.factorisation import cholesky
 from zeromode.solver.rank import nullspace
 from zeromode.solver.rigidity import DENSE_MAX_DOF
 
-# δ in K + δI, relative to the mean diagonal of K: small enough that the wanted eigenvalues
-# (down to ~1e-12 of the scale on the 50 × 50 auxetic sheet) dominate the inverse by many
-# orders of magnitude, large enough that K + δI is far from singular in double precision.
-SHIFT_RTOL = 1e-10
+# δ in K + δI, relative to the mean diagonal of K: below the wanted eigenvalues (down to ~1e-12
+# of the scale: the uniform margin of a chain of 64 blocks), so that they stay apart in the
+# inverse, and three decades above the round-off of a Cholesky factorisation (~1e-16), so that
+# K + δI is numerically positive definite; a factorisation that fails retries SHIFT_RETRY
+# times larger.
+SHIFT_RTOL = 1e-13
+SHIFT_RETRY = 1e3
 # ARPACK's convergence tolerance (relative to the Ritz value of the inverse): machine level.
 ARPACK_TOL = 1e-14
 
@@ -77,7 +80,10 @@ def smallest_eigenpairs(
 def _shift_invert(k: sp.csc_matrix, count: int, d: np.ndarray, guess, tol: float) -> np.ndarray:
     n = k.shape[0]
     delta = SHIFT_RTOL * (float(np.mean(k.diagonal())) or 1.0)
-    factor = cholesky(k + delta * sp.identity(n, format="csc"))
+    try:
+        factor = cholesky(k + delta * sp.identity(n, format="csc"))
+    except ArithmeticError:  # not numerically positive definite at this shift
+        factor = cholesky(k + SHIFT_RETRY * delta * sp.identity(n, format="csc"))
 
     def project(v):
         return v - d @ (d.T @ v)

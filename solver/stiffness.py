@@ -56,6 +56,9 @@ SERIOUS = 0.1
 VERY_GOOD = 0.7
 # Eigenvectors of the master's dual Z below this fraction of its largest weight go to the aggregate.
 KEEP_RTOL = 1e-3
+# Bundle directions whose energy at k̂ exceeds this (in units of φ(1)) cannot matter to λ_min and
+# would only scale the master badly (Lanczos noise orthonormalised into a stiff direction).
+SOFT_MAX = 100.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -110,6 +113,7 @@ def optimal_stiffness(c, span: np.ndarray, uniform: float, time_s: float = TIME_
     while time.perf_counter() - t0 < budget:
         check_budget()
         iterations += 1
+        bundle = _soft_part(scaled, bundle, k_hat)
         a_v = scaled @ bundle
         k, model, z, alpha = _master(a_v, aggregate, k_hat, u)
         upper = min(upper, upper_bound(a_v, z, alpha, aggregate))
@@ -187,6 +191,15 @@ def _master(a_v: np.ndarray, aggregate, k_hat: np.ndarray, u: float):
     if aggregate is not None:
         model = min(model, float(aggregate @ k))
     return k, model, z, alpha
+
+
+def _soft_part(scaled, bundle: np.ndarray, k_hat: np.ndarray) -> np.ndarray:
+    """The bundle rotated to its Ritz vectors at k̂, those with energy ≤ SOFT_MAX kept."""
+    a_v = scaled @ bundle
+    energy, rotation = np.linalg.eigh((a_v * k_hat[:, None]).T @ a_v)
+    keep = energy <= SOFT_MAX
+    keep[0] = True
+    return bundle @ rotation[:, keep]
 
 
 def _next_bundle(bundle, a_v, z, alpha, aggregate, new_vectors, span):
