@@ -73,7 +73,8 @@ def viewer_screenshot(url: str) -> None:
 
 def motion_frame(url: str) -> None:
     gif = httpx.post(url + "/v1/export", json={
-        "format": "gif", "document": ALLOSTERIC, "animation": {"frames": 30, "title": "allosteric frame: finite motion"},
+        "format": "gif", "document": ALLOSTERIC, "motion": {"amplitude": 0.8},
+        "animation": {"frames": 30, "title": "allosteric frame: its finite motion"},
     }, timeout=300).content
     image = Image.open(io.BytesIO(gif))
     image.seek(22)

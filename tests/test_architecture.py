@@ -25,8 +25,14 @@ NOT_IN_SOLVER = (
     "json",
     "matplotlib",
     "cairosvg",
+    "zeromode.export",
+    "meshio",
+    "networkx",
+    "ezdxf",
 )
 NOT_IN_ROUTES = ("numpy", "scipy")
+# viz draws and export writes files: neither reaches up to the service; viz not even to export.
+ABOVE = {"viz": ("zeromode.service", "zeromode.export", "zeromode_client"), "export": ("zeromode.service", "zeromode_client")}
 
 
 def imported_modules(path: Path) -> set[str]:
@@ -81,3 +87,12 @@ def test_only_the_pipeline_chains_refinement_and_certificates():
         if {"refine", "certify"} <= called_names(path)
     ]
     assert chaining == ["solver/pipeline.py"]
+
+
+@pytest.mark.parametrize(
+    "path", [p for layer in ABOVE for p in sorted((ROOT / layer).glob("*.py"))], ids=lambda p: f"{p.parent.name}/{p.name}"
+)
+def test_viz_and_export_do_not_reach_up(path):
+    banned = ABOVE[path.parent.name]
+    bad = {name for name in imported_modules(path) if any(name == b or name.startswith(b + ".") for b in banned)}
+    assert not bad, f"{path.parent.name}/{path.name} imports {sorted(bad)}"
