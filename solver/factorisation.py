@@ -1,0 +1,142 @@
+"""Sparse Cholesky factorisation behind one small interface: ``cholesky(A, order).solve(B)``.
+
+A is symmetric positive definite (n × n, scipy sparse); the factorisation is P A Pᵀ = L Lᵀ with
+CHOLMOD's supernodal algorithm (dense BLAS kernels on groups of columns with one sparsity
+pattern), through the binding in ``cvxopt`` (cvxopt.cholmod). Nothing else in zeromode sees
+the package.
+
+Why this package (measured on the frames of issue 15, CᵀC + δI of lattice patches, one core;
+the figures are in docs/benchmarks/analysis.md):
+  * cvxopt 1.3.3 ships wheels with CHOLMOD and OpenBLAS for Linux (x86_64, aarch64), macOS
+    (x86_64, arm64) and Windows, so ``pip install`` needs no compiler or system library;
+  * scikit-sparse 0.5 is a source distribution that needs SuiteSparse headers; sksparse-minimal
+    0.3 and cholespy 2.2 have wheels with METIS, but link the reference BLAS, have no macOS
+    x86_64 (sksparse-minimal) or Linux aarch64 wheels, and factorise 1.5–2× slower than cvxopt
+    with the ordering below; pypardiso needs MKL (220 MB, no macOS arm64); qdldl is a
+    simplicial LDLᵀ without a fill-reducing order for 3D (20× slower on a 3D lattice);
+  * cvxopt's CHOLMOD has no METIS, so its own ordering (AMD) fills 3D lattices badly; the
+    geometric nested dissection below gives METIS-like fill (a 10⁴-node 3D lattice factorises
+    in 0.6–0.8 s instead of 2.4 s with AMD, the same as with METIS's order).
+cvxopt solves one right-hand side at a time (its ``cholmod.solve`` loops over columns), so a
+block solve costs k single solves; the callers keep their blocks thin. cvxopt is GPL-3
+licensed, and CHOLMOD's supernodal module is GPL-2+: a build that bundles zeromode with it
+(the Docker image) is distributed under those terms.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from cvxopt import cholmod
+from cvxopt import matrix as cvx_matrix
+from cvxopt import spmatrix as cvx_spmatrix
+
+# Nested dissection stops splitting a part at this many points: measured on 2D and 3D
+# lattices, smaller leaves lower the fill until about 32 points, below which the extra levels
+# cost more than they save.
+LEAF_POINTS = 32
+# The dissection tree's path is kept in base 3 in one int64: 39 levels (3³⁹ < 2⁶³) split
+# 2³⁹ points, far beyond any frame that fits in memory.
+MAX_LEVELS = 39
+
+
+@dataclass(frozen=True, eq=False)
+class Cholesky:
+    """P A Pᵀ = L Lᵀ of an n × n symmetric positive definite A; ``solve`` applies A⁻¹."""
+
+    n: int
+    _factor: object
+
+    def solve(self, b: np.ndarray) -> np.ndarray:
+        """A⁻¹ b for b of shape (n,) or (n, k); returns a new array of the same shape."""
+        x = cvx_matrix(np.asfortranarray(b, dtype=float).reshape(self.n, -1))
+        cholmod.solve(self._factor, x)
+        return np.asarray(x).reshape(b.shape)
+
+
+def cholesky(a: sp.spmatrix, order: np.ndarray | None = None) -> Cholesky:
+    """Supernodal Cholesky factor of the symmetric positive definite ``a`` (only its lower
+    triangle is read), eliminating unknowns in ``order`` (a permutation of range(n); None:
+    CHOLMOD's own approximate minimum degree order). Raises ArithmeticError if ``a`` is not
+    numerically positive definite."""
+    n = a.shape[0]
+    low = sp.tril(a, format="coo")
+    lower = cvx_spmatrix(low.data, low.row.astype(np.int64), low.col.astype(np.int64), (n, n))
+    options = dict(cholmod.options)  # module-wide settings: restore them for other users
+    cholmod.options.update({"supernodal": 2, "nmethods": 0 if order is None else 1})
+    try:
+        if order is None:
+            factor = cholmod.symbolic(lower, uplo="L")
+        else:
+            factor = cholmod.symbolic(lower, p=cvx_matrix(np.asarray(order, dtype=np.int64)), uplo="L")
+        cholmod.numeric(lower, factor)
+    finally:
+        cholmod.options.clear()
+        cholmod.options.update(options)
+    return Cholesky(n, factor)
+
+
+def nested_dissection(points: np.ndarray, pairs: np.ndarray, leaf: int = LEAF_POINTS) -> np.ndarray:
+    """An elimination order of n unknowns that live at ``points`` (n × d), coupled in ``pairs``
+    (m × 2: a_ij ≠ 0): a permutation of range(n).
+
+    Geometric nested dissection: every part is cut at the median of its widest coordinate;
+    of the two rows of points along the cut that have a coupling across it, the smaller is
+    the separator. The two halves are numbered first (recursively), the separator last, so
+    eliminating one half never fills the other: for a patch of a d-dimensional lattice the
+    separators hold O(n^((d−1)/d)) points, the fill of the factor is O(n log n) in 2D and
+    O(n^(4/3)) in 3D, as with a graph partitioner. All parts of one level are cut at once.
+    The path of a point in the dissection tree is a base-3 number (0: first half, 1: second,
+    2: separator) with the digits of finished points padded by zeros, so sorting the paths
+    gives the order: each half before its separator, and points in one leaf keep their order.
+    """
+    n, d = points.shape
+    path = np.zeros(n, dtype=np.int64)
+    active = np.arange(n) if n > leaf else np.zeros(0, dtype=np.int64)
+    i, j = np.asarray(pairs, dtype=np.int64).reshape(-1, 2).T
+    for _ in range(MAX_LEVELS):
+        if active.size == 0:
+            break
+        _, part = np.unique(path[active], return_inverse=True)
+        n_parts = int(part.max()) + 1
+        p = points[active]
+        low = np.full((d, n_parts), np.inf)
+        high = np.full((d, n_parts), -np.inf)
+        for k in range(d):
+            np.minimum.at(low[k], part, p[:, k])
+            np.maximum.at(high[k], part, p[:, k])
+        extent = high - low
+        axis = np.argmax(extent, axis=0)[part]
+        row = np.arange(active.size)
+        # part + (coordinate along its widest axis, scaled into [0, 1/2]): one float sort key
+        along = (p[row, axis] - low[axis, part]) / (2 * np.maximum(extent[axis, part], 1e-300))
+        by_coordinate = np.argsort(part + along)
+        size = np.bincount(part, minlength=n_parts)
+        rank = np.empty(active.size, dtype=np.int64)
+        rank[by_coordinate] = np.arange(active.size) - (np.cumsum(size) - size)[part[by_coordinate]]
+        second = rank >= size[part] // 2
+        half = np.zeros(n, dtype=np.int8)  # 0: not being cut, 1: first half, 2: second half
+        half[active] = 1 + second
+        across = half[i] != half[j]
+        first_end = np.where(half[i[across]] == 1, i[across], j[across])
+        second_end = np.where(half[i[across]] == 1, j[across], i[across])
+        on_first = np.zeros(n, dtype=bool)
+        on_second = np.zeros(n, dtype=bool)
+        on_first[first_end] = True
+        on_second[second_end] = True
+        cut_first = np.bincount(part, on_first[active], n_parts) <= np.bincount(
+            part, on_second[active], n_parts
+        )
+        separator = np.where(cut_first[part], on_first[active], on_second[active])
+        path *= 3
+        path[active] += np.where(separator, 2, second)
+        child = 2 * part + second
+        child_size = np.bincount(child[~separator], minlength=2 * n_parts)
+        keep = ~separator & (child_size[child] > leaf)
+        still = np.zeros(n, dtype=bool)
+        still[active[keep]] = True
+        inside = still[i] & still[j] & (half[i] == half[j])
+        i, j, active = i[inside], j[inside], active[keep]
+    return np.argsort(path, kind="stable")
