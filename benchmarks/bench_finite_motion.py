@@ -32,6 +32,20 @@ path, so the target lies beyond it) and whether refinement with the defaults fai
 MAP_IPOPT_S per solve, each cell's continuation and refinement by CELL_BUDGET_S (a
 ``time_budget``).
 
+Part 3 (``--scale``: motion at scale, issue 13).  Medians of REPEATS runs, with the machine's
+load average before and after (``/proc/loadavg``; the machine is shared):
+  * a general (non-periodic) frame of 10⁴ degrees of freedom: two jittered triangulated patches
+    of 2500 nodes (rigid, thousands of self-stresses) joined by two equal parallel bars, a
+    parallelogram linkage whose motion meets a branch point each way (the bars line up with
+    their anchors); ``trace_motion`` with the default step, to both singular points;
+  * the 50 × 50 auxetic sheet (ν = −0.5, 15 202 degrees of freedom) to the end of its strain
+    range, the point where nodes of neighbouring modules collide: the periodic route (one
+    cell traced, tiled, checked and the collision located on the sheet, ``periodic.py``), and
+    once the sheet's own sparse continuation for comparison;
+  * a 3D chain of 64 blocks (``lattice.auxetic_chain_3d``, 2118 degrees of freedom) along its
+    mode to parameter ±0.1.
+Writes <out>/finite_motion_scale.json and <out>/finite_motion_scale.md.
+
 Writes <out>/finite_motion_bench.json and <out>/finite_motion.png (matplotlib, a
 benchmark-only dependency).  The machine may be shared: medians and ratios are the figures to
 quote.  BLAS runs single-threaded so the timings do not fight over the cores.
@@ -589,9 +603,141 @@ def report(summary) -> None:
         )
 
 
+def loadavg() -> str:
+    """The 1-, 5- and 15-minute load averages (the machine is shared by several agents)."""
+    return " ".join(Path("/proc/loadavg").read_text().split()[:3])
+
+
+def parallelogram_of_patches(per_patch: int, angle_deg: float = 75.0):
+    """Two jittered triangulated patches (benchmarks/lattices.py) joined by two equal parallel
+    bars at ``angle_deg`` from their anchors' line: one nontrivial mode, a branch point each way."""
+    from lattices import triangulated_lattice
+
+    from zeromode.solver import Frame
+
+    patch = triangulated_lattice(per_patch, jitter=0.1, seed=0)
+    x, n = patch.positions, patch.n_nodes
+    top = int(np.argmax(x[:, 1] - 0.01 * x[:, 0]))
+    bottom = int(np.argmin(x[:, 1] + 0.01 * x[:, 0]))
+    angle = np.deg2rad(angle_deg)
+    shift = 1.5 * np.ptp(x[:, 0]) * np.array([np.cos(angle), np.sin(angle)])
+    return Frame.build(
+        np.vstack([x, x + shift]),
+        np.vstack([patch.edges, patch.edges + n, [[top, top + n], [bottom, bottom + n]]]),
+    )
+
+
+def sheet_tiling(nx: int, ny: int) -> np.ndarray:
+    """(cell node, cell x, cell y) of each node of lattice.auxetic_sheet(nx, ny): the corner grid
+    first (row-major in y) as node 0 of its cell, then each module's two nodes as nodes 1, 2."""
+    p, q = np.meshgrid(np.arange(nx + 1), np.arange(ny + 1))
+    corners = np.column_stack([np.zeros(p.size, int), p.ravel(), q.ravel()])
+    i, j = np.meshgrid(np.arange(nx), np.arange(ny))
+    cells = np.column_stack([i.ravel(), j.ravel()])
+    inner = [np.column_stack([np.full(len(cells), 1 + s), cells]) for s in (0, 1)]
+    return np.vstack([corners, np.stack(inner, axis=1).reshape(-1, 3)])
+
+
+SCALE_REPEATS = 3
+
+
+def timed_runs(fn, repeats: int = SCALE_REPEATS):
+    """(median wall seconds, last result) over ``repeats`` calls."""
+    times, out = [], None
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        out = fn()
+        times.append(time.perf_counter() - t0)
+    return float(np.median(times)), out
+
+
+def path_row(name: str, frame, seconds: float, path, note: str, strain=None) -> dict:
+    return {
+        "case": name,
+        "dof": frame.dim * frame.n_nodes,
+        "bars": frame.n_edges,
+        "median_s": seconds,
+        "method": path.method,
+        "configurations": len(path.parameter),
+        "singular_points": [
+            {"parameter": sg.parameter, "extra_zero_modes": sg.extra_zero_modes, "sigma": sg.sigma}
+            for sg in path.singularities
+        ],
+        "max_relative_bar_error": path.max_relative_bar_error,
+        "strain_at_end": strain,
+        "note": note,
+    }
+
+
+def motion_at_scale() -> dict:
+    """Part 3 (module docstring)."""
+    from zeromode.solver import lattice as lattices
+    from zeromode.solver.finite_motion import trace_motion
+    from zeromode.solver.periodic import PeriodicCell, tiled_motion, trace_periodic_motion
+
+    rows, load = [], {"before": loadavg()}
+    general = parallelogram_of_patches(2500)
+    seconds, path = timed_runs(lambda: trace_motion(general, amplitude=1.0))
+    rows.append(path_row("general frame, parallelogram of two patches", general, seconds, path, "sparse continuation, both ways to the branch points"))
+    print(rows[-1], flush=True)
+
+    sheet = lattices.auxetic_sheet(50, 50, poisson=-0.5)
+    tiling = sheet_tiling(50, 50)
+    boundary = {k: np.asarray(v) for k, v in sheet.boundary.items()}
+
+    def periodic():
+        cell = PeriodicCell.from_frame(sheet.frame, tiling, [[2.0, 0.0], [0.0, 2.0]])
+        return tiled_motion(sheet.frame, tiling, cell, trace_periodic_motion(cell, amplitude=0.3, direction="forward"))
+
+    def end_strain(p):
+        moved = p.positions[p.singularities[-1].step] if p.singularities else p.positions[-1]
+        return lattices.boundary_strains(sheet.frame.positions, moved - sheet.frame.positions, boundary)[0]
+
+    seconds, path = timed_runs(periodic)
+    rows.append(path_row("auxetic sheet 50 × 50, periodic route", sheet.frame, seconds, path, "cell traced, tiled, checked on the sheet; collision located on the sheet", end_strain(path)))
+    print(rows[-1], flush=True)
+    seconds, path = timed_runs(lambda: trace_motion(sheet.frame, mode=sheet.mode, amplitude=0.3, direction="forward"), 1)
+    rows.append(path_row("auxetic sheet 50 × 50, sheet continuation", sheet.frame, seconds, path, "every node, no periodicity assumed (one run)", end_strain(path)))
+    print(rows[-1], flush=True)
+
+    # lattice.py refuses chains above its MAX_CHAIN_BLOCKS while its states were traced by the
+    # dense continuation; the sparse one lifts that reason, so the benchmark raises the limit.
+    lattices.MAX_CHAIN_BLOCKS = max(lattices.MAX_CHAIN_BLOCKS, 64)
+    chain = lattices.auxetic_chain_3d(64, poisson=-0.5)
+    seconds, path = timed_runs(lambda: trace_motion(chain.frame, mode=chain.mode, amplitude=0.1))
+    rows.append(path_row("3D chain of 64 blocks", chain.frame, seconds, path, "sparse continuation, ±0.1"))
+    print(rows[-1], flush=True)
+    load["after"] = loadavg()
+    return {"rows": rows, "loadavg": load, "repeats": SCALE_REPEATS}
+
+
+def scale_markdown(data: dict) -> str:
+    lines = [
+        "# Finite motion at scale",
+        "",
+        ("Generated by `python benchmarks/bench_finite_motion.py --scale`: medians of "
+        f"{data['repeats']} runs (wall time) on the shared 2-core machine, load average "
+        f"{data['loadavg']['before']} before and {data['loadavg']['after']} after (1, 5, 15 min)."),
+        "",
+        "| case | dN | bars | method | median (s) | configurations | singular points (parameter, extra zero modes, σ/σ_max) | ε_x at the end | max bar error |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in data["rows"]:
+        sing = "; ".join(
+            f"{s['parameter']:+.4f}, {s['extra_zero_modes']}, {s['sigma']:.1e}" for s in r["singular_points"]
+        ) or "none"
+        strain = "" if r["strain_at_end"] is None else f"{r['strain_at_end']:+.4f}"
+        lines.append(
+            f"| {r['case']} | {r['dof']} | {r['bars']} | {r['method']} | {r['median_s']:.1f} | "
+            f"{r['configurations']} | {sing} | {strain} | {r['max_relative_bar_error']:.1e} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="fewer targets and cells (≤ 2 min)")
+    parser.add_argument("--scale", action="store_true", help="only part 3, motion at scale")
     parser.add_argument("--out", help="output folder (default docs/; with --quick a temp folder)")
     parser.add_argument("--replot", action="store_true", help="redraw the PNG from the saved JSON")
     args = parser.parse_args(argv)
@@ -602,6 +748,12 @@ def main(argv=None) -> int:
     else:
         out = Path(__file__).resolve().parents[1] / "docs"
     out.mkdir(parents=True, exist_ok=True)
+    if args.scale:
+        data = motion_at_scale()
+        (out / "finite_motion_scale.json").write_text(json.dumps(json_safe(data), indent=1))
+        (out / "finite_motion_scale.md").write_text(scale_markdown(data))
+        print(f"wrote {out / 'finite_motion_scale.md'}")
+        return 0
     data_file = out / "finite_motion_bench.json"
     if args.replot:
         data = json.loads(data_file.read_text())

@@ -59,6 +59,8 @@ KEEP_RTOL = 1e-3
 # Bundle directions whose energy at k̂ exceeds this (in units of φ(1)) cannot matter to λ_min and
 # would only scale the master badly (Lanczos noise orthonormalised into a stiff direction).
 SOFT_MAX = 100.0
+# Every this many iterations the bound U is also taken from the master without proximal term.
+BOUND_EVERY = 10
 
 
 @dataclass(frozen=True, eq=False)
@@ -129,6 +131,9 @@ def optimal_stiffness(c, span: np.ndarray, uniform: float, time_s: float = TIME_
         if (upper - lower_of(at_hat)) <= GAP_RTOL * upper:
             break
         bundle, aggregate = _next_bundle(bundle, a_v, z, alpha, aggregate, at_k.vectors, span)
+        if iterations % BOUND_EVERY == 0:
+            upper = min(upper, _model_bound(scaled, bundle, aggregate, at_hat, span))
+    upper = min(upper, _model_bound(scaled, bundle, aggregate, at_hat, span))
     lower = lower_of(at_hat)
     return BundleResult(
         lower=lower * uniform,
@@ -145,11 +150,13 @@ def lower_of(pairs) -> float:
     return float(pairs.values[0] - pairs.residuals[0])
 
 
-def _master(a_v: np.ndarray, aggregate, k_hat: np.ndarray, u: float):
+def _master(a_v: np.ndarray, aggregate, k_hat: np.ndarray, u: float, trust: bool = True):
     """The proximal master problem (module docstring) by Clarabel: (k, model value, Z, α).
 
-    Variables (k, λ); maximise λ − (u/2)‖k − k̂‖² subject to Σk = N_B, k̂/ρ ≤ k ≤ ρk̂,
-    Σ_e k_e b_e b_eᵀ − λ I ⪰ 0 (b_e the rows of a_v) and λ ≤ ḡᵀk."""
+    Variables (k, λ); maximise λ − (u/2)‖k − k̂‖² subject to Σk = N_B, k̂/ρ ≤ k ≤ ρk̂ (with
+    ``trust``; else k ≥ 0), Σ_e k_e b_e b_eᵀ − λ I ⪰ 0 (b_e the rows of a_v) and λ ≤ ḡᵀk.
+    With u = 0 and no trust region its value is max_k φ̂(k) ≥ λ*, and its dual (Z, α) the best
+    Y the bundle and the aggregate can offer to the bound U."""
     import clarabel
 
     m, r = a_v.shape
@@ -160,11 +167,16 @@ def _master(a_v: np.ndarray, aggregate, k_hat: np.ndarray, u: float):
     weight = np.where(rows == cols, 1.0, np.sqrt(2.0))
     lmi = (a_v[:, rows] * a_v[:, cols] * weight).T  # (r(r+1)/2, m)
     identity = np.where(rows == cols, 1.0, 0.0)
+    lower = k_hat / TRUST_RATIO if trust else np.zeros(m)
     blocks = [
         (sp.csr_matrix(np.append(np.ones(m), 0.0)), np.array([float(m)]), clarabel.ZeroConeT(1)),
-        (sp.hstack([-sp.identity(m), sp.csr_matrix((m, 1))]), -k_hat / TRUST_RATIO, clarabel.NonnegativeConeT(m)),
-        (sp.hstack([sp.identity(m), sp.csr_matrix((m, 1))]), k_hat * TRUST_RATIO, clarabel.NonnegativeConeT(m)),
+        (sp.hstack([-sp.identity(m), sp.csr_matrix((m, 1))]), -lower, clarabel.NonnegativeConeT(m)),
     ]
+    if trust:
+        blocks.append(
+            (sp.hstack([sp.identity(m), sp.csr_matrix((m, 1))]), k_hat * TRUST_RATIO, clarabel.NonnegativeConeT(m))
+        )
+    aggregate_row = 1 + m * (2 if trust else 1)
     if aggregate is not None:
         blocks.append(
             (sp.csr_matrix(np.append(-aggregate, 1.0)), np.zeros(1), clarabel.NonnegativeConeT(1))
@@ -180,17 +192,27 @@ def _master(a_v: np.ndarray, aggregate, k_hat: np.ndarray, u: float):
     settings.verbose = False
     solution = clarabel.DefaultSolver(p, q, a, b, [blk[2] for blk in blocks], settings).solve()
     x, y = np.asarray(solution.x), np.asarray(solution.z)
-    k = np.clip(x[:m], k_hat / TRUST_RATIO, k_hat * TRUST_RATIO)
+    k = np.clip(x[:m], lower, k_hat * TRUST_RATIO if trust else np.inf)
     k *= m / k.sum()
     dual = y[-len(rows) :] / weight
     z = np.zeros((r, r))
     z[rows, cols] = dual
     z[cols, rows] = dual
-    alpha = float(y[1 + 2 * m]) if aggregate is not None else 0.0
+    alpha = float(y[aggregate_row]) if aggregate is not None else 0.0
     model = float(np.linalg.eigvalsh((a_v * k[:, None]).T @ a_v)[0])
     if aggregate is not None:
         model = min(model, float(aggregate @ k))
     return k, model, z, alpha
+
+
+def _model_bound(scaled, bundle, aggregate, at_hat, span) -> float:
+    """U from the best Y on the bundle, the aggregate and k̂'s smallest eigenvectors: the dual of
+    the master without proximal term or trust region."""
+    vectors = np.column_stack([bundle, at_hat.vectors])
+    vectors = orthonormal_range(vectors - span @ (span.T @ vectors), 1e-8)
+    a_v = scaled @ vectors
+    _, _, z, alpha = _master(a_v, aggregate, np.ones(a_v.shape[0]), 0.0, trust=False)
+    return upper_bound(a_v, z, alpha, aggregate)
 
 
 def _soft_part(scaled, bundle: np.ndarray, k_hat: np.ndarray) -> np.ndarray:
