@@ -267,7 +267,8 @@ def scale_section() -> list[str]:
         f"{before} before and {loadavg()} after (1, 5, 15 min). Optimal-stiffness margins beyond "
         f"p = {SDP_MAX_DIM} come from the spectral bundle route (solver/stiffness.py) up to "
         f"p = {OPTIMAL_MAX_DIM}; its bracket [φ(k̂), U(Y)] is verified outside any solver "
-        "whatever the gap it reached."),
+        "whatever the gap it reached. (The sections above, measured before that route "
+        "existed, show such margins as too_expensive.)"),
         "",
         *rows,
         "",
