@@ -98,11 +98,19 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         ),
     )
     install_error_handlers(app)
-    app.state.settings = settings  # the job store reads its directory and limits here
+    app.state.settings = settings  # the job store reads its directory, limits and settings here
     for module in (health, analyze, certify, design, examples, lattice, plot, export, motion, jobs, viewer):
         app.include_router(module.router)
 
     app.add_middleware(LimitsAndAuth, settings=settings)
+    describe = app.openapi
+
+    def openapi() -> dict:
+        """The document states this app's limits (maxItems, maximum): built under its settings."""
+        with settings_scope(settings):
+            return describe()
+
+    app.openapi = openapi
 
     if settings.cors_origins:
         app.add_middleware(

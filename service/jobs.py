@@ -32,7 +32,7 @@ from typing import Any
 
 from fastapi import HTTPException
 
-from zeromode.service.settings import Settings
+from zeromode.service.settings import Settings, settings_scope
 from zeromode.solver.budget import time_budget
 from zeromode.solver.errors import DomainError
 from zeromode.solver.progress import progress_scope
@@ -244,8 +244,13 @@ class JobStore:
             self._update(job, force=False, progress=fraction, message=message)
 
         try:
-            # A fresh thread starts from an empty context: the request's budget does not apply.
-            with time_budget(self.settings.job_time_budget_s), progress_scope(progress):
+            # A fresh thread starts from an empty context: the request's budget does not apply,
+            # and the app's settings are made current again.
+            with (
+                settings_scope(self.settings),
+                time_budget(self.settings.job_time_budget_s),
+                progress_scope(progress),
+            ):
                 result = job.run()
             self._write(self._result_path(job.state["id"]), result)
         except Exception as exc:  # noqa: BLE001 — every failure is the job's answer

@@ -1,9 +1,13 @@
 """Service settings: one pydantic-settings object, read from ZEROMODE_* environment variables
 and injected into ``create_app``; every limit is enforced with a 4xx naming it.
 
-Nothing reads settings at import time: the app built by ``create_app(settings)`` makes them the
-*current* settings of each request it serves (a context variable set by the ASGI middleware),
-and request validation reads the limits from there (see service/schemas/limits.py).
+Nothing reads settings at import time. The app built by ``create_app(settings)`` makes them the
+*current* settings (a context variable, ``settings_scope``) of each request it serves (set by its
+pure-ASGI middleware), of each job it runs and of the OpenAPI document it describes itself by;
+request validation reads the limits from there (``current_settings``, service/schemas/limits.py).
+A context variable rather than a FastAPI dependency: pydantic checks the limits while it parses a
+body, before any dependency runs, and the same models are validated outside FastAPI too (job
+requests, documents given to ``zeromode plot``), where the environment's settings apply.
 """
 
 from __future__ import annotations
@@ -13,6 +17,7 @@ import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
+from functools import cache
 from typing import Annotated
 
 from pydantic import Field, field_validator
@@ -22,7 +27,10 @@ from pydantic_settings import BaseSettings, NoDecode, SettingsConfigDict
 class Settings(BaseSettings):
     """Limits and deployment options (README, "Errors and limits"). Environment: ZEROMODE_<NAME>."""
 
-    model_config = SettingsConfigDict(env_prefix="ZEROMODE_", frozen=True, extra="forbid")
+    # An empty variable (ZEROMODE_JOB_DIR=) means "the default", as an unset one does.
+    model_config = SettingsConfigDict(
+        env_prefix="ZEROMODE_", env_ignore_empty=True, frozen=True, extra="forbid"
+    )
 
     max_body_bytes: int = Field(default=20_000_000, gt=0, description="Largest request body.")
     max_nodes: int = Field(default=100_000, gt=0, description="Nodes of a frame.")
@@ -59,7 +67,6 @@ class Settings(BaseSettings):
 
 
 _CURRENT: ContextVar[Settings | None] = ContextVar("zeromode_settings", default=None)
-_FROM_ENVIRONMENT: list[Settings] = []
 
 
 @contextmanager
@@ -76,8 +83,9 @@ def current_settings() -> Settings:
     """The settings of the request being served; outside any request (the library, a script
     validating a document), the environment's, read once."""
     settings = _CURRENT.get()
-    if settings is not None:
-        return settings
-    if not _FROM_ENVIRONMENT:
-        _FROM_ENVIRONMENT.append(Settings())
-    return _FROM_ENVIRONMENT[0]
+    return _environment_settings() if settings is None else settings
+
+
+@cache
+def _environment_settings() -> Settings:
+    return Settings()

@@ -192,6 +192,20 @@ def test_an_invalid_job_request_is_refused_at_once_with_the_endpoint_error_body(
     assert_error(r.json()["detail"], "invalid_request")
 
 
+def test_a_job_is_validated_under_its_apps_settings_and_its_answer_is_not_held_to_them(tmp_path):
+    client = app_client(tmp_path, max_nodes=4)
+    frame = SINGULAR_MOTION["frame"]  # four nodes: within the limit; five are not
+    five = {**frame, "positions": [*frame["positions"], [9.0, 9.0]]}
+    r = client.post("/v1/jobs", json={"endpoint": "/v1/analyze", "request": {"frame": five}})
+    assert r.status_code == 422
+    detail = r.json()["detail"]
+    assert_error(detail, "invalid_request")
+    assert detail["message"].startswith("request.frame.positions") and "max_nodes" in detail["message"]
+    status = wait(client, submit(client, "/v1/design", OUTWARD_FOUR))
+    assert status["status"] == "done", status
+    assert len(status["result"]["frame"]["positions"]) == 4 + 4  # four unspecified nodes added
+
+
 @pytest.mark.parametrize("job_id", ["0" * 32, "nope", "A" * 32, "f" * 32 + ".result"])
 def test_unknown_job_ids_are_a_404_with_a_code(client, tmp_path, job_id):
     # A stored job "fff…f" whose result file must not be reachable as the id "fff…f.result".

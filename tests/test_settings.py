@@ -1,8 +1,8 @@
 """Settings injected into create_app govern every limit at request time.
 
 Each limit is exercised twice through the real app: a small setting refuses a request that the
-default settings accept, with a 422 (413 for the body) naming the field and the limit. Two apps
-with different settings serve side by side, so nothing is read from a global at import time.
+default settings accept (200), with a 422 (413 for the body) naming the field and the limit. Two
+apps with different settings serve side by side, so nothing is read from a global at import time.
 """
 
 import json
@@ -12,6 +12,7 @@ from fastapi.testclient import TestClient
 from oracles.frames import SQUARE_CORNERS, SQUARE_LINKAGE
 
 from zeromode.service.app import create_app
+from zeromode.service.examples import example_request
 from zeromode.service.settings import Settings
 
 TRIANGLE = {"dim": 2, "positions": [[0, 0], [1, 0], [0, 1]], "edges": [[0, 1], [1, 2], [0, 2]]}
@@ -50,13 +51,8 @@ def assert_refused(response, field: str, bound) -> None:
             "positions",
             3,
         ),
-        (
-            {"max_motions": 1},
-            "/v1/design",
-            {"dim": 2, "positions": SQUARE_CORNERS, "motions": [SQUARE_CORNERS] * 2},
-            "motions",
-            1,
-        ),
+        # Fig. 4 of the paper: three specified nodes, two motions.
+        ({"max_motions": 1}, "/v1/design", example_request("two_mode_2d"), "motions", 1),
         (
             {"max_samples": 2},
             "/v1/solution-space",
@@ -69,9 +65,7 @@ def assert_refused(response, field: str, bound) -> None:
 )
 def test_each_size_limit_follows_the_injected_settings(default_app, limits, path, body, field, bound):
     assert_refused(app_with(**limits).post(path, json=body), field, bound)
-    # The same request within the default limits is not refused for its size.
-    response = default_app.post(path, json=body)
-    assert response.status_code != 422 or response.json()["detail"]["code"] != "invalid_request"
+    assert default_app.post(path, json=body).status_code == 200
 
 
 def test_body_size_follows_the_injected_settings(default_app):
@@ -98,6 +92,33 @@ def test_refinement_time_is_bounded_by_the_injected_budget():
     assert_refused(app_with(time_budget_s=2.0).post("/v1/refine", json=body), "max_time_s", 2)
 
 
+def test_answers_are_not_held_to_the_request_limits():
+    """Four specified nodes within max_nodes=4; the designed frame has more nodes, and is answered."""
+    body = {"dim": 2, "positions": SQUARE_CORNERS, "motions": [SQUARE_CORNERS]}
+    response = app_with(max_nodes=4, max_edges=4).post("/v1/design", json=body)
+    assert response.status_code == 200, response.text
+    frame = response.json()["frame"]
+    assert len(frame["positions"]) > 4 and len(frame["edges"]) > 4
+
+
+def test_the_openapi_document_states_the_serving_apps_limits():
+    limits = {
+        "max_nodes": 3, "max_edges": 5, "max_specified": 6, "max_motions": 2, "max_samples": 7, "time_budget_s": 8.0
+    }
+    for settings in (Settings(), Settings(**limits)):
+        schemas = app_with(**settings.model_dump()).get("/openapi.json").json()["components"]["schemas"]
+        design = schemas["DesignRequest"]["properties"]
+        assert {
+            "max_nodes": schemas["FrameModel"]["properties"]["positions"]["maxItems"],
+            "max_edges": schemas["FrameModel"]["properties"]["edges"]["maxItems"],
+            "max_specified": design["positions"]["maxItems"],
+            "max_motions": design["motions"]["maxItems"],
+            "max_samples": schemas["SolutionSpaceRequest"]["properties"]["samples"]["maximum"],
+            "time_budget_s": schemas["RefineOptions"]["properties"]["max_time_s"]["maximum"],
+        } == {name: getattr(settings, name) for name in limits}
+        assert "maxItems" not in schemas["ResultFrame"]["properties"]["positions"]
+
+
 def test_two_apps_with_different_settings_serve_side_by_side():
     small, large = app_with(max_nodes=4), app_with(max_nodes=5)
     assert small.post("/v1/analyze", json={"frame": PENTAGON}).status_code == 422
@@ -113,6 +134,8 @@ def test_settings_come_from_the_environment(monkeypatch):
     assert settings.max_nodes == 7
     assert settings.cors_origins == ("https://a.example", "https://b.example")
     assert settings.api_key is None
+    monkeypatch.setenv("ZEROMODE_JOB_DIR", "")  # empty is unset: the default, not the current directory
+    assert Settings().job_dir == Settings.model_fields["job_dir"].default_factory()
     assert_refused(
         TestClient(create_app(), raise_server_exceptions=False).post(
             "/v1/analyze", json={"frame": {"dim": 2, "positions": [[float(i), 0.0] for i in range(8)]}}

@@ -8,9 +8,9 @@ from pydantic import BaseModel, Field, FiniteFloat
 
 from zeromode.service.schemas.common import (
     AnalysisCounts,
-    FrameModel,
     Points,
     RequestModel,
+    ResultFrame,
     SpecifiedPoints,
 )
 from zeromode.service.schemas.tolerance import ToleranceOptions, ToleranceReportModel
@@ -56,6 +56,6 @@ class AllostericReport(BaseModel):
 
 
 class AllostericResponse(BaseModel):
-    frame: FrameModel
+    frame: ResultFrame
     modes: list[Points] = Field(description="The single nontrivial zero mode (N×d); source rows = source motion.")
     report: AllostericReport

@@ -21,18 +21,27 @@ class RequestModel(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
 
-class FrameModel(RequestModel):
-    """A bar-and-joint frame. Node indices are 0-based; an edge and its reverse are the same edge."""
+class ResultFrame(BaseModel):
+    """A bar-and-joint frame. Node indices are 0-based; an edge and its reverse are the same edge.
+    This is the frame a response carries: the service's own answer is not held to request limits."""
 
     dim: Literal[2, 3] = Field(description="Spatial dimension d.")
+    positions: Points = Field(description="N×d node positions (row list).")
+    edges: list[tuple[int, int]] = Field(default_factory=list, description="N_B bars [i, j], i ≠ j.")
+    specified: list[int] = Field(
+        default_factory=list, description="Indices of the specified nodes (default: none)."
+    )
+
+
+class FrameModel(ResultFrame, RequestModel):
+    """A frame in a request: at most max_nodes nodes and max_edges bars (the serving app's
+    settings); an unknown field is refused."""
+
     positions: Annotated[Points, Limited("max_nodes")] = Field(
         description=f"N×d node positions (row list), N {limit_text('max_nodes')}."
     )
     edges: Annotated[list[tuple[int, int]], Limited("max_edges")] = Field(
         default_factory=list, description=f"N_B bars [i, j], i ≠ j; N_B {limit_text('max_edges')}."
-    )
-    specified: list[int] = Field(
-        default_factory=list, description="Indices of the specified nodes (default: none)."
     )
 
 

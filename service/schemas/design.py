@@ -9,9 +9,9 @@ from pydantic import BaseModel, Field
 from zeromode.service.schemas.certify import CertifyResponse
 from zeromode.service.schemas.common import (
     AnalysisCounts,
-    FrameModel,
     Points,
     RequestModel,
+    ResultFrame,
     SpecifiedPoints,
 )
 from zeromode.service.schemas.limits import AtMost, Limited, limit_text
@@ -118,7 +118,7 @@ class DesignReport(BaseModel):
 
 
 class DesignResponse(BaseModel):
-    frame: FrameModel
+    frame: ResultFrame
     modes: list[Points] = Field(description="M full zero modes, N×d; rows 0..k−1 equal the requested motions.")
     report: DesignReport
 
@@ -143,6 +143,6 @@ class TwoConfigurationReport(BaseModel):
 
 
 class TwoConfigurationResponse(BaseModel):
-    frame: FrameModel = Field(description="The frame in its first configuration; the first k nodes are at x_S exactly.")
+    frame: ResultFrame = Field(description="The frame in its first configuration; the first k nodes are at x_S exactly.")
     final_positions: Points = Field(description="N×d second configuration; the first k rows are y_S exactly.")
     report: TwoConfigurationReport

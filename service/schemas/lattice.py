@@ -6,7 +6,7 @@ from typing import Literal
 
 from pydantic import BaseModel, Field, FiniteFloat
 
-from zeromode.service.schemas.common import AnalysisCounts, FrameModel, Points, RequestModel
+from zeromode.service.schemas.common import AnalysisCounts, Points, RequestModel, ResultFrame
 from zeromode.service.schemas.tolerance import ToleranceOptions, ToleranceReportModel
 
 
@@ -51,7 +51,7 @@ class AuxeticReport(BaseModel):
 
 
 class AuxeticResponse(BaseModel):
-    frame: FrameModel
+    frame: ResultFrame
     modes: list[Points] = Field(description="The single nontrivial zero mode (N×d).")
     poisson_ratio: float = Field(
         description="ν = −ε_y/ε_x of the mode: ε is the rate of change of the distance between the mean "

@@ -12,6 +12,7 @@ from zeromode.service.schemas.common import (
     FrameModel,
     Points,
     RequestModel,
+    ResultFrame,
 )
 from zeromode.service.schemas.limits import AtMost, limit_text
 from zeromode.solver.rigidity import DENSE_MAX_DOF
@@ -166,7 +167,7 @@ class RefineRequest(RequestModel):
 
 
 class RefineResponse(BaseModel):
-    frame: FrameModel = Field(description="The refined frame (specified nodes unchanged).")
+    frame: ResultFrame = Field(description="The refined frame (specified nodes unchanged).")
     displacement: Points = Field(
         description="Δ_S, the target displacement of the specified nodes (k×d)."
     )
