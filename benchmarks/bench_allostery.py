@@ -70,7 +70,7 @@ def analytic_design(task: AllosteryTask):
     except DomainError:
         return AnalyticResult(float("nan"), float("inf"), 0, time.perf_counter() - t0)
     elapsed = time.perf_counter() - t0
-    driven = response(result.design, np.asarray(result.source), u[:2])
+    driven = response(result.design.frame, np.asarray(result.source), u[:2])
     eta = pair_strain(x[spec[2:]], driven[list(result.target)]) / pair_strain(x[spec[:2]], driven[list(result.source)])
     return AnalyticResult(eta, abs(eta - task.ratio), result.design.frame.n_edges, elapsed)
 

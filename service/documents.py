@@ -115,6 +115,7 @@ def allosteric(r: AllostericRequest) -> AllostericDesign:
     return design_allosteric(
         r.source.positions, r.source.motion, r.target.positions, r.target.motion,
         dim=r.dim, seed=r.options.seed, relay_spacing=r.options.relay_spacing,
+        relay_growth=r.options.relay_growth,
     )
 
 

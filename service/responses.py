@@ -166,6 +166,7 @@ def auxetic_body(lattice, timings_ms: dict, tolerance: ToleranceReport | None = 
 
 def allosteric_body(result, timings_ms: dict, tolerance: ToleranceReport | None = None) -> dict:
     d = result.design
+    f = result.figures
     body = {
         "frame": frame_body(d.frame, specified=list(result.source) + list(result.target)),
         "modes": d.modes.tolist(),
@@ -174,8 +175,10 @@ def allosteric_body(result, timings_ms: dict, tolerance: ToleranceReport | None 
             "source": list(result.source),
             "target": list(result.target),
             "relays": list(result.relays),
-            "achieved_target_motion": result.achieved_target_motion.tolist(),
-            "target_error": result.target_error,
+            "achieved_target_motion": f.achieved_target_motion.tolist(),
+            **figures_body(f),
+            "modules": result.modules,
+            "chain": chain_body(result.options, result.site_size),
             "distance": result.distance,
             "unspecified_nodes": d.frame.n_nodes - len(result.source) - len(result.target),
             "bars": d.frame.n_edges,
@@ -186,6 +189,37 @@ def allosteric_body(result, timings_ms: dict, tolerance: ToleranceReport | None 
     if tolerance is not None:
         body["report"]["tolerance"] = tolerance_body(tolerance)
     return body
+
+
+def figures_body(f) -> dict:
+    """The accuracy and robustness figures of an allosteric answer (allostery.ResponseFigures)."""
+    return {
+        "target_error": f.target_error,
+        "gap": f.gap,
+        "sensitivity": f.sensitivity,
+        "motion_sensitivity": f.motion_sensitivity,
+        "perturbation": f.perturbation,
+    }
+
+
+def chain_body(options, site_size: float) -> dict:
+    """The chain parameters of an allosteric design (allostery.ChainOptions), relay_spacing in
+    the request's units."""
+    return {
+        "relay_spacing": options.port * site_size,
+        "relay_growth": options.growth,
+        "module_aspect": options.aspect,
+        "seed": options.seed,
+    }
+
+
+def inaccurate_design_body(exc) -> dict:
+    """The 422 detail of allostery.InaccurateDesign: code, message and the best figures found
+    with the chain that gave them (``best``: null when no attempt could be built)."""
+    best = None
+    if exc.best is not None:
+        best = {**json_safe(figures_body(exc.best)), "chain": chain_body(exc.options, exc.site_size)}
+    return {"code": exc.code, "message": exc.message, "best": best}
 
 
 # ----------------------------------------------------------------------------- finite motion

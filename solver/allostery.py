@@ -1,95 +1,608 @@
-"""Allosteric response by coupled modules (paper, "Combining Network Modes…": long-range
-coupled conformational regulation, and "Combining Networks Through Judicious Constraint
-Placement").
+"""Allosteric response by a chain of coupled modules (paper, Fig. 5e–g: "long-range coupled
+conformational regulation"; "Combining Networks Through Judicious Constraint Placement").
 
 A source site (nodes x_src moving with u_src) must drive a distant target site (nodes x_tgt)
-through a prescribed motion u_tgt.  Both sites become specified nodes of one design whose only
-nontrivial zero mode is (u_src, u_tgt): driving the source then moves the target exactly as
-prescribed, to linear order.  When the sites are far apart, relay nodes are laid along the
-segment between them (a zig-zag band, so no relay module is degenerate); each relay moves with
-a blend of the affine fields fitted to the source and target motions,
-    u(x) = (1 − τ(x))·F_src(x) + τ(x)·F_tgt(x),   τ = position along the segment in [0, 1],
-and the judicious placement couples local modules (anchor sets) from source to target.
-The relays are unspecified from the user's point of view; they are listed in the report.
+through a prescribed motion u_tgt: the designed frame's only nontrivial zero mode has rows
+u_src and u_tgt exactly, so driving the source moves the target as prescribed, to linear order.
+
+Construction, in canonical coordinates (``Similarity``: source centroid at the origin, the axis
+to the target centroid along e_1, lengths in units of the site size, motions in units of the
+source's RMS motion), so that every choice is free of translation, rotation and scale:
+  * ports — relay sites laid along the axis: in 2D a rung of 2 nodes across the axis stretched
+    along itself, in 3D a triangle across the axis dilated in its plane (each motion non-rigid
+    on its port, which is all a port needs). From each site the ports grow geometrically, size
+    a_{j+1} = g·a_j, one module length λ·a_j apart, until they meet in the middle;
+  * modules — each pair of consecutive ports (or a site and a port) is joined by unspecified
+    nodes placed on solution spaces (hierarchy.place_module): the port nearer its own site is
+    tied to the frame built so far, so the union keeps exactly one nontrivial zero mode and no
+    self-stress (argument in hierarchy's docstring). The ports' motions are chosen, not fitted:
+    nothing is approximated, so the mode is exact at any distance;
+  * the growth modules are similar copies of one module (port 1 → port g at distance λ), designed
+    once; with g > 1 a distance D needs O(log_g D) modules, the small modules sit only next to
+    the sites, and the response's sensitivity to node positions (measured in site units) stays
+    bounded instead of adding up over D/a identical relays.
+Sites closer than two module lengths are joined directly by one design (design.design).
+
+Every answer carries its accuracy (target error, from the frame's own zero modes), the
+relative singular-value gap of the designed mode and the linear sensitivity of the response
+(``ResponseFigures``). An answer with target error above TARGET_ERROR_MAX or gap below
+GAP_FLOOR is not returned: other port sizes, growths, module lengths and seeds are tried
+(``ALTERNATIVES``) and, if none meets both, DomainError ``inaccurate_design`` reports the best.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import itertools
+import math
+from dataclasses import dataclass, replace
+from functools import lru_cache
 
 import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
-from zeromode.solver.design import Design, design
+from zeromode.solver.budget import check_budget
+from zeromode.solver.design import (
+    Design,
+    check_motions_nonrigid,
+    check_specified_distinct,
+    design,
+    verify,
+)
+from zeromode.solver.eigen import smallest_eigenpairs
 from zeromode.solver.errors import DomainError, InvalidInput
-from zeromode.solver.frame import check_positions
-from zeromode.solver.normalisation import rms_radius
-from zeromode.solver.rigidity import rigid_motions
+from zeromode.solver.factorisation import cholesky
+from zeromode.solver.frame import Frame, check_positions
+from zeromode.solver.hierarchy import Module, module_gap, place_module, tied_space
+from zeromode.solver.normalisation import Normalisation, rms_radius, unit_scaled
+from zeromode.solver.placement import target_zero_modes
+from zeromode.solver.rank import orthonormal_range
+from zeromode.solver.rigidity import compatibility_matrix, rigid_motions
 from zeromode.solver.tolerances import DISTINCT_RTOL
+
+# An answer's target error ‖achieved − u_tgt‖/‖u_tgt‖ must not exceed this (the issue's floor);
+# an exact construction reaches ~1e-13, so this leaves four decades for the frame's conditioning.
+TARGET_ERROR_MAX = 1e-9
+# The relative singular-value gap σ_min/σ_max of the unit compatibility matrix past the designed
+# zero modes must reach this: well-built chains have 1e-3 … 1e-2 (measured, benchmarks/
+# bench_allostery.py); below 1e-6 a second soft mode is six decades from being a zero mode and
+# the frame's own rank decisions (RANK_RTOL = 1e-9 of C) are no longer safely away from it.
+GAP_FLOOR = 1e-6
+# The stated perturbation of the sensitivity figure: node displacements of Euclidean norm
+# PERTURBATION × the site size (all nodes together, worst direction).
+PERTURBATION = 1e-6
+# A chain of more modules is refused before any work (too_expensive): ~1 ms per module copy, but
+# the frame's analysis and figures grow with it; 400 modules is ~1600 nodes in 2D.
+MAX_MODULES = 400
+# Default ports: the first is DEFAULT_PORT site sizes across; they grow by DEFAULT_GROWTH per
+# module; a module is DEFAULT_ASPECT times its smaller port long.
+DEFAULT_PORT, DEFAULT_GROWTH, DEFAULT_ASPECT = 2.0, 2.0, 1.0
+# Sites whose facing fronts are closer than this many first-port lengths are designed directly.
+DIRECT_GAP = 2.0
+# Above this many bars the figures use sparse factorisations instead of dense matrices.
+DENSE_MAX_BARS = 1500
+
+
+@dataclass(frozen=True)
+class ChainOptions:
+    """port: size of the first port next to each site (site units); growth g ≥ 1; aspect λ:
+    module length per smaller-port size; seed of the module placements."""
+
+    port: float = DEFAULT_PORT
+    growth: float = DEFAULT_GROWTH
+    aspect: float = DEFAULT_ASPECT
+    seed: int = 0
+
+
+# The alternatives tried, in order, when an answer misses the floors (fields a caller fixed
+# through relay_spacing / relay_growth are kept).
+ALTERNATIVES = (
+    {},
+    {"seed": 1},
+    {"aspect": 0.75},
+    {"aspect": 1.5},
+    {"port": 1.0},
+    {"port": 4.0},
+    {"growth": 1.5},
+    {"growth": 3.0},
+    {"seed": 2, "aspect": 1.25},
+)
+
+
+@dataclass(frozen=True, eq=False)
+class ResponseFigures:
+    """How well a frame does what it was designed for.
+
+    achieved_target_motion (k_tgt, d): the target rows of the response to the source motion,
+    solved from the frame's own zero modes (``response``); target_error: ‖achieved − u_tgt‖ /
+    ‖u_tgt‖; gap: σ_min/σ_max of the unit compatibility matrix beyond the designed zero modes;
+    sensitivity: the largest relative change of the target site's shape change (its motion
+    modulo rigid motions of the site) when the nodes move by ``perturbation`` site sizes (all
+    together, Euclidean norm, worst direction); motion_sensitivity: the same for the target's
+    whole motion, rigid part included (grows with the distance: a lever). See linear_figures.
+    """
+
+    achieved_target_motion: np.ndarray
+    target_error: float
+    gap: float
+    sensitivity: float
+    motion_sensitivity: float
+    perturbation: float = PERTURBATION
+
+    def acceptable(self) -> bool:
+        return self.target_error <= TARGET_ERROR_MAX and self.gap >= GAP_FLOOR
+
+    def rank(self) -> tuple:
+        """Ordering key, best first: meets the floors, then error (to a decade), then gap."""
+        return (not self.acceptable(), round(math.log10(max(self.target_error, 1e-300))), -self.gap)
 
 
 @dataclass(frozen=True, eq=False)
 class AllostericDesign:
-    """The design (specified = source nodes, then target nodes), and what it achieves.
-
-    achieved_target_motion: (k_tgt, d), the target rows of the response to the source motion,
-    solved independently from the frame's zero-mode space.
-    """
+    """The design (frame nodes: source, then target, then relays and unspecified nodes), and what
+    it achieves. relays: the port nodes between the sites; modules: how many modules the chain
+    has (1 for a direct design); options: the chain parameters that produced it (port in site
+    sizes); site_size: the site size s in the caller's units (the canonical length)."""
 
     design: Design
     source: tuple[int, ...]
     target: tuple[int, ...]
     relays: tuple[int, ...]
-    achieved_target_motion: np.ndarray
-    target_error: float
+    figures: ResponseFigures
     distance: float
+    modules: int
+    options: ChainOptions
+    site_size: float
+
+    @property
+    def achieved_target_motion(self) -> np.ndarray:
+        return self.figures.achieved_target_motion
+
+    @property
+    def target_error(self) -> float:
+        return self.figures.target_error
 
 
-def fit_affine(x: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Least-norm affine field u ≈ A x + t through the given node motions: (A (d, d), t (d,))."""
-    d = x.shape[1]
-    design_matrix = np.hstack([x, np.ones((len(x), 1))])
-    coef, *_ = np.linalg.lstsq(design_matrix, u, rcond=None)
-    return coef[:d].T, coef[d]
+class InaccurateDesign(DomainError):
+    """No alternative met the floors; ``best`` holds the figures of the best attempt and
+    ``options`` its chain options (None when every attempt failed to build); site_size as in
+    AllostericDesign."""
+
+    def __init__(self, message: str, best: ResponseFigures | None, options: ChainOptions | None, site_size: float):
+        super().__init__("inaccurate_design", message)
+        self.best = best
+        self.options = options
+        self.site_size = site_size
 
 
-def relay_nodes(x_src, u_src, x_tgt, u_tgt, spacing: float) -> tuple[np.ndarray, np.ndarray]:
-    """Relay positions (r, d) on a zig-zag band between the sites and their blended motions."""
-    d = x_src.shape[1]
-    c_src, c_tgt = x_src.mean(axis=0), x_tgt.mean(axis=0)
-    axis = c_tgt - c_src
-    length = float(np.linalg.norm(axis))
-    axis /= length
-    gap_start = np.max((x_src - c_src) @ axis) + 0.5 * spacing
-    gap_end = length + np.min((x_tgt - c_tgt) @ axis) - 0.5 * spacing
-    count = int(np.floor((gap_end - gap_start) / spacing)) + 1 if gap_end > gap_start else 0
-    if count <= 0:
-        return np.zeros((0, d)), np.zeros((0, d))
-    normals = np.linalg.svd(axis[None, :])[2][1:]  # (d−1, d), orthonormal ⟂ axis
-    s = np.linspace(gap_start, gap_end, count)
-    half = 0.5 * spacing
-    offsets = [normals[0] * half, -normals[0] * half]
-    if d == 3:
-        offsets = [normals[0] * half, normals[1] * half, -normals[0] * half - normals[1] * half]
-    positions = np.array([c_src + si * axis + off for i, si in enumerate(s) for off in np.roll(offsets, i % 2, axis=0)])
-    a_src, t_src = fit_affine(x_src, u_src)
-    a_tgt, t_tgt = fit_affine(x_tgt, u_tgt)
-    tau = np.clip(((positions - c_src) @ axis) / length, 0.0, 1.0)[:, None]
-    motions = (1 - tau) * (positions @ a_src.T + t_src) + tau * (positions @ a_tgt.T + t_tgt)
-    return positions, motions
+# ----------------------------------------------------------------------------- canonical frame
 
 
-def response(design_result: Design, source: np.ndarray, source_motion: np.ndarray) -> np.ndarray:
-    """The motion of every node (N, d) when the source nodes are driven with ``source_motion``:
-    the zero mode u ∈ N(C) = rigid ⊕ span(modes) whose source rows best match it (least squares),
-    computed from the frame's own analysis — independent of how the design was built."""
-    frame, analysis = design_result.frame, design_result.analysis
+@dataclass(frozen=True)
+class Similarity:
+    """y = R(x − origin)/length, v = R u/speed: the canonical coordinates of a request.
+
+    rotation R (d, d) has the canonical axes as rows: e_1 from the source to the target
+    centroid, then axes chosen from the source site's shape (``_axes``)."""
+
+    origin: np.ndarray
+    rotation: np.ndarray
+    length: float
+    speed: float
+
+    def positions_in(self, x: np.ndarray) -> np.ndarray:
+        return (x - self.origin) @ self.rotation.T / self.length
+
+    def positions_out(self, y: np.ndarray) -> np.ndarray:
+        return self.origin + self.length * (y @ self.rotation)
+
+    def motions_in(self, u: np.ndarray) -> np.ndarray:
+        return u @ self.rotation.T / self.speed
+
+    def motions_out(self, v: np.ndarray) -> np.ndarray:
+        return self.speed * (v @ self.rotation)
+
+
+def canonical(x_src: np.ndarray, u_src: np.ndarray, x_tgt: np.ndarray) -> Similarity:
+    """The Similarity of a request: origin the source centroid, length the larger site's RMS
+    radius, speed the source motion's RMS size, axes from ``_axes``."""
+    length = max(rms_radius(x_src), rms_radius(x_tgt))
+    y, m = unit_scaled(u_src)
+    speed = m * float(np.sqrt(np.mean(np.sum(y**2, axis=1))))
+    origin = x_src.mean(axis=0)
+    axis = (x_tgt.mean(axis=0) - origin) / length
+    return Similarity(origin, _axes(axis, (x_src - origin) / length, (x_tgt - origin) / length), length, speed)
+
+
+def _axes(axis: np.ndarray, *clouds: np.ndarray) -> np.ndarray:
+    """Orthonormal rows: e_1 = axis/|axis|, then (3D) the direction across the axis along which
+    the first non-symmetric cloud spreads most (sign: positive third moment), then e_1 × e_2.
+
+    Rotating the request rotates these axes with it, so canonical coordinates are rotation-free;
+    only sites symmetric about the axis leave the choice to the coordinate axes."""
+    d = len(axis)
+    norm = float(np.linalg.norm(axis))
+    e1 = axis / norm if norm > DISTINCT_RTOL else np.eye(d)[0]
+    if d == 2:
+        return np.array([e1, [-e1[1], e1[0]]])
+    across = np.eye(3) - np.outer(e1, e1)
+    for cloud in clouds:
+        p = (cloud - cloud.mean(axis=0)) @ across
+        values, vectors = np.linalg.eigh(p.T @ p)
+        if values[2] - values[1] > 1e-6 * max(values[2], 1e-300):
+            e2 = vectors[:, 2]
+            skew = float(np.sum((p @ e2) ** 3))
+            e2 = -e2 if skew < 0 else e2
+            break
+    else:
+        e2 = across[np.argmin(np.abs(e1))]
+        e2 = e2 / np.linalg.norm(e2)
+    return np.array([e1, e2, np.cross(e1, e2)])
+
+
+# ----------------------------------------------------------------------------- ports and plan
+
+
+def port(d: int, t: float, size: float, mirrored: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """A port of ``size`` across the axis at e_1-coordinate t: positions and motion (p, d).
+
+    2D: a rung (t, ±size/2), stretched along itself (motion ±size/2 · e_2).
+    3D: an equilateral triangle of circumradius size/2 in the plane e_1 = t, dilated in its
+    plane (motion = its offset from the axis). Both motions are non-rigid on the port and scale
+    with it (constant strain). ``mirrored`` reflects e_1 (ports built from the target side)."""
+    if d == 2:
+        offsets = np.array([[0.0, -0.5], [0.0, 0.5]])
+    else:
+        angles = 2 * np.pi * np.arange(3) / 3
+        offsets = 0.5 * np.column_stack([np.zeros(3), np.cos(angles), np.sin(angles)])
+    positions = size * offsets
+    positions[:, 0] += t
+    motion = size * offsets
+    if mirrored:
+        motion = motion * np.r_[-1.0, np.ones(d - 1)]
+    return positions, motion
+
+
+@dataclass(frozen=True)
+class Plan:
+    """Port positions along e_1 and sizes (site units): source side outward, target side
+    outward (decreasing e_1)."""
+
+    source_ports: tuple[tuple[float, float], ...]
+    target_ports: tuple[tuple[float, float], ...]
+
+    @property
+    def modules(self) -> int:
+        return len(self.source_ports) + len(self.target_ports) + 1
+
+
+def estimated_modules(gap: float, options: ChainOptions) -> int:
+    """Modules a chain across ``gap`` (site units) will need, before planning it: gap/(λa) for
+    uniform ports, else two geometric sums Σ λ a gʲ reaching gap/2 each."""
+    step = options.aspect * options.port
+    if gap <= 0:
+        return 1
+    if options.growth == 1.0:
+        return int(gap / step) + 1
+    return 2 * int(math.log(1 + gap * (options.growth - 1) / (2 * step), options.growth)) + 3
+
+
+def plan_chain(front_src: float, front_tgt: float, options: ChainOptions) -> Plan:
+    """Ports between the sites' facing fronts (e_1-coordinates, site units).
+
+    Each step adds a port on the side whose next port is smaller (source first on ties), one
+    module length (λ × the previous port, or λ × the first port next to a site) beyond its
+    front, g times the previous port (the first is ``options.port``), provided a module length
+    λ·max(both fronts) still separates it from the other side; then one adapter module joins the
+    two fronts. No port fits: the sites are joined directly."""
+    a0, g, lam = options.port, options.growth, options.aspect
+    sides = [[front_src, None, []], [front_tgt, None, []]]  # front, last size, ports
+    direction = (1.0, -1.0)
+    while True:
+        check_budget()
+        nxt = [a0 if s[1] is None else g * s[1] for s in sides]
+        moved = False
+        for i in sorted((0, 1), key=lambda i: nxt[i]):
+            front, last, ports = sides[i]
+            t = front + direction[i] * lam * (a0 if last is None else last)
+            other_front, other_last, _ = sides[1 - i]
+            room = (other_front - t) * direction[i]
+            if room >= lam * max(nxt[i], a0 if other_last is None else other_last):
+                ports.append((t, nxt[i]))
+                sides[i][0], sides[i][1] = t, nxt[i]
+                moved = True
+                break
+        if not moved:
+            return Plan(tuple(sides[0][2]), tuple(sides[1][2]))
+
+
+# ----------------------------------------------------------------------------- modules
+
+
+@lru_cache(maxsize=64)
+def growth_module(d: int, growth: float, aspect: float, seed: int) -> Module:
+    """The module from a tied port of size 1 at e_1 = 0 to a free port of size g at e_1 = λ
+    (canonical units), designed once and copied along every chain with these parameters."""
+    x_a, u_a = port(d, 0.0, 1.0)
+    x_b, u_b = port(d, aspect, growth)
+    return _module((x_a, u_a, True), (x_b, u_b, False), seed)[0]
+
+
+def _module(a, b, seed: int) -> tuple[Module, float]:
+    """A module between node groups (positions, motion, tied) and its gap
+    (hierarchy.module_gap): a tied group may move only as the frame built before it allows
+    (hierarchy.tied_space), a free one in any way."""
+    d = a[0].shape[1]
+    null = sla.block_diag(*(tied_space(x, u) if tied else np.eye(x.size) for x, u, tied in (a, b)))
+    target = target_zero_modes(d, 1)
+    module = place_module(np.vstack([a[0], b[0]]), np.vstack([a[1], b[1]]), null, target, seed)
+    return module, module_gap(module, null, target)
+
+
+@dataclass(frozen=True)
+class Side:
+    """Where one side's ports sit: rotated by ``twist`` about e_1 and shifted across it by
+    ``offset`` (site units along e_2) — a rigid motion, so growth copies stay valid — and
+    reflected along e_1 on the target side (``mirrored``)."""
+
+    mirrored: bool
+    twist: float = 0.0
+    offset: float = 0.0
+
+    def rotation(self, d: int) -> np.ndarray:
+        if d == 2:
+            return np.eye(2)
+        c, s = math.cos(self.twist), math.sin(self.twist)
+        return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+
+    def place(self, y: np.ndarray, v: np.ndarray, t: float = 0.0, scale: float = 1.0):
+        """Canonical positions and motions of a port or module drawn at e_1 = 0 with size 1:
+        scaled, reflected, rotated, then moved to e_1 = t and across by ``offset``."""
+        d = y.shape[1]
+        flip = np.r_[-1.0 if self.mirrored else 1.0, np.ones(d - 1)]
+        r = self.rotation(d)
+        shift = np.r_[t, self.offset, np.zeros(d - 2)]
+        return (scale * y * flip) @ r.T + shift, (scale * v * flip) @ r.T
+
+
+# Where the first port next to a site may sit (twist about e_1 in turns of the port's symmetry,
+# offset across the axis in first-port sizes): the site module with the best gap is kept,
+# stopping at the first one reaching SITE_GAP_GOOD.
+SIDE_VARIANTS = ((0.0, 0.0), (1 / 3, 0.0), (2 / 3, 0.0), (0.0, 0.25), (0.0, -0.25), (1 / 2, 0.25))
+SITE_GAP_GOOD = 1e-2
+
+
+class _Assembly:
+    """The chain's nodes and bars in canonical coordinates; given nodes of a module are merged
+    with the nodes already there (same indices), its unspecified nodes appended."""
+
+    def __init__(self, x: np.ndarray, u: np.ndarray):
+        self.positions = [x]
+        self.motions = [u]
+        self.count = len(x)
+        self.edges: list[np.ndarray] = []
+        self.anchor_sets: list[tuple[int, ...]] = []
+
+    def add_nodes(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        index = np.arange(self.count, self.count + len(x))
+        self.positions.append(x)
+        self.motions.append(u)
+        self.count += len(x)
+        return index
+
+    def add_module(self, module: Module, given: np.ndarray, x: np.ndarray, u: np.ndarray) -> None:
+        """Add a module whose given nodes are the nodes ``given`` and whose unspecified nodes
+        sit at x (n, d) moving with u (n, d)."""
+        new = self.add_nodes(x, u)
+        edges = np.concatenate([given, new])[module.edges]
+        self.edges.append(edges)
+        for j in new:
+            self.anchor_sets.append(tuple(sorted(edges[edges[:, 1] == j, 0].tolist())))
+
+    def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        edges = np.vstack(self.edges) if self.edges else np.zeros((0, 2), dtype=int)
+        return np.vstack(self.positions), np.vstack(self.motions), edges
+
+
+def _site_module(y, v, ports, mirrored: bool, options: ChainOptions):
+    """The module from a site (free) to its first port (free), over SIDE_VARIANTS: (Side,
+    module, gap) of the best one."""
+    d = y.shape[1]
+    t, size = ports[0]
+    x_unit, u_unit = port(d, 0.0, 1.0)
+    best = None
+    for turn, shift in SIDE_VARIANTS if d == 3 else [v for v in SIDE_VARIANTS if v[0] == 0.0]:
+        side = Side(mirrored, turn * 2 * math.pi / 3, shift * size)
+        x_p, u_p = side.place(x_unit, u_unit, t, size)
+        try:
+            module, gap = _module((y, v, False), (x_p, u_p, False), options.seed)
+        except DomainError:
+            continue
+        if best is None or gap > best[2]:
+            best = (side, module, gap)
+        if gap >= SITE_GAP_GOOD:
+            break
+    if best is None:
+        raise DomainError("no_solution", "no module joins the site to its first relay.")
+    return best
+
+
+def build_chain(y_src, v_src, y_tgt, v_tgt, plan: Plan, options: ChainOptions):
+    """The chain of ``plan`` in canonical coordinates: (positions, motion, edges, anchor sets,
+    relay node indices), or None when the plan has no port. Nodes: source, target, then each
+    module's new nodes in build order."""
+    if not plan.source_ports and not plan.target_ports:
+        return None
+    d = y_src.shape[1]
+    asm = _Assembly(np.vstack([y_src, y_tgt]), np.vstack([v_src, v_tgt]))
+    k_src = len(y_src)
+    sites = ((np.arange(k_src), y_src, v_src), (np.arange(k_src, k_src + len(y_tgt)), y_tgt, v_tgt))
+    x_unit, u_unit = port(d, 0.0, 1.0)
+    relays: list[int] = []
+    fronts = []
+    for (index, y, v), ports, mirrored in zip(sites, (plan.source_ports, plan.target_ports), (False, True)):
+        if not ports:
+            fronts.append((index, y, v, False))
+            continue
+        side, module, _ = _site_module(y, v, ports, mirrored, options)
+        x_p, u_p = side.place(x_unit, u_unit, *ports[0])
+        p_index = asm.add_nodes(x_p, u_p)
+        k = module.given
+        asm.add_module(module, np.concatenate([index, p_index]), module.positions[k:], module.motion[k:])
+        relays.extend(p_index.tolist())
+        base = growth_module(d, options.growth, options.aspect, options.seed)
+        for (t0, a0), (t1, a1) in itertools.pairwise(ports):
+            previous = p_index
+            x_p, u_p = side.place(x_unit, u_unit, t1, a1)
+            p_index = asm.add_nodes(x_p, u_p)
+            x_new, u_new = side.place(base.positions[base.given :], base.motion[base.given :], t0, a0)
+            asm.add_module(base, np.concatenate([previous, p_index]), x_new, u_new)
+            relays.extend(p_index.tolist())
+        fronts.append((p_index, x_p, u_p, True))
+    (i_a, x_a, u_a, tied_a), (i_b, x_b, u_b, tied_b) = fronts
+    module, _ = _module((x_a, u_a, tied_a), (x_b, u_b, tied_b), options.seed)
+    asm.add_module(module, np.concatenate([i_a, i_b]), module.positions[module.given :], module.motion[module.given :])
+    positions, motion, edges = asm.arrays()
+    return positions, motion, edges, tuple(asm.anchor_sets), tuple(relays)
+
+
+# ----------------------------------------------------------------------------- figures
+
+
+def response(frame: Frame, source, source_motion: np.ndarray) -> np.ndarray:
+    """The motion w (N, d) of every node when the source nodes are driven with ``source_motion``:
+    the zero mode with w_S = u_S, from the frame alone — independent of how it was built.
+
+    Q w = 0 with the source rows fixed is Q_F w_F = −Q_S u_S (Q = diag(1/ℓ)·C on the normalised
+    frame, F the other rows), solved in least squares: dense QR up to DENSE_MAX_BARS bars,
+    else the corrected semi-normal equations (one sparse Cholesky factor of Q_Fᵀ Q_F, then one
+    correction from the residual, which brings the error from κ²ε down to κε). Raises
+    DomainError ``no_solution`` when the response is not unique (a zero mode moves some node
+    while the source stays still)."""
     n, d = frame.n_nodes, frame.dim
-    basis = np.column_stack(
-        [m.ravel() for m in analysis.modes] + [rigid_motions(frame.normalised_positions())]
-    )
-    rows = (source[:, None] * d + np.arange(d)).ravel()
-    coef, *_ = np.linalg.lstsq(basis[rows], source_motion.ravel(), rcond=None)
-    return (basis @ coef).reshape(n, d)
+    q, _ = _unit_rows(frame.normalised_positions(), frame.edges)
+    rows = (np.asarray(source)[:, None] * d + np.arange(d)).ravel()
+    free = np.setdiff1d(np.arange(n * d), rows)
+    q = q.tocsc()
+    q_f = q[:, free]
+    b = -(q[:, rows] @ np.ravel(source_motion))
+    if q.shape[0] <= DENSE_MAX_BARS:
+        dense = q_f.toarray()
+        w_f, _, rank, _ = np.linalg.lstsq(dense, b, rcond=None)
+        unique = rank == len(free)
+    else:
+        try:
+            factor = cholesky((q_f.T @ q_f).tocsc())
+        except ArithmeticError:
+            unique = False
+        else:
+            w_f = factor.solve(q_f.T @ b)
+            w_f += factor.solve(q_f.T @ (b - q_f @ w_f))
+            unique = True
+    if not unique:
+        raise DomainError("no_solution", "the response is not unique: a zero mode moves nodes while the source stays still.")
+    w = np.zeros(n * d)
+    w[rows], w[free] = np.ravel(source_motion), w_f
+    return w.reshape(n, d)
+
+
+def _unit_rows(x: np.ndarray, edges: np.ndarray, u: np.ndarray | None = None):
+    """Q = diag(1/ℓ)·C(x) (sparse, N_B × dN): C with unit bar directions; with ``u``, also
+    diag(1/ℓ)·C(u), the compatibility matrix built from u in place of the positions."""
+    lengths = np.linalg.norm(x[edges[:, 0]] - x[edges[:, 1]], axis=1)
+    scale = sp.diags(1.0 / lengths)
+    q = scale @ compatibility_matrix(x, edges)
+    return (q, None) if u is None else (q, scale @ compatibility_matrix(u, edges))
+
+
+def linear_figures(frame: Frame, mode: np.ndarray, source, target, site_size: float) -> tuple[float, float, float]:
+    """(gap, κ_shape, κ_motion) of a frame whose zero modes are rigid ⊕ span(mode), no self-stress.
+
+    gap = σ_min(Q)/σ_max(Q) on N(C)^⊥, Q = diag(1/ℓ)·C the unit compatibility matrix (N(Q) =
+    N(C); unit rows make it free of the bar-length spread of multi-scale frames): how far the
+    softest undesigned motion is from being a zero mode (eigen.smallest_eigenpairs on QᵀQ with
+    N(C) deflated).
+
+    Sensitivities. The response to the source motion u_S is w = N N_S⁺ u_S (N an orthonormal
+    basis of N(C), N_S its source rows, full column rank). Move the nodes by δx: C is bilinear,
+    C(x)u = C(u)x, so the continued zero mode u + δu satisfies C(x) δu = −C(u) δx, solved by
+    δu_p = −C⁺ C(u) δx with C⁺ = Qᵀ(QQᵀ)⁻¹ diag(1/ℓ) (no self-stress: QQᵀ is invertible);
+    keeping the source rows at u_S (least squares over N) removes N N_S⁺ P_S δu_p, so
+        δw_T = J δx,   J = −P_T (I − N N_S⁺ P_S) Qᵀ (QQᵀ)⁻¹ diag(1/ℓ) C(u)
+    (the linearisation of tolerance.py's target_response, there as an RMS under uniform pin
+    errors). With s = ``site_size`` and Π = I − R_T R_Tᵀ the projector off the rigid motions of
+    the target site:
+        κ_motion = ‖J‖₂ s / ‖u_T‖: the largest relative change of the target's motion per
+            perturbation of Euclidean norm s (all nodes together);
+        κ_shape = ‖Π J‖₂ s / ‖Π u_T‖: the same for the target's change of shape (its motion
+            modulo rigid motions of the site).
+    Any long frame turns an angle error near the source into a displacement of the far end
+    proportional to the distance, so κ_motion grows with it; κ_shape — what the target site
+    does — need not. Jᵀ comes from one factorisation of QQᵀ and k_tgt·d solves.
+    """
+    d = frame.dim
+    norm = Normalisation.of(frame.positions)
+    x = norm.positions_in(frame.positions)
+    u = mode / np.max(np.abs(mode))
+    q, cu = _unit_rows(x, frame.edges, u)
+    null = orthonormal_range(np.column_stack([rigid_motions(x), u.ravel()]))
+    gram_t = (q.T @ q).tocsc()
+    low = smallest_eigenpairs(gram_t, 1, deflate=null).values[0]
+    if q.shape[0] > DENSE_MAX_BARS:
+        top = float(spla.eigsh(gram_t, k=1, which="LA", return_eigenvectors=False)[0])
+    else:
+        top = float(np.linalg.norm(q.toarray(), 2) ** 2)
+    gap = float(np.sqrt(max(low, 0.0) / top))
+    src = (np.asarray(source)[:, None] * d + np.arange(d)).ravel()
+    tgt = (np.asarray(target)[:, None] * d + np.arange(d)).ravel()
+    w = np.zeros((x.size, len(tgt)))
+    w[tgt, np.arange(len(tgt))] = 1.0
+    w[src] -= np.linalg.pinv(null[src]).T @ null[tgt].T
+    gram = (q @ q.T).tocsc()
+    rhs = q @ w
+    if gram.shape[0] <= DENSE_MAX_BARS:
+        solved = sla.cho_solve(sla.cho_factor(gram.toarray()), rhs)
+    else:
+        solved = cholesky(gram).solve(rhs)
+    jac = -(cu.T @ solved).T  # (k_tgt·d, dN)
+    u_t = u.ravel()[tgt]
+    rigid_t = rigid_motions(x[np.asarray(target)])
+    off_rigid = np.eye(len(tgt)) - rigid_t @ rigid_t.T
+    unit = site_size / norm.length
+    shape = float(np.linalg.norm(off_rigid @ jac, 2) / np.linalg.norm(off_rigid @ u_t)) * unit
+    motion = float(np.linalg.norm(jac, 2) / np.linalg.norm(u_t)) * unit
+    return gap, shape, motion
+
+
+# ----------------------------------------------------------------------------- the designer
+
+
+def _site_checks(x_src, u_src, x_tgt, u_tgt) -> None:
+    """Refuse what has no allosteric meaning: sites with coincident nodes (``degenerate_specified``)
+    or sharing a point (``overlapping_sites``), a source motion that is zero or rigid
+    (``rigid_source``: it would only carry the frame along), a target motion that is zero or
+    rigid (``rigid_target``: no conformational response is asked for, and its size is the unit
+    of the target error)."""
+    for x in (x_src, x_tgt):
+        check_specified_distinct(x)
+    both = np.vstack([x_src, x_tgt])
+    y = Normalisation.of(both).positions_in(both)
+    gaps = np.linalg.norm(y[: len(x_src), None] - y[None, len(x_src) :], axis=2)
+    if np.min(gaps) <= DISTINCT_RTOL:
+        i, j = np.unravel_index(np.argmin(gaps), gaps.shape)
+        raise DomainError(
+            "overlapping_sites", f"source node {i} and target node {j} coincide; the sites must be apart."
+        )
+    for name, code, x, u in (("source", "rigid_source", x_src, u_src), ("target", "rigid_target", x_tgt, u_tgt)):
+        try:
+            check_motions_nonrigid(x, u[None])
+        except DomainError:
+            raise DomainError(
+                code,
+                f"the {name} motion is zero or a rigid motion (translation/rotation) of the {name} "
+                f"site; an allosteric design needs a {name} motion that deforms the {name} site.",
+            ) from None
 
 
 def design_allosteric(
@@ -100,8 +613,17 @@ def design_allosteric(
     dim: int | None = None,
     seed: int = 0,
     relay_spacing: float | None = None,
+    relay_growth: float | None = None,
 ) -> AllostericDesign:
-    """A frame whose only nontrivial mode drives the target with u_tgt when the source moves with u_src."""
+    """A frame whose only nontrivial zero mode drives the target with u_tgt when the source moves
+    with u_src, meeting TARGET_ERROR_MAX and GAP_FLOOR (see the module docstring).
+
+    relay_spacing: size of the first ports next to the sites, in the caller's units (default
+    DEFAULT_PORT site sizes); relay_growth: g ≥ 1 (1: equal relays). Raises InvalidInput for
+    bad shapes or options; DomainError ``overlapping_sites``, ``degenerate_specified``,
+    ``rigid_source``, ``rigid_target``, ``too_expensive`` (more than MAX_MODULES modules,
+    refused before any work), or InaccurateDesign (``inaccurate_design``, with the best figures).
+    """
     x_src = check_positions(source_positions, dim, "source_positions")
     d = x_src.shape[1]
     u_src = check_positions(source_motion, d, "source_motion")
@@ -109,35 +631,140 @@ def design_allosteric(
     u_tgt = check_positions(target_motion, d, "target_motion")
     if u_src.shape != x_src.shape or u_tgt.shape != x_tgt.shape:
         raise InvalidInput("invalid_shape", "each site needs one motion row per node.")
-    gaps = np.linalg.norm(x_src[:, None] - x_tgt[None], axis=2)
-    size = max(rms_radius(np.vstack([x_src, x_tgt])), 1e-300)
-    if np.min(gaps) <= DISTINCT_RTOL * size:
-        i, j = np.unravel_index(np.argmin(gaps), gaps.shape)
-        raise DomainError(
-            "overlapping_sites", f"source node {i} and target node {j} coincide; the sites must be apart."
-        )
-    if np.linalg.norm(u_src) == 0:
-        raise DomainError("rigid_target", "the source motion is zero: nothing drives the target.")
-    site = max(rms_radius(x_src), rms_radius(x_tgt), 1e-300)
-    spacing = relay_spacing if relay_spacing is not None else 2.0 * site
-    if not spacing > 0:
+    if relay_spacing is not None and not (np.isfinite(relay_spacing) and relay_spacing > 0):
         raise InvalidInput("invalid_options", "relay_spacing must be positive.")
-    x_rel, u_rel = relay_nodes(x_src, u_src, x_tgt, u_tgt, spacing)
-    x_all = np.vstack([x_src, x_tgt, x_rel])
-    u_all = np.vstack([u_src, u_tgt, u_rel])
-    result = design(x_all, u_all, seed=seed)
-    k_src, k_tgt = len(x_src), len(x_tgt)
-    source = np.arange(k_src)
-    target = np.arange(k_src, k_src + k_tgt)
-    driven = response(result, source, u_src)
-    achieved = driven[target]
-    error = float(np.linalg.norm(achieved - u_tgt) / max(np.linalg.norm(u_tgt), 1e-300))
+    if relay_growth is not None and not (np.isfinite(relay_growth) and relay_growth >= 1):
+        raise InvalidInput("invalid_options", "relay_growth must be at least 1.")
+    _site_checks(x_src, u_src, x_tgt, u_tgt)
+    sim = canonical(x_src, u_src, x_tgt)
+    fixed = {"seed": seed}
+    if relay_spacing is not None:
+        fixed["port"] = relay_spacing / sim.length
+    if relay_growth is not None:
+        fixed["growth"] = float(relay_growth)
+    first = replace(ChainOptions(), **fixed)
+    needed = estimated_modules(float(sim.positions_in(x_tgt)[:, 0].min() - sim.positions_in(x_src)[:, 0].max()), first)
+    if needed > MAX_MODULES:
+        raise DomainError(
+            "too_expensive",
+            f"relays of {first.port * sim.length:.3g} growing by {first.growth:g} need about {needed} "
+            f"modules across this distance; the limit is {MAX_MODULES} (use larger relays or growth).",
+        )
+    distance = float(np.linalg.norm(x_tgt.mean(axis=0) - x_src.mean(axis=0)))
+    best: AllostericDesign | None = None
+    failures = []
+    tried = set()
+    for change in ALTERNATIVES:
+        options = replace(first, **{**change, **fixed}) if change else first
+        if options in tried:
+            continue
+        tried.add(options)
+        check_budget()
+        try:
+            result = _attempt(sim, (x_src, u_src), (x_tgt, u_tgt), options, distance)
+        except DomainError as exc:
+            if exc.code == "too_expensive":
+                raise
+            failures.append(exc.message)
+            continue
+        if result.figures.acceptable():
+            return result
+        if best is None or result.figures.rank() < best.figures.rank():
+            best = result
+    if best is None:
+        raise InaccurateDesign(
+            f"no chain of modules could be built ({len(failures)} attempts; first: {failures[0]})",
+            None,
+            None,
+            sim.length,
+        )
+    f = best.figures
+    raise InaccurateDesign(
+        f"no design met the floors (target error ≤ {TARGET_ERROR_MAX:g}, gap ≥ {GAP_FLOOR:g}) after "
+        f"{len(tried)} alternatives; the best has target error {f.target_error:.2e}, gap {f.gap:.2e} "
+        f"and sensitivity {f.sensitivity:.2e}.",
+        f,
+        best.options,
+        sim.length,
+    )
+
+
+def _attempt(sim: Similarity, src, tgt, options: ChainOptions, distance: float) -> AllostericDesign:
+    """One design with these chain options, verified and measured.
+
+    src, tgt: (x, u) of each site in the caller's units. The chain is built from the sites'
+    canonical coordinates rounded to a grid (``_on_grid``), so a similar request builds the
+    very same canonical chain — a solution space sampled in a basis that a rounding error can
+    rotate would otherwise pick other points — and the unspecified nodes joined to a site are
+    then moved onto the exact sites' solution spaces (``_polish``, a ~1e-12 correction)."""
+    (x_src, u_src), (x_tgt, u_tgt) = src, tgt
+    k_src, k = len(x_src), len(x_src) + len(x_tgt)
+    y = sim.positions_in(np.vstack([x_src, x_tgt]))
+    v = sim.motions_in(np.vstack([u_src, u_tgt]))
+    y_grid, v_grid = _on_grid(y), _on_grid(v)
+    fronts = (float(y_grid[:k_src, 0].max()), float(y_grid[k_src:, 0].min()))
+    plan = plan_chain(*fronts, options)
+    direct = fronts[1] - fronts[0] < DIRECT_GAP * options.aspect * options.port
+    sites = (y_grid[:k_src], v_grid[:k_src], y_grid[k_src:], v_grid[k_src:])
+    chain = None if direct else build_chain(*sites, plan, options)
+    if chain is None:
+        joined = design(y_grid, v_grid, seed=options.seed)
+        positions, motion = joined.frame.positions.copy(), joined.modes[0].copy()
+        edges, anchor_sets, relays, modules = joined.frame.edges, joined.anchor_sets, (), 1
+    else:
+        positions, motion, edges, anchor_sets, relays = chain
+        modules = plan.modules
+    positions[:k], motion[:k] = y, v
+    _polish(positions, motion, edges, k)
+    x = np.vstack([x_src, x_tgt, sim.positions_out(positions[k:])])
+    u = np.vstack([u_src, u_tgt, sim.motions_out(motion[k:])])
+    frame = Frame.build(x, edges, specified=range(k))
+    result = verify(frame, u[None], anchor_sets)
+    source, target = np.arange(k_src), np.arange(k_src, k)
+    achieved = response(frame, source, u_src)[target]
+    error = float(np.linalg.norm(achieved - u_tgt) / np.linalg.norm(u_tgt))
+    gap, shape, motion_k = linear_figures(frame, u, source, target, sim.length)
+    figures = ResponseFigures(achieved, error, gap, shape * PERTURBATION, motion_k * PERTURBATION)
     return AllostericDesign(
         design=result,
         source=tuple(source.tolist()),
         target=tuple(target.tolist()),
-        relays=tuple(range(k_src + k_tgt, k_src + k_tgt + len(x_rel))),
-        achieved_target_motion=achieved,
-        target_error=error,
-        distance=float(np.linalg.norm(x_tgt.mean(0) - x_src.mean(0))),
+        relays=tuple(relays),
+        figures=figures,
+        distance=distance,
+        modules=modules,
+        options=options,
+        site_size=sim.length,
     )
+
+
+# Canonical site coordinates are rounded to 2^-GRID_BITS of their largest magnitude: far below
+# any geometric decision (placement quantises its keys to 1e-6), far above the ~1e-16 by which
+# similar requests differ after their canonical map.
+GRID_BITS = 40
+# Gauss–Newton steps of ``_polish``; it starts ~1e-12 away and converges quadratically.
+POLISH_STEPS = 6
+
+
+def _on_grid(a: np.ndarray) -> np.ndarray:
+    """``a`` rounded to multiples of 2^(⌊log₂ max|a|⌋ − GRID_BITS)."""
+    peak = float(np.max(np.abs(a)))
+    grid = 2.0 ** (math.floor(math.log2(peak)) - GRID_BITS) if peak > 0 else 1.0
+    return np.round(a / grid) * grid
+
+
+def _polish(positions: np.ndarray, motion: np.ndarray, edges: np.ndarray, k: int) -> None:
+    """Move each unspecified node joined to one of the first k nodes (the sites, now exact) onto
+    the nearest point (x_U, u_U) of its solution space: Gauss–Newton with least-norm steps on
+    its bars' constraints (x_a − x_U)·(u_a − u_U) = 0 (at most 2d of them in 2d unknowns: an
+    anchor set of 2d + 1 nodes has no real point in general). In place; canonical units."""
+    touched = np.unique(edges[(edges < k).any(axis=1)].max(axis=1))
+    for j in touched[touched >= k]:
+        anchors = np.concatenate([edges[edges[:, 1] == j, 0], edges[edges[:, 0] == j, 1]])
+        for _ in range(POLISH_STEPS):
+            dx, du = positions[anchors] - positions[j], motion[anchors] - motion[j]
+            residual = np.einsum("ad,ad->a", dx, du)
+            step = np.linalg.lstsq(np.hstack([-du, -dx]), -residual, rcond=None)[0]
+            d = positions.shape[1]
+            positions[j] += step[:d]
+            motion[j] += step[d:]

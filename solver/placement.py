@@ -76,9 +76,14 @@ def target_zero_modes(d: int, n_modes: int) -> int:
 
 
 class Placement:
-    """Mutable state of one greedy construction, in the normalised coordinates of x_S."""
+    """Mutable state of one greedy construction, in the normalised coordinates of x_S.
 
-    def __init__(self, x_n: np.ndarray, u_n: np.ndarray, target: int):
+    null: an orthonormal basis (dk × z) of the motions the specified nodes may still make —
+    the identity for free nodes; narrower when a frame built earlier already ties some of them
+    (hierarchical placement: a port of an earlier module moves only as that module allows).
+    """
+
+    def __init__(self, x_n: np.ndarray, u_n: np.ndarray, target: int, null: np.ndarray | None = None):
         self.d = x_n.shape[1]
         self.positions = [p for p in x_n]
         self.motions = [u_n[:, i, :] for i in range(x_n.shape[0])]  # each (M, d)
@@ -86,11 +91,12 @@ class Placement:
         self.anchor_sets: list[tuple[int, ...]] = []
         self.target = target
         self.rank = 0
-        self._null = np.eye(self.d * len(self.positions))
+        self._null = np.eye(self.d * len(self.positions)) if null is None else null
 
     @property
     def n_d(self) -> int:
-        return self.d * len(self.positions) - len(self.edges)
+        """Degrees of freedom left: dim N(C) of the nodes so far (every bar placed raised the rank)."""
+        return self._null.shape[1]
 
     def best_in(self, pool: CandidatePool, budget: int, strict: bool = True) -> tuple[tuple, int, list[int]] | None:
         """Best candidate of ``pool`` if joined to at most ``budget`` of its anchors:
@@ -228,15 +234,17 @@ def place_nodes(
     u_n: np.ndarray,
     candidate_levels: Iterator[list[CandidatePool]],
     n_unspecified: int | None = None,
+    start: Placement | None = None,
 ) -> Placement:
     """Greedy judicious placement (normalised coordinates).
 
     x_n (k, d); u_n (M, k, d). ``candidate_levels`` yields lists of pools in order of
     preference (e.g. the full specified set first, then subsets); a later level is consulted
-    only when no earlier candidate can remove a degree of freedom.
+    only when no earlier candidate can remove a degree of freedom. ``start``: continue this
+    state (its nodes, bars, null space and target) instead of the bare specified nodes.
     """
     d = x_n.shape[1]
-    state = Placement(x_n, u_n, target_zero_modes(d, u_n.shape[0]))
+    state = start or Placement(x_n, u_n, target_zero_modes(d, u_n.shape[0]))
     levels: list[list[CandidatePool]] = []
     level_iter = iter(candidate_levels)
     if n_unspecified is not None and n_unspecified > state.n_d - state.target:

@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import time
 
-from fastapi import APIRouter
+from fastapi import APIRouter, HTTPException
 
 from zeromode.service.documents import allosteric, allosteric_tolerance, lattice, lattice_tolerance
-from zeromode.service.responses import allosteric_body, auxetic_body
+from zeromode.service.responses import allosteric_body, auxetic_body, inaccurate_design_body
 from zeromode.service.schemas.allostery import AllostericRequest, AllostericResponse
 from zeromode.service.schemas.common import ERROR_RESPONSES
 from zeromode.service.schemas.lattice import AuxeticRequest, AuxeticResponse
+from zeromode.solver.allostery import InaccurateDesign
 
 router = APIRouter(prefix="/v1/design", tags=["design"])
 
@@ -27,8 +28,13 @@ def post_auxetic(request: AuxeticRequest) -> dict:
 
 @router.post("/allosteric", response_model=AllostericResponse, responses=ERROR_RESPONSES)
 def post_allosteric(request: AllostericRequest) -> dict:
-    """Source nodes driven by their motion move the distal target nodes exactly as prescribed."""
+    """Source nodes driven by their motion move the distal target nodes exactly as prescribed.
+    A design missing the accuracy floors is answered 422 `inaccurate_design`, its detail carrying
+    the best figures found (`best`)."""
     t0 = time.perf_counter()
-    result = allosteric(request)
+    try:
+        result = allosteric(request)
+    except InaccurateDesign as exc:
+        raise HTTPException(422, detail=inaccurate_design_body(exc)) from exc
     tolerance = allosteric_tolerance(request, result)
     return allosteric_body(result, {"total": 1e3 * (time.perf_counter() - t0)}, tolerance)
