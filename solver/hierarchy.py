@@ -52,6 +52,10 @@ class Module:
     edges: np.ndarray
     given: int
 
+    @property
+    def unspecified(self) -> int:
+        return len(self.positions) - self.given
+
 
 def tied_space(positions: np.ndarray, motion: np.ndarray) -> np.ndarray:
     """Orthonormal basis (dk × z) of span(rigid motions of the k nodes, ``motion``): how a port of

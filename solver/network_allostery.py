@@ -1,0 +1,382 @@
+"""Allostery inside a given network: the smallest change to a rigid frame that makes a prescribed
+response exact (paper: solution spaces, Eqs. 4–6, and judicious placement, Eq. 7, applied
+hierarchically to nodes of a frame that is already there — the Discussion's "judicious
+constraint addition on non-bipartite networks").
+
+Task. A rigid frame (no nontrivial zero mode), source nodes S and target nodes T, and the
+response: either motions u_S, u_T (drive S with u_S, T must move with u_T), or for two pairs a
+strain ratio η* = ε_T/ε_S with ε_p = (x_i − x_j)·(u_i − u_j)/|x_i − x_j|² (the tuning-by-pruning
+literature's target; benchmarks/pruning.py). Exact means: the modified frame has exactly one
+nontrivial zero mode, it carries the response, and so driving the source gives the target's
+motion (or strain) to round-off, whatever the bars' stiffnesses.
+
+Construction. The rest of the network — the ground — stays still (u = 0); only the moving nodes
+M move:
+  * motions: M = S ∪ T with u_S, u_T; or, for a strain ratio, one node of each pair, which keeps
+    d − 1 of its bars to the ground and so swings perpendicular to them (1 degree of freedom),
+    scaled so that ε_S = 1 and ε_T = η* (the other node of each pair is ground);
+  * removed: every bar the motion strains, (x_i − x_j)·(u_i − u_j) ≠ 0 — none else is touched;
+  * added: unspecified nodes on solution spaces (hierarchy.place_module), first around a site
+    whose nodes kept more than one degree of freedom relative to the ground (anchors: the site
+    and its ground neighbours), until the site moves only along its prescribed motion; then one
+    coupler joining a source node, a target node and d − 1 ground nodes (d + 1 bars), which
+    ties the two one-degree-of-freedom sites into the single nontrivial mode.
+The ground is the given frame less the bars removed; it must stay rigid (the frame's own analysis
+decides, see ``verify``). The response is verified from the modified frame alone
+(allostery.response, a least-squares solve with the source rows fixed) and so is the count of
+zero modes. A strain ratio tries the pair nodes and kept bars with the fewest changes first.
+"""
+
+from __future__ import annotations
+
+import itertools
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from zeromode.solver.allostery import response
+from zeromode.solver.budget import check_budget
+from zeromode.solver.design import check_motions_nonrigid
+from zeromode.solver.errors import DomainError, InvalidInput
+from zeromode.solver.frame import Frame, check_positions
+from zeromode.solver.hierarchy import place_module
+from zeromode.solver.normalisation import Normalisation
+from zeromode.solver.placement import target_zero_modes
+from zeromode.solver.rank import nullspace, orthonormal_range
+from zeromode.solver.rigidity import Analysis, analyze, rigid_motions, zero_mode_residual
+from zeromode.solver.tolerances import DESIGN_MODE_RTOL
+
+# A bar is left unstrained by the response when |(x_i − x_j)·(u_i − u_j)| ≤ this × |x_i − x_j|
+# × max|u|: exact data give zero or O(1); round-off of the products is ~1e-16.
+STRAIN_RTOL = 1e-12
+# Ground neighbours offered to the coupler, per site (it takes d − 1 of them).
+COUPLER_GROUND = 2
+# Pair nodes × kept-bar choices tried for a strain ratio before giving up.
+MAX_PLANS = 12
+# An answer's response must be this exact (as allostery.TARGET_ERROR_MAX).
+TARGET_ERROR_MAX = 1e-9
+
+
+@dataclass(frozen=True, eq=False)
+class NetworkAllostery:
+    """The modified frame and what changed.
+
+    frame: the given nodes first (same indices), then the added nodes; its edges are the kept
+    given edges (in their order) then the added ones. mode (N', d): its one nontrivial zero
+    mode, zero on the ground. removed_edges: indices into the given frame's edges; added_nodes:
+    frame indices; added_edges: (n_add, 2) frame indices; moving: given nodes that move relative
+    to the ground. achieved_target_motion: target rows of the response to the source motion
+    (solved from the modified frame); target_error relative to the prescribed target motion;
+    strain_ratio: ε_T/ε_S of that response for pairs (None for motions).
+    """
+
+    frame: Frame
+    mode: np.ndarray
+    analysis: Analysis
+    source: tuple[int, ...]
+    target: tuple[int, ...]
+    source_motion: np.ndarray
+    target_motion: np.ndarray
+    removed_edges: tuple[int, ...]
+    added_nodes: tuple[int, ...]
+    added_edges: np.ndarray
+    moving: tuple[int, ...]
+    achieved_target_motion: np.ndarray
+    target_error: float
+    strain_ratio: float | None
+    mode_residual: float
+    timings_ms: dict
+
+    @property
+    def bonds_changed(self) -> int:
+        return len(self.removed_edges) + len(self.added_edges)
+
+
+def pair_strain(x: np.ndarray, u: np.ndarray) -> float:
+    """ε of a node pair: (x_0 − x_1)·(u_0 − u_1)/|x_0 − x_1|² for x, u of shape (2, d)."""
+    dx = x[0] - x[1]
+    return float(dx @ (u[0] - u[1]) / (dx @ dx))
+
+
+def _nodes(frame: Frame, nodes, name: str) -> np.ndarray:
+    try:
+        raw = np.asarray(nodes, dtype=float).ravel()
+    except (TypeError, ValueError):
+        raw = np.full(1, np.nan)
+    if raw.size == 0 or not np.all(np.isfinite(raw)) or not np.all(raw == np.round(raw)):
+        raise InvalidInput("invalid_nodes", f"{name} must be a non-empty list of node indices.")
+    index = raw.astype(int)
+    if np.any((index < 0) | (index >= frame.n_nodes)):
+        raise InvalidInput("invalid_nodes", f"{name} names a node outside 0..{frame.n_nodes - 1}.")
+    if len(set(index.tolist())) != len(index):
+        raise InvalidInput("invalid_nodes", f"{name} lists a node twice.")
+    return index
+
+
+def tune_network(
+    frame: Frame,
+    source,
+    target,
+    source_motion=None,
+    target_motion=None,
+    strain_ratio: float | None = None,
+    seed: int = 0,
+) -> NetworkAllostery:
+    """The smallest change found that makes ``frame`` respond exactly (module docstring).
+
+    Give either source_motion and target_motion ((k, d) rows for the source and target nodes),
+    or strain_ratio η* with source and target pairs. Raises InvalidInput for malformed input;
+    DomainError ``floppy_network`` (the frame has nontrivial zero modes), ``overlapping_sites``
+    (a node in both sites), ``rigid_source``, ``rigid_target``, ``zero_strain`` (η* = 0 asks the
+    target not to respond), ``no_solution`` (no plan verified).
+    """
+    started = time.perf_counter()
+    src = _nodes(frame, source, "source")
+    tgt = _nodes(frame, target, "target")
+    if set(src.tolist()) & set(tgt.tolist()):
+        raise DomainError("overlapping_sites", "a node belongs to both the source and the target.")
+    d = frame.dim
+    if strain_ratio is None:
+        if source_motion is None or target_motion is None:
+            raise InvalidInput("invalid_response", "give source and target motions, or a strain ratio.")
+        u_src = check_positions(source_motion, d, "source_motion")
+        u_tgt = check_positions(target_motion, d, "target_motion")
+        if u_src.shape != (len(src), d) or u_tgt.shape != (len(tgt), d):
+            raise InvalidInput("invalid_shape", "each site needs one motion row per node.")
+        x = frame.positions
+        for name, code, nodes, u in (("source", "rigid_source", src, u_src), ("target", "rigid_target", tgt, u_tgt)):
+            try:
+                check_motions_nonrigid(x[nodes], u[None])
+            except DomainError:
+                raise DomainError(
+                    code, f"the {name} motion is zero or a rigid motion of the {name} nodes: nothing to transmit."
+                ) from None
+    else:
+        if source_motion is not None or target_motion is not None:
+            raise InvalidInput("invalid_response", "give motions or a strain ratio, not both.")
+        if not np.isfinite(strain_ratio):
+            raise InvalidInput("invalid_response", "the strain ratio must be finite.")
+        if strain_ratio == 0:
+            raise DomainError("zero_strain", "a strain ratio of 0 asks the target not to respond; give a nonzero ratio.")
+        if len(src) != 2 or len(tgt) != 2:
+            raise InvalidInput("invalid_nodes", "a strain ratio needs a source pair and a target pair.")
+    if analyze(frame, bases=False).nontrivial_zero_modes:
+        raise DomainError(
+            "floppy_network", "the given frame has nontrivial zero modes, so its response is not unique."
+        )
+    plans = (
+        [(src, u_src, tgt, u_tgt)] if strain_ratio is None else _pair_plans(frame, src, tgt, float(strain_ratio))
+    )
+    failures = []
+    for (moving_src, u_ms, moving_tgt, u_mt), widen in itertools.product(plans, (False, True)):
+        check_budget()
+        try:
+            result = _build(frame, src, tgt, moving_src, u_ms, moving_tgt, u_mt, seed, widen)
+        except DomainError as exc:
+            if exc.code == "too_expensive":
+                raise
+            failures.append(exc.message)
+            continue
+        if result.target_error <= TARGET_ERROR_MAX:
+            return _timed(result, started)
+        failures.append(f"a target error of {result.target_error:.1e}")
+    raise DomainError(
+        "no_solution",
+        f"none of the {2 * len(plans)} ways tried gives an exact response"
+        + (f" (first: {failures[0]})" if failures else "")
+        + ".",
+    )
+
+
+def _timed(result: NetworkAllostery, started: float) -> NetworkAllostery:
+    result.timings_ms["total"] = 1e3 * (time.perf_counter() - started)
+    return result
+
+
+def _neighbours(frame: Frame) -> list[list[tuple[int, int]]]:
+    """For each node, its (neighbour, edge index) pairs."""
+    out: list[list[tuple[int, int]]] = [[] for _ in range(frame.n_nodes)]
+    for e, (i, j) in enumerate(frame.edges.tolist()):
+        out[i].append((j, e))
+        out[j].append((i, e))
+    return out
+
+
+def _pair_plans(frame: Frame, src: np.ndarray, tgt: np.ndarray, ratio: float):
+    """Moving nodes and motions for a strain ratio, fewest removals first: for each pair, a node
+    that keeps d − 1 bars to other nodes of the frame swings along their common perpendicular,
+    with ε_S = 1 and ε_T = η*; among kept bars, those whose perpendicular strains the pair most
+    (|cos| to the pair's axis) come first."""
+    x, d = frame.positions, frame.dim
+    near = _neighbours(frame)
+    sites = (set(src.tolist()) | set(tgt.tolist()))
+
+    def swings(pair, strain):
+        options = []
+        for node, partner in ((pair[0], pair[1]), (pair[1], pair[0])):
+            ground = [j for j, _ in near[node] if j not in sites]
+            axis = x[node] - x[partner]
+            for kept in itertools.combinations(ground, d - 1):
+                direction = nullspace((x[node] - x[list(kept)]).reshape(d - 1, d))[0]
+                if direction.shape[1] != 1:
+                    continue
+                n = direction[:, 0]
+                along = float(axis @ n)
+                if abs(along) <= 1e-6 * np.linalg.norm(axis):
+                    continue  # the swing does not strain the pair
+                motion = (strain * (axis @ axis) / along) * n
+                removed = len(near[node]) - (d - 1)
+                options.append((removed, -abs(along) / np.linalg.norm(axis), node, motion))
+        return sorted(options, key=lambda o: (o[0], o[1]))
+
+    plans = []
+    for (r_s, c_s, node_s, m_s), (r_t, c_t, node_t, m_t) in itertools.product(swings(src, 1.0), swings(tgt, ratio)):
+        plans.append((r_s + r_t, c_s + c_t, node_s, m_s, node_t, m_t))
+    plans.sort(key=lambda p: (p[0], p[1]))
+    return [(np.array([p[2]]), p[3][None], np.array([p[4]]), p[5][None]) for p in plans[:MAX_PLANS]]
+
+
+def _strained(frame: Frame, motion: np.ndarray) -> np.ndarray:
+    """Mask of the bars that ``motion`` (N, d; zero on the ground) strains."""
+    x, e = frame.positions, frame.edges
+    dx = x[e[:, 0]] - x[e[:, 1]]
+    du = motion[e[:, 0]] - motion[e[:, 1]]
+    scale = STRAIN_RTOL * np.linalg.norm(dx, axis=1) * float(np.max(np.abs(motion)))
+    return np.abs(np.einsum("ij,ij->i", dx, du)) > scale
+
+
+def _allowed(x: np.ndarray, moving: np.ndarray, ground: np.ndarray, kept: list[tuple[int, int]]) -> np.ndarray:
+    """Orthonormal basis of the motions of the nodes [moving, ground] (rows in that order) that
+    the kept bars allow when the ground moves rigidly: variables (ρ, u_moving), ρ a rigid motion
+    of the whole ground (so of these ground nodes), constraints (x_i − x_j)·(u_i − u_j) = 0 for
+    each kept bar (i, j) with i moving."""
+    d = x.shape[1]
+    nodes = np.concatenate([moving, ground])
+    pos = {int(n): k for k, n in enumerate(nodes)}
+    norm = Normalisation.of(x[nodes])
+    rigid = rigid_motions(norm.positions_in(x[nodes]))  # (d·|nodes|, ρ)
+    rho = rigid.shape[1]
+    m = len(moving)
+    # motion of the state nodes = T·z, z = (ρ coefficients, free moving coordinates)
+    t = np.zeros((d * len(nodes), rho + d * m))
+    t[:, :rho] = rigid
+    t[: d * m, :rho] = 0.0
+    t[: d * m, rho:] = np.eye(d * m)
+    rows = []
+    for i, j in kept:
+        a, b = pos[i], pos[j]
+        row = np.zeros(d * len(nodes))
+        diff = x[i] - x[j]
+        row[d * a : d * a + d] = diff
+        row[d * b : d * b + d] = -diff
+        rows.append(row / np.linalg.norm(diff))
+    kernel = nullspace(np.array(rows) @ t)[0] if rows else np.eye(t.shape[1])
+    return orthonormal_range(t @ kernel)
+
+
+def _ground_near(frame: Frame, nodes, moving: set, count: int) -> list[int]:
+    """Up to ``count`` ground nodes per given node: its ground neighbours, then the nearest."""
+    x = frame.positions
+    near = _neighbours(frame)
+    out: list[int] = []
+    for node in nodes:
+        picked = [j for j, _ in near[node] if j not in moving and j not in out]
+        if len(picked) < count:
+            dist = np.linalg.norm(x - x[node], axis=1)
+            picked += [int(j) for j in np.argsort(dist) if j not in moving and j not in out and j not in picked]
+        out.extend(picked[:count])
+    return out
+
+
+def _build(frame, src, tgt, moving_src, u_ms, moving_tgt, u_mt, seed, widen) -> NetworkAllostery:
+    """One plan: remove the strained bars, tie each site to one degree of freedom, couple them.
+    widen: also re-tie the ground nodes that lost bars to a site (for when they came loose)."""
+    x, d = frame.positions, frame.dim
+    n = frame.n_nodes
+    target_modes = target_zero_modes(d, 1)
+    moving = np.concatenate([moving_src, moving_tgt])
+    motion = np.zeros_like(x)
+    motion[moving_src], motion[moving_tgt] = u_ms, u_mt
+    strained = _strained(frame, motion)
+    moving_set = set(moving.tolist())
+    added_x, added_u, added_edges = [], [], []
+
+    def attach(state: np.ndarray, null: np.ndarray) -> None:
+        """Unspecified nodes on the solution spaces of ``state`` nodes, until rigid ⊕ one mode."""
+        module = place_module(x[state], motion[state], null, target_modes, seed)
+        k = module.given
+        index = np.concatenate([state, n + len(added_x) + np.arange(module.unspecified)])
+        added_x.extend(module.positions[k:])
+        added_u.extend(module.motion[k:])
+        added_edges.extend(index[module.edges].tolist())
+
+    alive = frame.edges[~strained]
+    for site in (moving_src, moving_tgt):
+        # Free: the site, and with ``widen`` the ground nodes that lost a bar to it (they may no
+        # longer be held); core: the ground around them, assumed rigid (the final count checks).
+        site_set = set(site.tolist())
+        lost = {int(j) for e in frame.edges[strained] if site_set & set(e.tolist()) for j in e} if widen else set()
+        free = np.array(sorted(site_set) + sorted(lost - moving_set), dtype=int)
+        free_set = set(free.tolist())
+        touching = alive[np.isin(alive, free).any(axis=1)]
+        core = sorted(set(touching.ravel().tolist()) - free_set - moving_set)
+        core += [j for j in _ground_near(frame, free, moving_set | free_set, d + 1) if j not in core]
+        core_set = set(core)
+        kept = [
+            (int(i), int(j)) if i in free_set else (int(j), int(i))
+            for i, j in touching
+            if {int(i), int(j)} <= free_set | core_set
+        ]
+        null = _allowed(x, free, np.array(core, dtype=int), kept)
+        if null.shape[1] > target_modes:
+            attach(np.concatenate([free, core]), null)
+    # The coupler: the source node and target node that move most, and ground nearby.
+    s_rep = moving_src[np.argmax(np.linalg.norm(u_ms, axis=1))]
+    t_rep = moving_tgt[np.argmax(np.linalg.norm(u_mt, axis=1))]
+    ground = np.array(_ground_near(frame, (s_rep, t_rep), moving_set, COUPLER_GROUND), dtype=int)
+    state = np.concatenate([[s_rep, t_rep], ground])
+    norm = Normalisation.of(x[state])
+    rigid = rigid_motions(norm.positions_in(x[state]))
+    sides = np.zeros((d * len(state), 2))
+    sides[:d, 0], sides[d : 2 * d, 1] = motion[s_rep], motion[t_rep]
+    null = orthonormal_range(np.column_stack([rigid, sides / np.abs(sides).max(axis=0)]))
+    attach(state, null)
+
+    positions = np.vstack([x, np.asarray(added_x).reshape(-1, d)])
+    mode = np.vstack([motion, np.asarray(added_u).reshape(-1, d)])
+    edges = np.vstack([frame.edges[~strained], np.asarray(added_edges, dtype=int).reshape(-1, 2)])
+    modified = Frame.build(positions, edges, specified=np.concatenate([src, tgt]))
+    analysis = analyze(modified, bases=False)
+    residual = zero_mode_residual(modified, mode)
+    if analysis.zero_modes != target_modes or not residual <= DESIGN_MODE_RTOL:
+        raise DomainError(
+            "no_solution",
+            f"the modified frame has {analysis.zero_modes} zero modes (wanted {target_modes}) and a mode "
+            f"residual of {residual:.1e}: the ground did not stay rigid.",
+        )
+    u_src, u_tgt = mode[src], mode[tgt]
+    driven = response(modified, src, u_src)
+    achieved = driven[tgt]
+    error = float(np.linalg.norm(achieved - u_tgt) / np.linalg.norm(u_tgt))
+    ratio = None
+    if len(src) == 2 and len(tgt) == 2 and len(moving_src) == 1:
+        ratio = pair_strain(x[tgt], achieved) / pair_strain(x[src], driven[src])
+    return NetworkAllostery(
+        frame=modified,
+        mode=mode,
+        analysis=analysis,
+        source=tuple(src.tolist()),
+        target=tuple(tgt.tolist()),
+        source_motion=u_src,
+        target_motion=u_tgt,
+        removed_edges=tuple(np.flatnonzero(strained).tolist()),
+        added_nodes=tuple(range(n, len(positions))),
+        added_edges=np.asarray(added_edges, dtype=int).reshape(-1, 2),
+        moving=tuple(moving.tolist()),
+        achieved_target_motion=achieved,
+        target_error=error,
+        strain_ratio=ratio,
+        mode_residual=residual,
+        timings_ms={},
+    )
