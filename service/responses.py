@@ -222,6 +222,33 @@ def inaccurate_design_body(exc) -> dict:
     return {"code": exc.code, "message": exc.message, "best": best}
 
 
+def network_allosteric_body(result, given_edges) -> dict:
+    """POST /v1/design/allosteric/network for a network_allostery.NetworkAllostery; given_edges:
+    the given frame's edges (the removed bars are reported as their pairs too)."""
+    frame = result.frame
+    return {
+        "frame": frame_body(frame),
+        "modes": [result.mode.tolist()],
+        "report": {
+            "analysis": counts_body(result.analysis),
+            "source": list(result.source),
+            "target": list(result.target),
+            "source_motion": result.source_motion.tolist(),
+            "achieved_target_motion": result.achieved_target_motion.tolist(),
+            "target_error": result.target_error,
+            "strain_ratio": result.strain_ratio,
+            "removed_edges": list(result.removed_edges),
+            "removed_bars": np.asarray(given_edges)[list(result.removed_edges)].reshape(-1, 2).tolist(),
+            "added_nodes": list(result.added_nodes),
+            "added_edges": result.added_edges.tolist(),
+            "moving": list(result.moving),
+            "bonds_changed": result.bonds_changed,
+            "mode_residual": result.mode_residual,
+            "timings_ms": dict(result.timings_ms),
+        },
+    }
+
+
 # ----------------------------------------------------------------------------- finite motion
 
 

@@ -578,14 +578,29 @@ def linear_figures(frame: Frame, mode: np.ndarray, source, target, site_size: fl
 # ----------------------------------------------------------------------------- the designer
 
 
+def check_source_pins(x_src: np.ndarray) -> None:
+    """Raise ``underdetermined_source`` unless the source nodes fix every rigid motion (their
+    rigid motions have the full dimension d(d+1)/2: 2 distinct points in 2D, 3 non-collinear in
+    3D); otherwise a rigid motion that leaves the source still moves the target (a rotation
+    about the line of a 3D source pair), and no frame makes the response unique."""
+    d = x_src.shape[1]
+    if rigid_motions(Normalisation.of(x_src).positions_in(x_src)).shape[1] < d * (d + 1) // 2:
+        raise DomainError(
+            "underdetermined_source",
+            "the source nodes do not fix the rigid motions (in 3D they need 3 non-collinear nodes), "
+            "so the target's response to them cannot be unique.",
+        )
+
+
 def _site_checks(x_src, u_src, x_tgt, u_tgt) -> None:
     """Refuse what has no allosteric meaning: sites with coincident nodes (``degenerate_specified``)
     or sharing a point (``overlapping_sites``), a source motion that is zero or rigid
     (``rigid_source``: it would only carry the frame along), a target motion that is zero or
     rigid (``rigid_target``: no conformational response is asked for, and its size is the unit
-    of the target error)."""
+    of the target error), a source that does not fix the rigid motions (check_source_pins)."""
     for x in (x_src, x_tgt):
         check_specified_distinct(x)
+    check_source_pins(x_src)
     both = np.vstack([x_src, x_tgt])
     y = Normalisation.of(both).positions_in(both)
     gaps = np.linalg.norm(y[: len(x_src), None] - y[None, len(x_src) :], axis=2)
@@ -621,7 +636,7 @@ def design_allosteric(
     relay_spacing: size of the first ports next to the sites, in the caller's units (default
     DEFAULT_PORT site sizes); relay_growth: g ≥ 1 (1: equal relays). Raises InvalidInput for
     bad shapes or options; DomainError ``overlapping_sites``, ``degenerate_specified``,
-    ``rigid_source``, ``rigid_target``, ``too_expensive`` (more than MAX_MODULES modules,
+    ``rigid_source``, ``rigid_target``, ``underdetermined_source``, ``too_expensive`` (more than MAX_MODULES modules,
     refused before any work), or InaccurateDesign (``inaccurate_design``, with the best figures).
     """
     x_src = check_positions(source_positions, dim, "source_positions")

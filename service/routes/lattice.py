@@ -1,4 +1,5 @@
-"""POST /v1/design/auxetic and POST /v1/design/allosteric — coupled-module designs."""
+"""POST /v1/design/auxetic, POST /v1/design/allosteric and POST /v1/design/allosteric/network —
+coupled-module designs, and allostery inside a given network."""
 
 from __future__ import annotations
 
@@ -7,11 +8,23 @@ import time
 from fastapi import APIRouter, HTTPException
 
 from zeromode.service.documents import allosteric, allosteric_tolerance, lattice, lattice_tolerance
-from zeromode.service.responses import allosteric_body, auxetic_body, inaccurate_design_body
-from zeromode.service.schemas.allostery import AllostericRequest, AllostericResponse
+from zeromode.service.responses import (
+    allosteric_body,
+    auxetic_body,
+    inaccurate_design_body,
+    network_allosteric_body,
+)
+from zeromode.service.schemas.allostery import (
+    AllostericRequest,
+    AllostericResponse,
+    NetworkAllostericRequest,
+    NetworkAllostericResponse,
+)
 from zeromode.service.schemas.common import ERROR_RESPONSES
 from zeromode.service.schemas.lattice import AuxeticRequest, AuxeticResponse
 from zeromode.solver.allostery import InaccurateDesign
+from zeromode.solver.frame import Frame
+from zeromode.solver.network_allostery import tune_network
 
 router = APIRouter(prefix="/v1/design", tags=["design"])
 
@@ -38,3 +51,23 @@ def post_allosteric(request: AllostericRequest) -> dict:
         raise HTTPException(422, detail=inaccurate_design_body(exc)) from exc
     tolerance = allosteric_tolerance(request, result)
     return allosteric_body(result, {"total": 1e3 * (time.perf_counter() - t0)}, tolerance)
+
+
+@router.post("/allosteric/network", response_model=NetworkAllostericResponse, responses=ERROR_RESPONSES)
+def post_allosteric_network(request: NetworkAllostericRequest) -> dict:
+    """The smallest change found that makes a given rigid network respond exactly: driving the
+    source moves the target as prescribed (motions), or strains the target pair by η* times the
+    source pair's strain. Bars the response strains are removed and nodes added on solution
+    spaces; the report lists what changed."""
+    f = request.frame
+    frame = Frame.build(f.positions, f.edges, dim=f.dim)
+    result = tune_network(
+        frame,
+        request.source,
+        request.target,
+        source_motion=request.source_motion,
+        target_motion=request.target_motion,
+        strain_ratio=request.strain_ratio,
+        seed=request.options.seed,
+    )
+    return network_allosteric_body(result, frame.edges)

@@ -2,17 +2,19 @@
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Annotated, Literal
 
 from pydantic import BaseModel, Field, FiniteFloat
 
 from zeromode.service.schemas.common import (
     AnalysisCounts,
+    FrameModel,
     Points,
     RequestModel,
     ResultFrame,
     SpecifiedPoints,
 )
+from zeromode.service.schemas.limits import Limited
 from zeromode.service.schemas.tolerance import ToleranceOptions, ToleranceReportModel
 
 
@@ -104,3 +106,62 @@ class AllostericResponse(BaseModel):
     frame: ResultFrame
     modes: list[Points] = Field(description="The single nontrivial zero mode (N×d); source rows = source motion.")
     report: AllostericReport
+
+
+# ----------------------------------------------------------------------------- given network
+SpecifiedNodes = Annotated[list[int], Limited("max_specified")]
+
+
+class NetworkOptions(RequestModel):
+    seed: int = Field(default=0, ge=0, description="Seed of the placement of added nodes.")
+
+
+class NetworkAllostericRequest(RequestModel):
+    """A given network and the response it must give: either the motions of both sites, or (for a
+    source pair and a target pair) the strain ratio η* = ε_T/ε_S."""
+
+    frame: FrameModel = Field(description="The given network; it must be rigid (no nontrivial zero mode).")
+    source: SpecifiedNodes = Field(min_length=1, description="Source node indices in the frame.")
+    target: SpecifiedNodes = Field(min_length=1, description="Target node indices in the frame.")
+    source_motion: SpecifiedPoints | None = Field(
+        default=None, description="Motion of the source nodes (one row per source node); with target_motion."
+    )
+    target_motion: SpecifiedPoints | None = Field(
+        default=None, description="Prescribed motion of the target nodes (one row per target node)."
+    )
+    strain_ratio: FiniteFloat | None = Field(
+        default=None,
+        description=(
+            "η* = ε_T/ε_S for a source pair and a target pair, ε_p = (x_i − x_j)·(u_i − u_j)/|x_i − x_j|² "
+            "(instead of motions)."
+        ),
+    )
+    options: NetworkOptions = Field(default_factory=NetworkOptions)
+
+
+class NetworkAllostericReport(BaseModel):
+    analysis: AnalysisCounts = Field(description="Counts of the modified frame: d(d+1)/2 + 1 zero modes.")
+    source: list[int]
+    target: list[int]
+    source_motion: Points = Field(description="Source rows of the mode (the motion that drives the target).")
+    achieved_target_motion: Points = Field(
+        description="Target rows of the response to the source motion, solved from the modified frame."
+    )
+    target_error: float = Field(description="‖achieved − designed target motion‖ / ‖designed‖; at most 1e-9.")
+    strain_ratio: float | None = Field(description="ε_T/ε_S of that response (pairs), else null.")
+    removed_edges: list[int] = Field(description="Indices into the given frame's edges of the bars removed.")
+    removed_bars: list[tuple[int, int]] = Field(description="Those bars as node pairs.")
+    added_nodes: list[int] = Field(description="Frame indices of the nodes added (after the given ones).")
+    added_edges: list[tuple[int, int]] = Field(description="Bars added, as frame node pairs.")
+    moving: list[int] = Field(description="Given nodes that move relative to the rest of the network.")
+    bonds_changed: int = Field(description="Bars removed plus bars added.")
+    mode_residual: float
+    timings_ms: dict[str, float]
+
+
+class NetworkAllostericResponse(BaseModel):
+    frame: ResultFrame = Field(
+        description="The modified frame: the given nodes (same indices), then the added ones; kept bars, then added bars."
+    )
+    modes: list[Points] = Field(description="Its one nontrivial zero mode (N×d), zero on the unmoved network.")
+    report: NetworkAllostericReport
