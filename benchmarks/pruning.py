@@ -42,7 +42,6 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from zeromode.solver import (
     DomainError,
@@ -52,11 +51,15 @@ from zeromode.solver import (
     compatibility_matrix,
     rigid_motions,
 )
+from zeromode.solver.factorisation import cholesky
 
 # A removal is refused when 1 − k_b G_bb falls to this: the new softest mode would be softer
 # than 1e-8 of the removed bond's own stiffness (singular value ≳ 1e-4 of the bond's), which
 # keeps it far above the 1e-9 singular-value threshold of the project's rank decisions.
 FLOPPY_RTOL = 1e-8
+# Bars removed between two factorisations (Woodbury updates in between, see SpringNetwork):
+# each adds one column to every solve, and 64 keep the refreshed inverse small and accurate.
+REFACTOR_AFTER = 64
 # Right-hand sides per block when forming the diagonal of the bond Green's function.
 _BLOCK = 256
 
@@ -119,9 +122,13 @@ def free_dofs(positions: np.ndarray) -> np.ndarray:
 class SpringNetwork:
     """A rigid central-force spring network whose bars can be removed one at a time.
 
-    positions (N, d), normalised; edges (N_B, 2); stiffness k (N_B,). Holds the sparse
-    factorisation of K = Qᵀ diag(k) Q over the surviving bars (``alive``), rigid motions pinned,
-    and the redundancy D_b = 1 − k_b G_bb of every bar, kept current by Sherman–Morrison.
+    positions (N, d), normalised; edges (N_B, 2); stiffness k (N_B,). Holds a sparse Cholesky
+    factor of K₀ = Qᵀ diag(k) Q over the bars alive when it was last factorised, rigid motions
+    pinned, and the redundancy D_b = 1 − k_b G_bb of every bar, kept current by Sherman–Morrison.
+    The m bars removed since (m < REFACTOR_AFTER) enter every solve by the Woodbury identity:
+    with U their unit rows (columns q_b on the free dofs) and D = diag(k_b),
+        (K₀ − U D Uᵀ)⁻¹ f = y + W (D⁻¹ − Uᵀ W)⁻¹ Uᵀ y,   y = K₀⁻¹ f,  W = K₀⁻¹ U,
+    so a removal costs one solve instead of a factorisation.
     Raises DomainError("floppy_network") if K is singular on the free degrees of freedom.
     """
 
@@ -137,21 +144,23 @@ class SpringNetwork:
         qa = self.q[self.alive]
         stiffness = (qa.T @ sp.diags(self.k[self.alive]) @ qa).tocsc()
         try:
-            # K is symmetric positive definite on the free dofs: a symmetric fill-reducing
-            # ordering and diagonal pivots keep the factors about a third sparser than COLAMD's.
-            self._lu = spla.splu(
-                stiffness[self._free][:, self._free].tocsc(),
-                permc_spec="MMD_AT_PLUS_A",
-                diag_pivot_thresh=0.0,
-                options={"SymmetricMode": True},
-            )
-        except RuntimeError as exc:  # "Factor is exactly singular"
+            # K is symmetric positive definite on the free dofs: a supernodal Cholesky factor
+            # (CHOLMOD, solver/factorisation.py) is several times faster than a sparse LU here.
+            self._factor = cholesky(stiffness[self._free][:, self._free].tocsc())
+        except ArithmeticError as exc:  # not positive definite: a zero mode
             raise DomainError("floppy_network", "the spring network has a zero mode.") from exc
+        nfree = int(self._free.sum())
+        self._u, self._w = np.zeros((nfree, 0)), np.zeros((nfree, 0))
+        self._inner = np.zeros((0, 0))  # (D⁻¹ − Uᵀ W)⁻¹
+        self._since: list[int] = []
 
     def solve(self, f: np.ndarray) -> np.ndarray:
         """u with K u = f for a balanced load f of shape (dN,) or (dN, m); = K⁺f + rigid motion."""
         u = np.zeros(f.shape)
-        u[self._free] = self._lu.solve(np.ascontiguousarray(f[self._free]))
+        y = self._factor.solve(np.ascontiguousarray(f[self._free]))
+        if self._since:
+            y = y + self._w @ (self._inner @ (self._u.T @ y))
+        u[self._free] = y
         return u
 
     def _green_diagonal(self) -> np.ndarray:
@@ -181,7 +190,14 @@ class SpringNetwork:
             return False
         self.redundancy -= self.k * self.k[b] * column**2 / d_b
         self.alive[b] = False
-        self._factorise()
+        if len(self._since) + 1 >= REFACTOR_AFTER:
+            self._factorise()
+        else:
+            row = self.q[b].toarray().ravel()[self._free]
+            self._since.append(b)
+            self._u = np.column_stack([self._u, row])
+            self._w = np.column_stack([self._w, self._factor.solve(row)])
+            self._inner = np.linalg.inv(np.diag(1.0 / self.k[self._since]) - self._u.T @ self._w)
         return True
 
 
