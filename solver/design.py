@@ -20,6 +20,7 @@ import numpy as np
 
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame, check_positions
+from zeromode.solver.hierarchical_modes import check_motion_count, place_groups
 from zeromode.solver.multimode import multi_mode_levels
 from zeromode.solver.normalisation import Normalisation, normalised
 from zeromode.solver.placement import (
@@ -132,7 +133,11 @@ def design(
     """Design a frame whose only non-rigid zero modes are the requested motions.
 
     positions: x_S (k, d); motions: a sequence of M motions, each (k, d), or one (k, d) array.
-    Raises DomainError: ``rigid_target``, ``degenerate_specified``, ``no_solution``.
+    Past M = d motions the bipartite construction has no solution in general; hierarchical
+    pairs of unspecified nodes take over (hierarchical_modes), up to M = 2d (``too_many_motions``
+    beyond).
+    Raises DomainError: ``rigid_target``, ``degenerate_specified``, ``no_solution``,
+    ``too_many_motions``.
     """
     x = check_positions(positions, dim, "positions")
     if isinstance(motions, np.ndarray) and motions.ndim == 2:
@@ -144,10 +149,17 @@ def design(
     check_motions_nonrigid(x, u_all)
     if n_unspecified is not None and n_unspecified < 0:
         raise InvalidInput("invalid_options", "n_unspecified must be non-negative.")
+    hierarchical = len(u_all) > x.shape[1] and levels is None  # past M = d (hierarchical_modes)
+    if hierarchical:
+        check_motion_count(x.shape[1], len(u_all))
+        if n_unspecified is not None:
+            raise InvalidInput("invalid_options", "n_unspecified is available for up to d motions.")
     norm = Normalisation.of(x, u_all[0])
     x_n = norm.positions_in(x)
     u_n = np.stack([norm.motions_in(u) for u in u_all])
     rng = np.random.default_rng(seed)
+    if hierarchical:
+        return _finish(x, u_all, norm, place_groups(x_n, u_n, rng))
     make_levels = levels or (single_mode_levels if len(u_all) == 1 else multi_mode_levels)
     state = place_nodes(x_n, u_n, make_levels(x_n, u_n, rng), n_unspecified)
     return _finish(x, u_all, norm, state)
