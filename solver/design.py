@@ -134,7 +134,7 @@ def design(
 
     positions: x_S (k, d); motions: a sequence of M motions, each (k, d), or one (k, d) array.
     Past M = d motions the bipartite construction has no solution in general; hierarchical
-    pairs of unspecified nodes take over (hierarchical_modes), up to M = 2d (``too_many_motions``
+    groups of unspecified nodes take over (hierarchical_modes), up to M = 2d (``too_many_motions``
     beyond).
     Raises DomainError: ``rigid_target``, ``degenerate_specified``, ``no_solution``,
     ``too_many_motions``.
