@@ -48,7 +48,6 @@ from zeromode.solver.normalisation import Normalisation
 from zeromode.solver.placement import target_zero_modes
 from zeromode.solver.rank import nullspace, orthonormal_range
 from zeromode.solver.rigidity import (
-    DENSE_MAX_DOF,
     Analysis,
     analyze,
     compatibility_matrix,
@@ -64,6 +63,9 @@ STRAIN_RTOL = 1e-12
 COUPLER_GROUND = 2
 # Pair nodes × kept-bar choices tried for a strain ratio before giving up.
 MAX_PLANS = 12
+# Counts and null spaces dense up to this many degrees of freedom, sparse above (rigidity's
+# measurements: counts alone are 2–70× faster sparse from dN = 200).
+COUNTS_DENSE_MAX_DOF = 200
 # A node is loose when it moves by more than this fraction of the largest amplitude in a zero
 # mode of the frame without the strained bars (exact zeros elsewhere are ~1e-15).
 LOOSE_RTOL = 1e-8
@@ -176,7 +178,7 @@ with a source that does not fix the rigid motions, allostery.check_source_pins),
             raise DomainError("zero_strain", "a strain ratio of 0 asks the target not to respond; give a nonzero ratio.")
         if len(src) != 2 or len(tgt) != 2:
             raise InvalidInput("invalid_nodes", "a strain ratio needs a source pair and a target pair.")
-    if analyze(frame, bases=False).nontrivial_zero_modes:
+    if _counts(frame).nontrivial_zero_modes:
         raise DomainError(
             "floppy_network", "the given frame has nontrivial zero modes, so its response is not unique."
         )
@@ -261,6 +263,13 @@ def _strained(frame: Frame, motion: np.ndarray) -> np.ndarray:
     return np.abs(np.einsum("ij,ij->i", dx, du)) > scale
 
 
+def _counts(frame: Frame) -> Analysis:
+    """The frame's counts (rigidity.analyze without bases): by the sparse route from
+    COUNTS_DENSE_MAX_DOF degrees of freedom, where it is the faster one for counts alone."""
+    method = "dense" if frame.dim * frame.n_nodes <= COUNTS_DENSE_MAX_DOF else "sparse"
+    return analyze(frame, method=method, bases=False)
+
+
 class _Pinned:
     """Zero modes of frames on the given nodes' positions (and nodes added later), with the rigid
     motions removed by pinning ρ = d(d+1)/2 coordinates of the nodes farthest from the moving ones
@@ -282,12 +291,12 @@ class _Pinned:
         """Basis (dN × m) of the pinned zero modes of the frame (positions, edges), m its number
         of nontrivial zero modes (rigidity.analyze)."""
         n, d = positions.shape
-        count = analyze(Frame.build(positions, edges), bases=False).nontrivial_zero_modes
+        count = _counts(Frame.build(positions, edges)).nontrivial_zero_modes
         keep = np.setdiff1d(np.arange(n * d), self.pins)
         c = compatibility_matrix(self.norm.positions_in(positions), edges)[:, keep]
         if count == 0:
             basis = np.zeros((len(keep), 0))
-        elif n * d <= DENSE_MAX_DOF:
+        elif n * d <= COUNTS_DENSE_MAX_DOF:
             basis = nullspace(c.toarray())[0]
         else:
             basis = smallest_eigenpairs(sp.csc_matrix(c.T @ c), count).vectors
@@ -378,7 +387,7 @@ def _build(frame, src, tgt, moving_src, u_ms, moving_tgt, u_mt, seed) -> Network
     mode = np.vstack([motion, np.asarray(added_u).reshape(-1, d)])
     edges = np.vstack([frame.edges[~strained], np.asarray(added_edges, dtype=int).reshape(-1, 2)])
     modified = Frame.build(positions, edges, specified=np.concatenate([src, tgt]))
-    analysis = analyze(modified, bases=False)
+    analysis = _counts(modified)
     residual = zero_mode_residual(modified, mode)
     if analysis.zero_modes != target_modes or not residual <= DESIGN_MODE_RTOL:
         raise DomainError(
