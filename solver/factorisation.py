@@ -56,21 +56,28 @@ class Cholesky:
         return np.asarray(x).reshape(b.shape)
 
 
-def cholesky(a: sp.spmatrix, order: np.ndarray | None = None) -> Cholesky:
-    """Supernodal Cholesky factor of the symmetric positive definite ``a`` (only its lower
-    triangle is read), eliminating unknowns in ``order`` (a permutation of range(n); None:
-    CHOLMOD's own approximate minimum degree order). Raises ArithmeticError if ``a`` is not
-    numerically positive definite."""
+def cholesky(a: sp.spmatrix, order: np.ndarray | None = None, shift: float = 0.0) -> Cholesky:
+    """Supernodal Cholesky factor of A + shift·I for a symmetric A (n × n; only its entries on
+    and below the diagonal are read, repeated entries of a COO matrix are summed) that is
+    positive definite with the shift, eliminating unknowns in ``order`` (a permutation of
+    range(n); None: CHOLMOD's own approximate minimum degree order). Raises ArithmeticError
+    if it is not numerically positive definite."""
     n = a.shape[0]
-    low = sp.tril(a, format="coo")
-    lower = cvx_spmatrix(low.data, low.row.astype(np.int64), low.col.astype(np.int64), (n, n))
+    a = a.tocoo()
+    low = a.row >= a.col
+    diagonal = np.arange(n)
+    values = cvx_matrix(np.concatenate([a.data[low], np.full(n, float(shift))]))
+    rows = cvx_matrix(np.concatenate([a.row[low], diagonal]).astype(np.int64))
+    cols = cvx_matrix(np.concatenate([a.col[low], diagonal]).astype(np.int64))
+    lower = cvx_spmatrix(values, rows, cols, (n, n))  # repeated (row, col) entries are summed
     options = dict(cholmod.options)  # module-wide settings: restore them for other users
     cholmod.options.update({"supernodal": 2, "nmethods": 0 if order is None else 1})
     try:
         if order is None:
             factor = cholmod.symbolic(lower, uplo="L")
         else:
-            factor = cholmod.symbolic(lower, p=cvx_matrix(np.asarray(order, dtype=np.int64)), uplo="L")
+            perm = cvx_matrix(np.asarray(order, dtype=np.int64))
+            factor = cholmod.symbolic(lower, p=perm, uplo="L")
         cholmod.numeric(lower, factor)
     finally:
         cholmod.options.clear()
@@ -95,12 +102,12 @@ def nested_dissection(points: np.ndarray, pairs: np.ndarray, leaf: int = LEAF_PO
     n, d = points.shape
     path = np.zeros(n, dtype=np.int64)
     active = np.arange(n) if n > leaf else np.zeros(0, dtype=np.int64)
+    part = np.zeros(active.size, dtype=np.int64)  # which part each active point is in
+    n_parts = 1
     i, j = np.asarray(pairs, dtype=np.int64).reshape(-1, 2).T
     for _ in range(MAX_LEVELS):
         if active.size == 0:
             break
-        _, part = np.unique(path[active], return_inverse=True)
-        n_parts = int(part.max()) + 1
         p = points[active]
         low = np.full((d, n_parts), np.inf)
         high = np.full((d, n_parts), -np.inf)
@@ -109,14 +116,17 @@ def nested_dissection(points: np.ndarray, pairs: np.ndarray, leaf: int = LEAF_PO
             np.maximum.at(high[k], part, p[:, k])
         extent = high - low
         axis = np.argmax(extent, axis=0)[part]
-        row = np.arange(active.size)
-        # part + (coordinate along its widest axis, scaled into [0, 1/2]): one float sort key
-        along = (p[row, axis] - low[axis, part]) / (2 * np.maximum(extent[axis, part], 1e-300))
+        # part + (coordinate along its widest axis, scaled into [0, 1/2]): one sort key that
+        # lists the parts in turn, each along its axis
+        along = (p[np.arange(active.size), axis] - low[axis, part]) / (
+            2 * np.maximum(extent[axis, part], 1e-300)
+        )
         by_coordinate = np.argsort(part + along)
         size = np.bincount(part, minlength=n_parts)
-        rank = np.empty(active.size, dtype=np.int64)
-        rank[by_coordinate] = np.arange(active.size) - (np.cumsum(size) - size)[part[by_coordinate]]
-        second = rank >= size[part] // 2
+        second = np.empty(active.size, dtype=bool)
+        second[by_coordinate] = np.arange(active.size) - (np.cumsum(size) - size)[
+            part[by_coordinate]
+        ] >= (size // 2)[part[by_coordinate]]
         half = np.zeros(n, dtype=np.int8)  # 0: not being cut, 1: first half, 2: second half
         half[active] = 1 + second
         across = half[i] != half[j]
@@ -135,6 +145,8 @@ def nested_dissection(points: np.ndarray, pairs: np.ndarray, leaf: int = LEAF_PO
         child = 2 * part + second
         child_size = np.bincount(child[~separator], minlength=2 * n_parts)
         keep = ~separator & (child_size[child] > leaf)
+        split_again = child_size > leaf
+        part, n_parts = (np.cumsum(split_again) - 1)[child[keep]], int(split_again.sum())
         still = np.zeros(n, dtype=bool)
         still[active[keep]] = True
         inside = still[i] & still[j] & (half[i] == half[j])

@@ -14,9 +14,12 @@ which makes every count invariant under translation, rotation and scaling.
 
 Two routes, with identical counts and subspaces where both apply:
   * dense: a full SVD of C (small frames; exact bases of both null spaces);
-  * sparse: shift-invert subspace iteration on CᵀC + δI with one sparse LU factorisation,
-    then a Rayleigh–Ritz step on C itself so the singular values (and the rank decision)
-    come from C, not from CᵀC whose small eigenvalues are squared into round-off.
+  * sparse: shift-invert subspace iteration with one supernodal Cholesky factorisation of
+    CᵀC + δI or CCᵀ + δI (solver/factorisation.py, nested-dissection order), then a
+    Rayleigh–Ritz step on C itself so the singular values (and the rank decision) come from C,
+    not from CᵀC whose small eigenvalues are squared into round-off. The one factorisation
+    serves both null spaces: I − Cᵀ(CCᵀ + δI)⁻¹C = δ(CᵀC + δI)⁻¹ and I − C(CᵀC + δI)⁻¹Cᵀ =
+    δ(CCᵀ + δI)⁻¹ (push-through identity), so either shifted inverse is one solve away.
 """
 
 from __future__ import annotations
@@ -24,20 +27,26 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from zeromode.solver.budget import check_budget
 from zeromode.solver.errors import DomainError
+from zeromode.solver.factorisation import cholesky, nested_dissection
 from zeromode.solver.frame import Frame
 from zeromode.solver.rank import RTOL, RankGap, complement_within, decide_rank, orthonormal_range
 
-# Dense full SVD up to this many degrees of freedom (dN), sparse subspace iteration above.
-# Measured (benchmarks/bench_analysis.py): with bases (the default) both cost the same near
-# dN = 400 on 2D lattices and sparse is 1.6–14× faster at 1000; on over-braced 3D lattices,
-# whose stress basis is large, sparse stays 1.2–1.5× slower up to 1000; counts alone are
-# 2–70× faster sparse from dN = 200. Below the crossover the exact SVD is kept.
+# Dense linear algebra up to this many degrees of freedom (dN) in the modules that share this
+# crossover (finite motion, eigenmodes, certificates, zero_mode_residual below).
 DENSE_MAX_DOF = 400
+# analyze takes the full SVD of C while C has at most this many entries (N_B·dN), the sparse
+# route above. Measured (benchmarks/bench_analysis.py, crossover table): the SVD's cost grows
+# as N_B·dN·min(N_B, dN) while the sparse route costs a few milliseconds of fixed overhead
+# plus, with bases, a QR of each basis; counts alone break even near 15 000 entries
+# (dN ≈ 120 on 2D and 3D lattices), counts with bases near 40 000 (dN ≈ 200).
+DENSE_MAX_ENTRIES_COUNTS = 15_000
+DENSE_MAX_ENTRIES_BASES = 40_000
 # Bases are returned only while they stay this small (numbers); counts are always exact.
 BASIS_MAX_NUMBERS = 4_000_000
 
@@ -158,29 +167,29 @@ def analyze(frame: Frame, rtol: float = RTOL, method: str = "auto", bases: bool 
     """Analyse ``frame``: rank of C, zero modes, rigid motions, self-stresses, and their bases.
 
     method: "dense" (full SVD), "sparse" (shift-invert subspace iteration) or "auto"
-    (dense up to DENSE_MAX_DOF degrees of freedom).  bases=False skips the bases.
+    (dense while C has at most DENSE_MAX_ENTRIES_BASES entries, or DENSE_MAX_ENTRIES_COUNTS
+    with bases=False).  bases=False skips the bases.
     """
     x = frame.normalised_positions()
     rigid = rigid_motions(x, rtol)
     if method == "auto":
-        method = "dense" if frame.dim * frame.n_nodes <= DENSE_MAX_DOF else "sparse"
+        limit = DENSE_MAX_ENTRIES_BASES if bases else DENSE_MAX_ENTRIES_COUNTS
+        method = "dense" if frame.dim * frame.n_nodes * frame.n_edges <= limit else "sparse"
     c = compatibility_matrix(x, frame.edges, dense=method == "dense")
     if method == "dense":
-        null, stresses, rank, gap = _dense_null_spaces(c, rtol)
+        modes, stresses, rank, gap = _dense_null_spaces(c, rigid, rtol)
     elif method == "sparse":
-        null, stresses, rank, gap = _sparse_null_spaces(c, rtol, rigid.shape[1], want_stresses=bases)
+        modes, stresses, rank, gap = _sparse_null_spaces(c, x, frame.edges, rigid, rtol, bases)
     else:
         raise ValueError(f"unknown method {method!r}")
     n, d = frame.n_nodes, frame.dim
     z_nontrivial = d * n - rank - rigid.shape[1]
-    size = max(z_nontrivial, 0) * d * n + (frame.n_edges - rank) * frame.n_edges
-    include = bases and size <= BASIS_MAX_NUMBERS and stresses is not None and null.shape[1] == d * n - rank
-    if include:
-        modes = complement_within(null, rigid).T.reshape(-1, n, d)
-        stress_basis = stresses.T
-    else:
-        modes = np.zeros((0, n, d))
-        stress_basis = np.zeros((0, frame.n_edges))
+    include = (
+        bases
+        and modes is not None
+        and _bases_fit(z_nontrivial, frame.n_edges - rank, c.shape)
+        and modes.shape[1] == z_nontrivial
+    )
     return Analysis(
         nodes=n,
         edges=frame.n_edges,
@@ -188,65 +197,147 @@ def analyze(frame: Frame, rtol: float = RTOL, method: str = "auto", bases: bool 
         rank=rank,
         rigid_body_modes=rigid.shape[1],
         rank_gap=gap,
-        modes=modes,
-        stresses=stress_basis,
+        modes=modes.T.reshape(-1, n, d) if include else np.zeros((0, n, d)),
+        stresses=stresses.T if include else np.zeros((0, frame.n_edges)),
         method=method,
         bases_included=include,
         rigid_basis=rigid,
     )
 
 
-def _dense_null_spaces(c: np.ndarray, rtol: float):
-    """Full SVD of C: (null basis dN×z, stress basis N_B×s, rank, gap)."""
+def _bases_fit(modes: int, stresses: int, shape: tuple[int, int]) -> bool:
+    """Whether m nontrivial modes (dN each) and s self-stresses (N_B each) fit BASIS_MAX_NUMBERS."""
+    nb, ndof = shape
+    return max(modes, 0) * ndof + max(stresses, 0) * nb <= BASIS_MAX_NUMBERS
+
+
+def _dense_null_spaces(c: np.ndarray, rigid: np.ndarray, rtol: float):
+    """Full SVD of C: (nontrivial modes dN × m, ⟂ rigid; stresses N_B × s; rank; gap)."""
     nb, ndof = c.shape
     if nb == 0:
-        return np.eye(ndof), np.zeros((0, 0)), 0, RankGap(0.0, 0.0)
+        return complement_within(np.eye(ndof), rigid), np.zeros((0, 0)), 0, RankGap(0.0, 0.0)
     u, s, vt = np.linalg.svd(c, full_matrices=True)
     rank, gap = decide_rank(s, rtol)
-    return vt[rank:].T, u[:, rank:], rank, gap
+    return complement_within(vt[rank:].T, rigid), u[:, rank:], rank, gap
 
 
-def _sparse_null_spaces(c: sp.csr_matrix, rtol: float, rigid_dim: int, want_stresses: bool):
-    """Rank of a large sparse C (N_B × dN) and, when wanted, bases of N(C) and N(Cᵀ).
+# δ = SHIFT·σ_max² in CᵀC + δI: far above the round-off of forming CᵀC (≈ 1e-16 σ_max²), so
+# the factorisation sees a positive definite matrix, and far below σ² of any singular value
+# the rank keeps (σ > RTOL·σ_max ⇒ σ² ≥ 1e-18 σ_max² … designed frames σ² ≳ 1e-8 σ_max²), so a
+# shift-invert step damps such a direction by δ/(σ² + δ) relative to the null space.
+SHIFT = 1e-10
+# Columns of the iterated block beyond the lower bound on the null space being found: they
+# carry the smallest nonzero singular values whose settling ends the iteration.
+OVERSAMPLE = 3
+# Bases are iterated until ‖C v‖ ≤ BASIS_ANGLE·σ_r for every basis vector v, which bounds
+# the angle between the returned and the exact null space by BASIS_ANGLE (round-off allowing).
+BASIS_ANGLE = 1e-10
+# … or until ‖C v‖ ≤ ROUNDOFF·σ_max, the level round-off in C·v (≈ 1e-16 σ_max per entry,
+# summed over a node's bars) keeps it above.
+ROUNDOFF = 1e-13
+# Cholesky QR is used for blocks whose Cholesky factor's diagonal spans at most this ratio
+# (cond ≲ 1e6, well inside its stable range cond ≲ 1/√ε ≈ 1e8).
+CHOLQR_MAX_RATIO = 1e6
+# Above this many independent null vectors on the side counted, the block is too wide.
+MAX_NULL_VECTORS = 20_000
+
+
+@dataclass(frozen=True, eq=False)
+class _NullProblem:
+    """N(matrix) ⊖ span(known) by shift-invert subspace iteration.
+
+    matrix: m × n (C for zero modes, Cᵀ for self-stresses); inverse: applies a positive
+    multiple of (matrixᵀ·matrix + δI)⁻¹ to an n × k block; known: n × ρ orthonormal null
+    vectors known in advance (the rigid motions), kept out of the block.
+    """
+
+    matrix: sp.spmatrix
+    inverse: object
+    known: np.ndarray
+
+    def step(self, y: np.ndarray) -> np.ndarray:
+        """One shift-invert step: the inverse, the known null vectors projected out, QR."""
+        return _orthonormal(self.deflate(self.inverse(y)))
+
+    def deflate(self, y: np.ndarray) -> np.ndarray:
+        """y with its components along the known null vectors removed."""
+        return y - self.known @ (self.known.T @ y) if self.known.size else y
+
+    def residual(self, y: np.ndarray) -> float:
+        """max over the columns v of ‖matrix·v‖ / ‖v‖."""
+        return float(np.max(np.linalg.norm(self.matrix @ y, axis=0) / np.linalg.norm(y, axis=0)))
+
+
+def _sparse_null_spaces(c: sp.csr_matrix, x: np.ndarray, edges: np.ndarray, rigid: np.ndarray,
+                        rtol: float, want_bases: bool):
+    """Rank of a large sparse C (N_B × dN) and, when wanted, bases of N(C) ⊖ rigid and N(Cᵀ).
 
     dim N(C) − dim N(Cᵀ) = dN − N_B (the Maxwell count) and N(C) holds the ρ rigid motions,
-    so dim N(C) ≥ z₀ = max(dN − N_B, ρ) and dim N(Cᵀ) ≥ z₀ − (dN − N_B). The rank is decided
-    on the side with the smaller bound (zero modes for over-braced frames, self-stresses for
+    which are known exactly, so with f = max(dN − N_B, ρ) there are at least f − ρ nontrivial
+    zero modes and f − (dN − N_B) self-stresses. The rank is decided on the side with the
+    smaller bound (zero modes when dN − N_B ≤ ρ, as in over-braced frames; self-stresses for
     under-braced ones such as kagome patches with hundreds of boundary modes), where the
-    subspace-iteration block stays small; the singular values are those of C either way.
+    iterated block stays thin, and that side's Gram matrix (CᵀC + δI, dN × dN, or CCᵀ + δI,
+    N_B × N_B) is the one factorised; the other side's shifted inverse comes from the same
+    factor by the push-through identity. The singular values are those of C either way.
 
-    Returns (zero-mode basis dN × z, self-stress basis N_B × s or None, rank, gap). The bases are
-    computed only when ``want_stresses`` and both fit in BASIS_MAX_NUMBERS (as ``analyze``
-    returns them); otherwise the zero-mode basis is an empty dN × 0 array and the stresses None.
+    Returns (modes dN × m ⟂ rigid, stresses N_B × s, rank, gap); the bases are None unless
+    ``want_bases`` and they fit in BASIS_MAX_NUMBERS.
     """
     nb, ndof = c.shape
+    rho = rigid.shape[1]
     if nb == 0:
-        return np.eye(ndof), np.zeros((0, 0)), 0, RankGap(0.0, 0.0)
-    sigma_max = _largest_singular_value(c)
-    z_bound = max(ndof - nb, rigid_dim)
-    s_bound = z_bound - (ndof - nb)
-    if s_bound < z_bound:
-        stresses, kept, dropped = _null_by_subspace_iteration(c.T.tocsr(), sigma_max, rtol, s_bound)
-        rank = nb - stresses.shape[1]
-        null = None
+        empty = want_bases and _bases_fit(ndof - rho, 0, c.shape)
+        modes = complement_within(np.eye(ndof), rigid) if empty else None
+        return modes, np.zeros((0, 0)), 0, RankGap(0.0, 0.0)
+    ct = c.T
+    surplus = ndof - nb
+    count_modes = surplus <= rho
+    # Both Gram matrices follow the bar graph: (CᵀC)_ij ≠ 0 for the d × d blocks of joined
+    # nodes, (CCᵀ)_ef ≠ 0 for bars sharing a node. One dissection of the nodes orders both:
+    # a node's d coordinates together, a bar with the later of its two nodes (bars inside one
+    # half never share a node with bars inside the other, so the halves stay separated).
+    node_order = nested_dissection(x, edges)
+    if count_modes:
+        d = x.shape[1]
+        gram = ct @ c
+        order = (d * node_order[:, None] + np.arange(d)).ravel()
     else:
-        null, kept, dropped = _null_by_subspace_iteration(c, sigma_max, rtol, z_bound)
-        rank = ndof - null.shape[1]
-        stresses = None
-    z, s = ndof - rank, nb - rank
-    if want_stresses and max(z - rigid_dim, 0) * ndof + s * nb <= BASIS_MAX_NUMBERS:
-        if null is None:
-            null, _, _ = _null_by_subspace_iteration(c, sigma_max, rtol, z, exact_dim=z)
-        if stresses is None:
-            stresses, _, _ = _null_by_subspace_iteration(
-                c.T.tocsr(), sigma_max, rtol, s, exact_dim=s
-            )
-        return null, stresses, rank, RankGap(kept, dropped)
-    return np.zeros((ndof, 0)), None, rank, RankGap(kept, dropped)
+        gram = c @ ct
+        position = np.empty_like(node_order)
+        position[node_order] = np.arange(node_order.size)
+        order = np.argsort(position[edges].max(axis=1), kind="stable")
+    sigma_max = _largest_singular_value(c)
+    tol = rtol * sigma_max
+    factor = cholesky(gram, order, shift=SHIFT * sigma_max**2)
+    if count_modes:
+        modes = _NullProblem(c, factor.solve, rigid)
+        stresses = _NullProblem(ct, lambda w: w - c @ factor.solve(ct @ w), np.zeros((nb, 0)))
+    else:
+        modes = _NullProblem(c, lambda y: y - ct @ factor.solve(c @ y), rigid)
+        stresses = _NullProblem(ct, factor.solve, np.zeros((nb, 0)))
+    floor = max(surplus, rho)
+    counted, bound = (modes, floor - rho) if count_modes else (stresses, floor - surplus)
+    found, kept, dropped = _null_by_subspace_iteration(counted, tol, bound)
+    if rho:  # the rigid motions are zeros of C too: the largest of them may top the found ones
+        dropped = max(dropped, float(np.linalg.norm(c @ rigid, 2)))
+    rank = ndof - rho - found.shape[1] if count_modes else nb - found.shape[1]
+    gap = RankGap(kept, dropped)
+    n_modes, n_stresses = ndof - rho - rank, nb - rank
+    if not (want_bases and _bases_fit(n_modes, n_stresses, c.shape)):
+        return None, None, rank, gap
+    # The counted side's vectors take one more step together (polish); the other side's
+    # dimension is now known.
+    target = max(BASIS_ANGLE * kept, ROUNDOFF * sigma_max)
+    found = _null_basis(counted, target, found.shape[1], start=found)
+    other, other_dim = (stresses, n_stresses) if count_modes else (modes, n_modes)
+    rest = _null_basis(other, target, other_dim)
+    return (found, rest, rank, gap) if count_modes else (rest, found, rank, gap)
 
 
-def _largest_singular_value(c: sp.csr_matrix, steps: int = 30) -> float:
-    """σ_max(C) by seeded power iteration on CᵀC; a few per cent is ample for a relative threshold."""
+def _largest_singular_value(c: sp.csr_matrix, steps: int = 10) -> float:
+    """σ_max(C) by seeded power iteration on CᵀC: on lattices 10 steps give it within 5 %
+    (from below), ample for a relative threshold and a shift."""
     v = np.random.default_rng(0).standard_normal(c.shape[1])
     for _ in range(steps):
         v = c.T @ (c @ v)
@@ -255,88 +346,131 @@ def _largest_singular_value(c: sp.csr_matrix, steps: int = 30) -> float:
 
 
 def _null_by_subspace_iteration(
-    c: sp.csr_matrix,
-    sigma_max: float,
-    rtol: float,
-    lower_bound: int,
-    exact_dim: int | None = None,
-    oversample: int = 8,
-    first_steps: int = 2,
-    max_rounds: int = 60,
+    problem: _NullProblem, tol: float, lower_bound: int, first_steps: int = 2, max_rounds: int = 60
 ):
-    """Orthonormal basis of N(c) (columns), the smallest nonzero Ritz singular value and the largest zero one.
+    """Orthonormal basis of N(matrix) ⊖ span(known) (columns), the smallest nonzero Ritz
+    singular value and the largest zero one: the count behind the rank.
 
-    Shift-invert subspace iteration with (cᵀc + δI)⁻¹, δ = 1e-10 σ_max²: one sparse LU
-    (symmetric minimum-degree order, diagonal pivots: the matrix is positive definite) damps a
-    singular direction σ by δ/(σ² + δ) per step relative to N(c). After each round a
-    Rayleigh–Ritz step on c itself gives the Ritz singular values θ ≥ σ of c on the block;
-    Ritz vectors with θ ≤ rtol·σ_max join the null basis and are deflated from the block, which
-    goes on with the rest. A null direction not yet found shows up as a small nonzero θ that
-    keeps falling by δ/(σ² + δ) per step, so the rounds (one step each after the first) stop
-    only when a round finds no new null vector and the smallest θ moved by less than 10 %. A
-    block whose Ritz values are all zero may miss part of N(c): it is replaced by as many fresh
-    random directions as there are null vectors found. The whole block (null vectors and the
-    rest) then takes two more steps and a last Rayleigh–Ritz step on it decides the count,
-    which by interlacing never exceeds dim N(c). ``exact_dim`` (known from the other side) stops once that many null vectors are
-    found.
+    Shift-invert subspace iteration: each step applies (matrixᵀmatrix + δI)⁻¹, which damps a
+    singular direction σ by δ/(σ² + δ) relative to the null space, and re-orthonormalises the
+    block (lower_bound + OVERSAMPLE columns, ⟂ known). After each round a Rayleigh–Ritz step
+    on the matrix itself gives the Ritz singular values θ ≥ σ on the block; those with
+    θ ≤ tol are null. A null direction not yet found shows up as a small nonzero θ that keeps
+    falling by δ/(σ² + δ) per step, so the rounds (one step each after the first) stop only
+    when a round finds no new null vector and the smallest nonzero θ moved by less than 10 %.
+    A block whose Ritz values are all zero may miss part of the null space: fresh random
+    directions are added (doubling it) and the rounds start again. The count is that of the
+    last Rayleigh–Ritz step, which by interlacing never exceeds the null space's dimension.
     """
-    ndof = c.shape[1]
-    tol = rtol * sigma_max
-    shifted = (c.T @ c + 1e-10 * sigma_max**2 * sp.identity(ndof, format="csc")).tocsc()
-    lu = spla.splu(
-        shifted, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True}
-    )
+    n = problem.matrix.shape[1]
+    room = n - problem.known.shape[1]
+    if room == 0:
+        return np.zeros((n, 0)), 0.0, 0.0
     rng = np.random.default_rng(0)
-    null = np.zeros((ndof, 0))
-    y = rng.standard_normal((ndof, min(ndof, max(lower_bound, 1) + oversample)))
+    y = problem.deflate(rng.standard_normal((n, min(room, lower_bound + OVERSAMPLE))))
     steps, previous = first_steps, None
     for _ in range(max_rounds):
         check_budget()
         for _ in range(steps):
-            y = lu.solve(y)
-            y, _ = np.linalg.qr(y - null @ (null.T @ y))
-        theta, ritz = _ritz_pairs(c, y)
+            y = problem.step(y)
+        theta, y = _ritz_pairs(problem.matrix, y)
         z = int(np.count_nonzero(theta <= tol))
-        null, y = np.hstack([null, ritz[:, :z]]), ritz[:, z:]
-        if exact_dim is not None:
-            if null.shape[1] >= exact_dim or y.shape[1] == 0:
+        if z == y.shape[1]:
+            if z == room:
                 break
-        elif y.shape[1] == 0:
-            if null.shape[1] == ndof:
-                break
-            if null.shape[1] >= 20000:
+            if z >= MAX_NULL_VECTORS:
                 raise DomainError(
-                    "too_expensive", "the frame has more than 20000 independent zero modes."
+                    "too_expensive",
+                    f"the frame has more than {MAX_NULL_VECTORS} independent zero modes.",
                 )
-            fresh = rng.standard_normal((ndof, min(null.shape[1], ndof - null.shape[1])))
-            y = fresh - null @ (null.T @ fresh)
+            fresh = problem.deflate(rng.standard_normal((n, min(z, room - z))))
+            y = np.hstack([y, fresh - y @ (y.T @ fresh)])
             steps, previous = first_steps, None
             continue
-        elif previous is not None and z == 0 and theta[0] >= 0.9 * previous:
+        if previous is not None and z == previous[0] and theta[z] >= 0.9 * previous[1]:
             break
-        steps, previous = 1, theta[z]
-    # Null vectors found early were deflated after a few steps: polish them together with the
-    # rest of the block (which keeps the oversampling), then decide on the whole block.
-    block = np.hstack([null, y])
-    for _ in range(first_steps):
-        block, _ = np.linalg.qr(lu.solve(block))
-    theta, ritz = _ritz_pairs(c, block)
-    z = int(np.count_nonzero(theta <= tol)) if exact_dim is None else min(exact_dim, theta.size)
+        steps, previous = 1, (z, theta[z])
     kept = float(theta[z]) if z < theta.size else 0.0
     dropped = float(theta[z - 1]) if z > 0 else 0.0
-    return ritz[:, :z], kept, dropped
+    return y[:, :z], kept, dropped
 
 
-def _ritz_pairs(c: sp.csr_matrix, y: np.ndarray):
-    """Ritz singular values θ (ascending) and vectors (columns) of c on span(y), y orthonormal.
+def _null_basis(
+    problem: _NullProblem, target: float, dim: int, start: np.ndarray | None = None,
+    quick_steps: int = 3, max_steps: int = 60,
+) -> np.ndarray:
+    """Orthonormal basis (n × dim) of N(matrix) ⊖ span(known) when its dimension is known.
 
-    The singular values of c·y are those of its triangular factor R, whose SVD also gives the
-    right singular vectors W (completed with zeros when c has fewer rows than y has columns).
+    The same shift-invert steps on a block of exactly ``dim`` columns (``start`` first, the
+    rest random) until every column v has ‖matrix·v‖ ≤ ``target``: the count has already
+    established the dimension, and with a clear gap (σ_r² ≫ δ) a few steps suffice. Scaled
+    by δ the shifted inverse has eigenvalues δ/(σ² + δ) ∈ (0, 1], 1 on the null space, so the
+    block needs no re-orthonormalisation between these steps (columns are only rescaled),
+    and one QR at the end. If ``quick_steps`` are not enough, some nonzero singular values
+    are small enough (σ² ≲ δ) to converge slowly: the block then takes OVERSAMPLE more
+    columns, which catch those directions, and every step is followed by a QR and a
+    Rayleigh–Ritz step that keeps the dim Ritz vectors of smallest θ.
+    """
+    n = problem.matrix.shape[1]
+    if dim == 0:
+        return np.zeros((n, 0))
+    rng = np.random.default_rng(0)
+    y = rng.standard_normal((n, dim))
+    if start is not None:
+        y[:, : start.shape[1]] = start
+    y = problem.deflate(y)
+    for step in range(max_steps):
+        check_budget()
+        if step < quick_steps:
+            y = problem.deflate(problem.inverse(y))
+            y /= np.linalg.norm(y, axis=0)
+            if problem.residual(y) <= target:
+                y = _orthonormal(y)
+                if problem.residual(y) <= target:
+                    return y
+            continue
+        if step == quick_steps:
+            extra = min(OVERSAMPLE, n - problem.known.shape[1] - dim)
+            y = np.hstack([y, problem.deflate(rng.standard_normal((n, extra)))])
+        theta, y = _ritz_pairs(problem.matrix, problem.step(y))
+        if theta[dim - 1] <= target:
+            break
+    return y[:, :dim]
+
+
+def _orthonormal(y: np.ndarray) -> np.ndarray:
+    """Orthonormal basis of the columns of y (n × k, full column rank).
+
+    Cholesky QR twice (Q₁ = y R₁⁻¹ with R₁ᵀR₁ = yᵀy, then the same on Q₁): two passes over y
+    with BLAS-3 kernels each, where Householder QR makes about 2k passes; stable while
+    cond(y) ≲ 1/√ε. A block just out of a shift-invert step can be far worse conditioned (its
+    null components grew by 1/δ), so when the Cholesky factor's diagonal spans more than
+    CHOLQR_MAX_RATIO, or the factorisation fails, Householder QR is used instead.
+    """
+    q = y
+    for _ in range(2):
+        try:
+            r = sla.cholesky(q.T @ q, check_finite=False)
+        except np.linalg.LinAlgError:
+            return np.linalg.qr(y)[0]
+        diagonal = np.abs(np.diag(r))
+        if diagonal.min() * CHOLQR_MAX_RATIO < diagonal.max():
+            return np.linalg.qr(y)[0]
+        q = sla.solve_triangular(r, q.T, trans="T", check_finite=False).T
+    return q
+
+
+def _ritz_pairs(matrix: sp.spmatrix, y: np.ndarray):
+    """Ritz singular values θ (ascending) and vectors (columns) of ``matrix`` on span(y), y orthonormal.
+
+    The singular values of matrix·y are those of its triangular factor R, whose SVD also gives
+    the right singular vectors W (completed with zeros when the matrix has fewer rows than y
+    has columns).
     """
     k = y.shape[1]
     if k == 0:
         return np.zeros(0), y
-    _, s, wt = np.linalg.svd(np.linalg.qr(c @ y, mode="r"))
+    _, s, wt = np.linalg.svd(np.linalg.qr(matrix @ y, mode="r"))
     theta = np.zeros(k)
     theta[: s.size] = s
     order = np.argsort(theta, kind="stable")
