@@ -157,7 +157,10 @@ def random_rotation(d: int, seed: int) -> np.ndarray:
 @pytest.mark.parametrize(("d", "distance"), [(2, 3.0), (2, 48.0), (3, 24.0)])
 @pytest.mark.parametrize(
     ("scale", "speed", "shift", "rotate"),
-    [(100.0, 1.0, 0.0, False), (1e-3, 1e-3, 0.0, False), (1.0, 1.0, 37.0, False), (1.0, 2.0, 0.0, True), (1e3, 5.0, -4.0, True)],
+    [
+        (100.0, 1.0, 0.0, False), (1e-3, 1e-3, 0.0, False), (1.0, 1.0, 37.0, False), (1.0, 2.0, 0.0, True),
+        (1e3, 5.0, -4.0, True), (1e6, 1e-6, 3e6, True), (1e-6, 1e6, -2e-6, True),
+    ],
 )
 def test_design_is_the_same_up_to_the_same_similarity(d, distance, scale, speed, shift, rotate):
     """x ↦ λQx + t and u ↦ μQu on the request give the same bars and x ↦ λQx + t, u ↦ μQu on the

@@ -133,6 +133,31 @@ def test_motions_and_strain_ratios_are_exact_in_3d(seed):
     assert eta == pytest.approx(-3.0, rel=1e-9)
 
 
+def rotation(theta: float) -> np.ndarray:
+    return np.array([[np.cos(theta), -np.sin(theta)], [np.sin(theta), np.cos(theta)]])
+
+
+@pytest.mark.parametrize(
+    ("scale", "shift", "theta"), [(1e6, 3e6, 0.7), (1e-6, -5e-6, 0.0), (1.0, 37.0, 0.0), (37.0, 0.0, 2.0), (1.0, 0.0, 1.0)]
+)
+def test_strain_ratio_designs_are_the_same_up_to_the_same_similarity(scale, shift, theta):
+    """x ↦ λQx + t on the given network: the same bars removed and added, the added nodes moved
+    by the same map, and the moved answer is exact on its own (checked from scratch)."""
+    task = make_task(40, 0, -2.0)
+    q = rotation(theta)
+    reference = tune_network(task.frame, task.source_pair, task.target_pair, strain_ratio=-2.0)
+    moved_frame = Frame.build(scale * task.frame.positions @ q.T + shift, task.frame.edges)
+    moved = tune_network(moved_frame, task.source_pair, task.target_pair, strain_ratio=-2.0)
+    assert moved.removed_edges == reference.removed_edges
+    assert np.array_equal(moved.added_edges, reference.added_edges)
+    expected = scale * reference.frame.positions @ q.T + shift
+    assert np.abs(moved.frame.positions - expected).max() <= 1e-9 * np.abs(expected).max()
+    response = check_answer(moved_frame, moved, task.source_pair, task.target_pair)
+    x, s, t = moved.frame.positions, list(task.source_pair), list(task.target_pair)
+    eta = pair_strain(x[t], response[t]) / pair_strain(x[s], response[s])
+    assert eta == pytest.approx(-2.0, rel=1e-9)
+
+
 def refusals():
     task = make_task(40, 0, 1.0)
     frame, s, t = task.frame, list(task.source_pair), list(task.target_pair)
@@ -147,6 +172,7 @@ def refusals():
         ("rigid_source", (frame, s, t), {"source_motion": np.ones((2, 2)), "target_motion": u[2:]}),
         ("rigid_source", (frame, s, t), {"source_motion": rotation, "target_motion": u[2:]}),
         ("rigid_target", (frame, s, t), {"source_motion": u[:2], "target_motion": np.zeros((2, 2))}),
+        ("rigid_target", (frame, s, t), {"source_motion": u[:2], "target_motion": np.column_stack([-x[t, 1], x[t, 0]])}),
         ("zero_strain", (frame, s, t), {"strain_ratio": 0.0}),
         (
             "underdetermined_source",
