@@ -142,20 +142,32 @@ def two_configuration_body(result, timings_ms: dict) -> dict:
     }
 
 
+def strain_range_body(usable) -> dict:
+    end = lambda e: {"strain": e.strain, "reason": e.reason, "detail": e.detail}  # noqa: E731
+    return {
+        "lower": end(usable.lower),
+        "upper": end(usable.upper),
+        "proximity_fraction": usable.proximity_fraction,
+        "shortest_bar": usable.shortest_bar,
+    }
+
+
 def auxetic_body(lattice, timings_ms: dict, tolerance: ToleranceReport | None = None) -> dict:
     body = {
         "frame": frame_body(lattice.frame),
         "modes": [lattice.mode.tolist()],
         "poisson_ratio": lattice.poisson_ratio,
         "states": [
-            {"name": name, "positions": x.tolist(), "poisson_ratio": nu}
-            for name, (x, nu) in sorted(lattice.states.items())
+            {"name": name, "positions": x.tolist(), "poisson_ratio": nu, "strain": eps}
+            for name, (x, nu, eps) in sorted(lattice.states.items())
         ],
         "report": {
             "analysis": counts_body(lattice.analysis),
             "boundary": lattice.boundary,
             "mode_residual": lattice.mode_residual,
             "max_relative_bar_error": lattice.max_relative_bar_error,
+            "strain_range": strain_range_body(lattice.strain_range),
+            "min_node_distance": lattice.min_node_distance,
             "timings_ms": timings_ms,
         },
     }
@@ -252,7 +264,8 @@ def network_allosteric_body(result, given_edges) -> dict:
 # ----------------------------------------------------------------------------- finite motion
 
 
-def motion_body(path: MotionPath, timings_ms: dict | None = None) -> dict:
+def motion_body(path: MotionPath, timings_ms: dict | None = None, strains=None) -> dict:
+    """/v1/motion; ``strains`` (ε (P, 2), secant ν (P,)) of a lattice's configurations, or None."""
     body = {
         "path": path.positions.tolist(),
         "parameter": path.parameter.tolist(),
@@ -274,6 +287,9 @@ def motion_body(path: MotionPath, timings_ms: dict | None = None) -> dict:
     }
     if timings_ms is not None:
         body["timings_ms"] = timings_ms
+    if strains is not None:
+        body["strains"] = strains[0].tolist()
+        body["poisson_ratio"] = [None if not np.isfinite(v) else float(v) for v in strains[1]]
     return body
 
 

@@ -81,6 +81,7 @@ from zeromode.solver.eigen import nontrivial_zero_modes, smallest_eigenpairs
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame, check_positions
 from zeromode.solver.normalisation import Normalisation
+from zeromode.solver.progress import report_progress
 from zeromode.solver.rank import RTOL, complement_within, nullspace
 from zeromode.solver.rigidity import DENSE_MAX_DOF, analyze, compatibility_matrix, rigid_motions
 from zeromode.solver.tolerances import GIVEN_MODE_RTOL
@@ -375,11 +376,13 @@ def _correct(cons, point: _Point, pred, start=None, tight=False):
     return None
 
 
-def _trace_one_way(cons, start: _Point, amplitude, max_step, max_steps):
-    """Continue from ``start`` to parameter ``amplitude``.
+def _trace_one_way(cons, start: _Point, amplitude, max_step, max_steps, stop=None, share=(0.0, 1.0)):
+    """Continue from ``start`` to parameter ``amplitude``, or until ``stop(y)`` is true for a
+    new configuration y (normalised; it is kept as the last one).
 
     Returns (configurations after the start, their parameters, singularity or None) with the
-    singularity's ``step`` counted from the start (1 = first new point)."""
+    singularity's ``step`` counted from the start (1 = first new point).  Progress is reported
+    as τ/amplitude mapped onto the ``share`` (first, last) of the caller's work."""
     sqrt_n = np.sqrt(cons.n)
     point, tau, h = start, 0.0, min(max_step, amplitude)
     xs, taus = [], []
@@ -422,6 +425,9 @@ def _trace_one_way(cons, start: _Point, amplitude, max_step, max_steps):
         tau += h
         xs.append(y)
         taus.append(tau)
+        report_progress(share[0] + (share[1] - share[0]) * tau / amplitude, "continuation")
+        if stop is not None and stop(y):
+            return xs, taus, None
         if iters <= EASY_ITERATIONS:
             h = min(1.5 * h, max_step)
     raise DomainError(
@@ -608,16 +614,19 @@ def start_direction(cons: BarConstraints, x: np.ndarray, mode):
     return t / np.linalg.norm(t), null
 
 
-def follow(cons: BarConstraints, x0, t0, null, amplitude, max_step, direction, max_steps):
+def follow(cons: BarConstraints, x0, t0, null, amplitude, max_step, direction, max_steps, stop=None):
     """Continuation of the constraint system ``cons`` from x0 (normalised) along ±t0, with
     ``null`` an orthonormal basis of N(C(x0)): (configurations (normalised, ordered by
-    parameter), parameters, index of x0, singular points (path indices))."""
+    parameter), parameters, index of x0, singular points (path indices)).  ``stop(y, sign)``,
+    if given, ends a direction at the first new configuration y where it is true."""
     c0 = cons.jacobian(x0)
     branches = {}
-    for sign, name in ((1.0, "forward"), (-1.0, "backward")):
-        if direction in (name, "both"):
-            start = _Point(x0, _tangent_frame(cons, x0, null, sign * t0), c0)
-            branches[name] = _trace_one_way(cons, start, amplitude, max_step, max_steps)
+    ways = [(s, n) for s, n in ((1.0, "forward"), (-1.0, "backward")) if direction in (n, "both")]
+    for k, (sign, name) in enumerate(ways):
+        start = _Point(x0, _tangent_frame(cons, x0, null, sign * t0), c0)
+        until = None if stop is None else (lambda y, sign=sign: stop(y, sign))
+        share = (k / len(ways), (k + 1) / len(ways))
+        branches[name] = _trace_one_way(cons, start, amplitude, max_step, max_steps, until, share)
     back_x, back_tau, back_sing = branches.get("backward", ([], [], None))
     fwd_x, fwd_tau, fwd_sing = branches.get("forward", ([], [], None))
     ref = len(back_x)
@@ -646,6 +655,7 @@ def trace_motion(
     direction: str = "both",
     max_steps: int = 5000,
     method: str = "auto",
+    stop=None,
 ) -> MotionPath:
     """Follow the finite motion of ``frame`` along ``mode`` to parameter ±``amplitude``.
 
@@ -656,6 +666,9 @@ def trace_motion(
     method: "dense", "sparse" or "auto" (dense up to rigidity.DENSE_MAX_DOF degrees of freedom).
     Singular points stop the path in their direction and are listed in ``singularities``
     (``status`` "singular_path"); the path up to them is returned.
+    stop: optional ``stop(positions (N, d), sign)`` (sign +1 forward, −1 backward), called at
+    every new configuration (unaligned, in the frame's coordinates); a direction ends at the
+    first where it is true, that configuration kept.
     Frames above MAX_DOF degrees of freedom are refused (``too_expensive``) before any work.
     """
     if direction not in ("both", "forward", "backward"):
@@ -678,8 +691,9 @@ def trace_motion(
     x0 = norm.positions_in(frame.positions)
     cons = BarConstraints(frame.edges, x0, method)
     t0, null = start_direction(cons, x0, mode)
+    until = None if stop is None else (lambda y, sign: stop(norm.positions_out(y), sign))
     configs, params, ref, singularities = follow(
-        cons, x0, t0, null, amplitude, max_step, direction, max_steps
+        cons, x0, t0, null, amplitude, max_step, direction, max_steps, until
     )
     positions = np.stack(
         [

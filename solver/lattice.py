@@ -30,26 +30,33 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from zeromode.solver.coupling import Module, couple
 from zeromode.solver.design import design
 from zeromode.solver.errors import DomainError, InvalidInput
-from zeromode.solver.finite_motion import trace_motion
 from zeromode.solver.frame import Frame
 from zeromode.solver.multimode import spatial_quadric
 from zeromode.solver.rigidity import Analysis, analyze, zero_mode_residual
+from zeromode.solver.sheet_module import sheet_edges, sheet_positions, two_node_module
 from zeromode.solver.solution_space import solution_space
+from zeromode.solver.strain_range import PROXIMITY_FRACTION, StrainRange, chain_range, module_range
 from zeromode.solver.tolerances import ROOT_IMAG_RTOL
 
 MAX_SHEET_CELLS = 2500
-# The chain's finite states come from continuation, which is dense (finite_motion.MAX_DOF).
-MAX_CHAIN_BLOCKS = 16
+# The chain's range is traced by sparse continuation; 64 blocks (≈ 2100 degrees of freedom) are
+# designed, ranged and traced in a few seconds (benchmarks/bench_lattice.py).
+MAX_CHAIN_BLOCKS = 64
+# Strain of the expanded and contracted states when the request names none (clipped to the range).
+DEFAULT_STATE_STRAIN = 0.1
 
 
 @dataclass(frozen=True, eq=False)
 class Lattice:
     """A designed lattice: frame, its nontrivial mode (N, d), analysis, Poisson ratio of the
-    mode, and finite states {name: (positions (N, d), secant Poisson ratio)}."""
+    mode, finite states {name: (positions (N, d), secant Poisson ratio, strain ε_x)} inside the
+    usable ``strain_range``, and the sheet's closest pair of nodes without a bar at the states,
+    relative to the shortest bar (``min_node_distance``, ≥ the range's proximity fraction)."""
 
     frame: Frame
     mode: np.ndarray
@@ -59,6 +66,8 @@ class Lattice:
     max_relative_bar_error: float
     mode_residual: float
     boundary: dict
+    strain_range: StrainRange
+    min_node_distance: float
 
 
 def module_nodes(w: float, h: float, beta: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -86,36 +95,35 @@ def module_nodes(w: float, h: float, beta: float) -> tuple[np.ndarray, np.ndarra
     return corners, motion, nodes, quadric.motions_at(local)
 
 
-def _sheet_positions(nx: int, ny: int, a: float, b: float, c: float) -> np.ndarray:
-    """Corner grid ((nx+1)(ny+1) nodes, row-major in y then x) followed by 2 nodes per module."""
-    px, py = np.meshgrid((2 * np.arange(nx + 1) - nx) * a, (2 * np.arange(ny + 1) - ny) * b)
-    corners = np.column_stack([px.ravel(), py.ravel()])
-    cx, cy = np.meshgrid((2 * np.arange(nx) + 1 - nx) * a, (2 * np.arange(ny) + 1 - ny) * b)
-    centres = np.column_stack([cx.ravel(), cy.ravel()])
-    inner = np.stack([centres + [c, 0.0], centres - [c, 0.0]], axis=1).reshape(-1, 2)
-    return np.vstack([corners, inner])
-
-
-def _sheet_edges(nx: int, ny: int) -> np.ndarray:
-    """Each unspecified node joined to the four corners of its module (8 bars per module)."""
-    i, j = np.meshgrid(np.arange(nx), np.arange(ny))
-    i, j = i.ravel(), j.ravel()
-    corner = lambda p, q: q * (nx + 1) + p
-    quad = np.column_stack([corner(i + 1, j + 1), corner(i, j + 1), corner(i, j), corner(i + 1, j)])
-    first = (nx + 1) * (ny + 1) + 2 * np.arange(nx * ny)
-    return np.vstack(
-        [np.column_stack([quad[:, m], first + s]) for s in (0, 1) for m in range(4)]
-    )
-
-
 def boundary_strains(positions: np.ndarray, motion: np.ndarray, boundary: dict) -> tuple[float, float]:
-    """(ε_x, ε_y) of a motion: relative rate of change of the distance between the mean
-    positions of the right/left and top/bottom boundary node sets."""
+    """(ε_x, ε_y) of a displacement (finite, or a mode as a rate): the change of the extent
+    x̄_right − x̄_left (resp. ȳ_top − ȳ_bottom) of the mean positions of the opposite boundary
+    node sets, relative to that extent at ``positions``.  The extent is the coordinate
+    difference along the axis, not the distance between the means, so the displacement must be
+    free of rigid rotation (configurations aligned to the reference, as trace_motion returns)."""
     eps = []
     for lo, hi, axis in ((boundary["left"], boundary["right"], 0), (boundary["bottom"], boundary["top"], 1)):
         span = positions[hi, axis].mean() - positions[lo, axis].mean()
         eps.append((motion[hi, axis].mean() - motion[lo, axis].mean()) / span)
     return eps[0], eps[1]
+
+
+def path_strains(positions: np.ndarray, path: np.ndarray, boundary: dict) -> tuple[np.ndarray, np.ndarray]:
+    """Strains (P, 2) = (ε_x, ε_y) and secant Poisson ratios (P,) (−ε_y/ε_x, NaN where ε_x = 0)
+    of aligned configurations ``path`` (P, N, d) relative to ``positions`` (N, d); boundary: the
+    node sets "left", "right", "bottom", "top" (InvalidInput ``invalid_boundary`` if one is
+    missing, empty or names no node of the frame)."""
+    n = len(positions)
+    sets = {}
+    for key in ("left", "right", "bottom", "top"):
+        nodes = np.asarray(boundary.get(key, []), dtype=int)
+        if nodes.size == 0 or nodes.min() < 0 or nodes.max() >= n:
+            raise InvalidInput("invalid_boundary", f"boundary '{key}' must list node indices in [0, {n}).")
+        sets[key] = nodes
+    strains = np.array([boundary_strains(positions, x - positions, sets) for x in path])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        nu = np.where(strains[:, 0] != 0, -strains[:, 1] / strains[:, 0], np.nan)
+    return strains, nu
 
 
 def poisson_ratio(positions: np.ndarray, motion: np.ndarray, boundary: dict) -> float:
@@ -131,12 +139,15 @@ def auxetic_sheet(
     ny: int,
     poisson: float = -1.0,
     cell: tuple[float, float] = (1.0, 1.0),
-    strain: float = 0.1,
+    strain: float | None = None,
 ) -> Lattice:
     """An n_x × n_y sheet with one nontrivial zero mode of linear Poisson ratio ``poisson``.
 
-    cell: the module's half-width w and half-height h.  strain: the axial strain of the
-    expanded (+) and contracted (−) finite states.  Each state is exact (closed form).
+    cell: the module's half-width w and half-height h.  The usable strain range comes from one
+    module's exact symmetric curve (strain_range.module_range).  strain: ε_x of the expanded (+)
+    and contracted (−) finite states, both inside the range (DomainError
+    ``strain_out_of_range`` naming it otherwise); None: ±DEFAULT_STATE_STRAIN clipped to the
+    range.  Each state is the module's Newton-exact configuration tiled (sheet_module).
     """
     if nx < 1 or ny < 1 or nx * ny > MAX_SHEET_CELLS:
         raise InvalidInput("invalid_size", f"cells must be between 1 and {MAX_SHEET_CELLS} in all.")
@@ -145,9 +156,9 @@ def auxetic_sheet(
         raise InvalidInput("invalid_cell", "cell half-width and half-height must be positive.")
     beta = -poisson
     _, _, nodes, node_motions = module_nodes(w, h, beta)
-    c0 = float(nodes[0, 0])
-    positions = _sheet_positions(nx, ny, w, h, c0)
-    frame = Frame.build(positions, _sheet_edges(nx, ny))
+    module = two_node_module(w, h, float(nodes[0, 0]))
+    positions = sheet_positions(module, nx, ny, module.reference)
+    frame = Frame.build(positions, sheet_edges(module, nx, ny))
     n_corners = (nx + 1) * (ny + 1)
     affine = np.array([1.0, beta])
     centres = 0.5 * (positions[n_corners::2] + positions[n_corners + 1 :: 2])
@@ -161,39 +172,68 @@ def auxetic_sheet(
         )
     grid = np.arange(n_corners).reshape(ny + 1, nx + 1)
     boundary = {"left": grid[:, 0], "right": grid[:, -1], "bottom": grid[0], "top": grid[-1]}
-    nu = poisson_ratio(positions, mode, boundary)
-    states, bar_error = _sheet_states(frame, nx, ny, w, h, c0, strain, boundary)
+    motion = module_range(module, (nx, ny))
+    strains = state_strains(motion.range, strain)
+    states = {
+        name: sheet_positions(module, nx, ny, motion.at(eps)) for name, eps in strains.items()
+    }
+    return _lattice(frame, mode, analysis, boundary, states, motion.range)
+
+
+def state_strains(usable: StrainRange, strain: float | None) -> dict[str, float]:
+    """{"expanded": +ε, "contracted": −ε} for the requested ε inside ``usable``, or the default
+    ±DEFAULT_STATE_STRAIN clipped to it; DomainError ``strain_out_of_range`` naming the range."""
+    if strain is None:
+        return {
+            "expanded": min(DEFAULT_STATE_STRAIN, usable.upper.strain),
+            "contracted": max(-DEFAULT_STATE_STRAIN, usable.lower.strain),
+        }
+    if not (usable.contains(strain) and usable.contains(-strain)):
+        raise DomainError(
+            "strain_out_of_range",
+            f"strain ±{strain:g} is outside the usable strain range {usable.describe()}.",
+        )
+    return {"expanded": strain, "contracted": -strain}
+
+
+def _lattice(frame, mode, analysis, boundary, states, usable: StrainRange) -> Lattice:
+    """The Lattice of a verified frame, its states measured from their positions: secant ν and
+    ε_x from the boundary means, bar lengths, and the closest pair of nodes without a bar."""
+    lengths = np.linalg.norm(frame.positions[frame.edges[:, 0]] - frame.positions[frame.edges[:, 1]], axis=1)
+    worst, closest, measured = 0.0, np.inf, {}
+    for name, x in states.items():
+        err = np.max(np.abs(np.linalg.norm(x[frame.edges[:, 0]] - x[frame.edges[:, 1]], axis=1) / lengths - 1))
+        worst = max(worst, float(err))
+        closest = min(closest, _closest_unjoined(x, frame.edges) / lengths.min())
+        ex, ey = boundary_strains(frame.positions, x - frame.positions, boundary)
+        measured[name] = (x, -ey / ex, ex)
     return Lattice(
         frame=frame,
         mode=mode,
         analysis=analysis,
-        poisson_ratio=nu,
-        states=states,
-        max_relative_bar_error=bar_error,
+        poisson_ratio=poisson_ratio(frame.positions, mode, boundary),
+        states=measured,
+        max_relative_bar_error=worst,
         mode_residual=zero_mode_residual(frame, mode),
-        boundary={k: v.tolist() for k, v in boundary.items()},
+        boundary={k: np.asarray(v).tolist() for k, v in boundary.items()},
+        strain_range=usable,
+        min_node_distance=float(closest),
     )
 
 
-def _sheet_states(frame, nx, ny, w, h, c0, strain, boundary):
-    """Expanded and contracted configurations from the module's exact one-parameter motion."""
-    l1 = (c0 - w) ** 2 + h**2
-    l2 = (c0 + w) ** 2 + h**2
-    lengths = np.linalg.norm(frame.positions[frame.edges[:, 0]] - frame.positions[frame.edges[:, 1]], axis=1)
-    states, worst = {}, 0.0
-    for name, a in (("expanded", w * (1 + strain)), ("contracted", w * (1 - strain))):
-        c = (l2 - l1) / (4 * a)
-        b2 = l1 - (c - a) ** 2
-        if a <= 0 or b2 <= 0:
-            raise DomainError(
-                "no_solution", f"the module locks before reaching the {name} state at strain {strain:g}."
-            )
-        x = _sheet_positions(nx, ny, a, np.sqrt(b2), c)
-        err = np.max(np.abs(np.linalg.norm(x[frame.edges[:, 0]] - x[frame.edges[:, 1]], axis=1) / lengths - 1))
-        worst = max(worst, float(err))
-        ex, ey = boundary_strains(frame.positions, x - frame.positions, boundary)
-        states[name] = (x, -ey / ex)
-    return states, worst
+def _closest_unjoined(x: np.ndarray, edges: np.ndarray) -> float:
+    """The smallest distance between two nodes of ``x`` that share no bar: a node with D bars
+    has its nearest unjoined node among its D + 1 nearest (k-d tree, O(N log N))."""
+    n = len(x)
+    degree = np.bincount(edges.ravel(), minlength=n)
+    k = min(n, int(degree.max()) + 2)
+    dist, idx = cKDTree(x).query(x, k=k)
+    joined = np.zeros((n, k), dtype=bool)
+    nbr = {tuple(e) for e in np.sort(edges, axis=1).tolist()}
+    rows = np.repeat(np.arange(n), k)
+    pairs = np.sort(np.column_stack([rows, idx.ravel()]), axis=1)
+    joined = np.array([p == q or (p, q) in nbr for p, q in pairs.tolist()]).reshape(n, k)
+    return float(np.min(np.where(joined, np.inf, dist)))
 
 
 def _block_3d(w: float, h: float, l: float, beta: float, gamma: float, seed: int):
@@ -208,14 +248,15 @@ def auxetic_chain_3d(
     n: int,
     poisson: float = -0.5,
     block: tuple[float, float, float] = (1.0, 1.0, 1.0),
-    strain: float = 0.1,
+    strain: float | None = None,
     seed: int = 0,
 ) -> Lattice:
     """n 3D blocks chained along x by merging two ports and adding one bar per coupling.
 
     Linear Poisson ratio of every block: −β for y and −γ for z, here both set to ``poisson``.
-    The expanded and contracted states are the ends of the traced finite motion (continuation,
-    ``finite_motion.trace_motion``) to a parameter of ``strain`` either way.
+    The usable range is traced by continuation (strain_range.chain_range); the expanded and
+    contracted states are the traced configurations whose ε_x is nearest ±``strain`` (as
+    state_strains; their own ε_x is reported, within one continuation step of it).
     """
     if not 1 <= n <= MAX_CHAIN_BLOCKS:
         raise InvalidInput("invalid_size", f"a 3D chain has between 1 and {MAX_CHAIN_BLOCKS} blocks.")
@@ -239,18 +280,9 @@ def auxetic_chain_3d(
         "top": np.unique([m[b][0] for b in range(n)] + [m[b][2] for b in range(n)]),
     }
     frame, mode = composite.frame, composite.mode
-    path = trace_motion(frame, mode, amplitude=strain, direction="both")
-    states = {}
-    for end in (path.positions[0], path.positions[-1]):
-        ex, ey = boundary_strains(frame.positions, end - frame.positions, boundary)
-        states["expanded" if ex > 0 else "contracted"] = (end, -ey / ex)
-    return Lattice(
-        frame=frame,
-        mode=mode,
-        analysis=composite.analysis,
-        poisson_ratio=poisson_ratio(frame.positions, mode, boundary),
-        states=states,
-        max_relative_bar_error=path.max_relative_bar_error,
-        mode_residual=zero_mode_residual(frame, mode),
-        boundary={k: v.tolist() for k, v in boundary.items()},
-    )
+    motion = chain_range(frame, mode, lambda x: boundary_strains(frame.positions, x - frame.positions, boundary)[0])
+    states = {
+        name: motion.positions[int(np.argmin(np.abs(motion.strains - eps)))]
+        for name, eps in state_strains(motion.range, strain).items()
+    }
+    return _lattice(frame, mode, composite.analysis, boundary, states, motion.range)

@@ -113,25 +113,28 @@ def test_large_sheet_20x20():
     ex, ey = boundary_strains(x, lat.mode, sets, finite=False)
     assert abs(-ey / ex + 0.5) <= 1e-9
     assert set(lat.states) == {"expanded", "contracted"}
-    for name, (state, _) in lat.states.items():
+    for name, (state, _, _) in lat.states.items():
         assert relative_bar_error([state], edges, x) <= 1e-9, name
 
 
 @pytest.mark.parametrize("poisson", [-2.0, -1.0, -0.5, -0.2])
 def test_sheet_finite_states(poisson):
     """Expanded/contracted states keep every bar length (1e-9 relative), stretch along x by the
-    requested strain in the named direction, and report the secant ν computed here.  (They need
-    not stay auxetic: at ν = −0.2 the expanded state's secant ratio is slightly positive.)"""
+    requested strain (half the nearer end of the usable range) in the named direction, and
+    report the secant ν and ε_x computed here.  (They need not stay auxetic: at ν = −0.2 the
+    expanded state's secant ratio is slightly positive.)"""
     for nx, ny in [(1, 1), (3, 2), (6, 6)]:
-        lat = auxetic_sheet(nx, ny, poisson=poisson, strain=0.1)
+        usable = auxetic_sheet(nx, ny, poisson=poisson).strain_range
+        strain = 0.5 * min(usable.upper.strain, -usable.lower.strain)
+        lat = auxetic_sheet(nx, ny, poisson=poisson, strain=strain)
         x, edges = lat.frame.positions, lat.frame.edges
         sets = sheet_boundary(lat, ny, 1.0)
         assert set(lat.states) == {"expanded", "contracted"}
-        for name, (state, nu) in lat.states.items():
+        for name, (state, nu, eps) in lat.states.items():
             assert relative_bar_error([state], edges, x) <= 1e-9
             ex, ey = boundary_strains(x, state, sets, finite=True)
-            assert (ex > 0) == (name == "expanded") and abs(abs(ex) - 0.1) <= 1e-12
-            assert abs(nu - (-ey / ex)) <= 1e-12
+            assert (ex > 0) == (name == "expanded") and abs(abs(ex) - strain) <= 1e-12
+            assert abs(nu - (-ey / ex)) <= 1e-12 and abs(eps - ex) <= 1e-12
         assert lat.max_relative_bar_error <= 1e-9
 
 
@@ -139,7 +142,7 @@ def test_sheet_secant_ratio_tends_to_the_linear_one():
     """At small strain the finite states follow the mode: the secant ν → the linear ν."""
     lat = auxetic_sheet(2, 2, poisson=-0.5, strain=1e-6)
     assert set(lat.states) == {"expanded", "contracted"}
-    for _, nu in lat.states.values():
+    for _, nu, _ in lat.states.values():
         assert abs(nu + 0.5) <= 1e-5
 
 
@@ -156,7 +159,7 @@ def test_poisson_ratio_invariant_under_sheet_and_cell_size():
             ex, ey = boundary_strains(lat.frame.positions, lat.mode, sets, finite=False)
             assert abs(-ey / ex + 0.7) <= 1e-9
             assert set(lat.states) == set(ref_secant)
-            for name, (state, _) in lat.states.items():
+            for name, (state, _, _) in lat.states.items():
                 ex, ey = boundary_strains(lat.frame.positions, state, sets, finite=True)
                 assert abs(-ey / ex - ref_secant[name]) <= 1e-9
 
@@ -214,11 +217,12 @@ def test_3d_chain(chains, n):
     ex, ey = boundary_strains(x, lat.mode, sets, finite=False)
     assert abs(-ey / ex + 0.5) <= 1e-9 and abs(lat.poisson_ratio + 0.5) <= 1e-9
     assert set(lat.states) == {"expanded", "contracted"}
-    for name, (state, nu) in lat.states.items():
+    for name, (state, nu, eps) in lat.states.items():
         assert relative_bar_error([state], edges, x) <= 1e-9, name
         ex, ey = boundary_strains(x, state, sets, finite=True)
         assert (ex > 0) == (name == "expanded")
-        assert abs(nu - (-ey / ex)) <= 1e-12
+        assert abs(nu - (-ey / ex)) <= 1e-12 and abs(eps - ex) <= 1e-12
+        assert lat.strain_range.lower.strain - 1e-12 <= ex <= lat.strain_range.upper.strain + 1e-12
 
 
 def test_3d_chain_boundary_lists_are_sets(chains):

@@ -19,6 +19,7 @@ from zeromode.service.schemas.motion import (
     RefineResponse,
 )
 from zeromode.solver.finite_motion import SingularPath, trace_motion
+from zeromode.solver.lattice import path_strains
 from zeromode.solver.refine import RefinementFailed, refine
 
 router = APIRouter(prefix="/v1", tags=["finite motion"])
@@ -44,14 +45,16 @@ def post_motion(request: MotionRequest):
     the frame locks) end the path in their direction and are reported; by default they answer
     422 `singular_path` with the path up to them. Sparse linear algebra above 400 degrees of
     freedom; frames beyond the continuation's limit (finite_motion.MAX_DOF) answer 422
-    `too_expensive` before any work.
+    `too_expensive` before any work. With a lattice's `boundary`, every configuration's strain
+    and secant Poisson ratio are reported.
     """
     t0 = time.perf_counter()
     frame = frame_from_model(request.frame)
     path = trace_motion(
         frame, **request.model_dump(include={"mode", "amplitude", "max_step", "direction", "max_steps"})
     )
-    body = motion_body(path, {"total": 1e3 * (time.perf_counter() - t0)})
+    strains = None if request.boundary is None else path_strains(frame.positions, path.positions, request.boundary)
+    body = motion_body(path, {"total": 1e3 * (time.perf_counter() - t0)}, strains)
     if path.singularities and request.on_singularity == "error":
         exc = SingularPath(path)
         return JSONResponse(status_code=422, content=error_body(exc.code, exc.message, best=body))

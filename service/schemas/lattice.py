@@ -16,7 +16,7 @@ class AuxeticRequest(RequestModel):
         default=[4, 4],
         min_length=1,
         max_length=2,
-        description="2D: [n_x, n_y] modules (n_x·n_y ≤ 2500); 3D: [n] blocks (n ≤ 16).",
+        description="2D: [n_x, n_y] modules (n_x·n_y ≤ 2500); 3D: [n] blocks (n ≤ 64).",
     )
     poisson_ratio: FiniteFloat = Field(
         default=-1.0,
@@ -26,8 +26,15 @@ class AuxeticRequest(RequestModel):
         default=None,
         description="Module half-sizes: 2D [w, h] (default [1, 1]); 3D [w, h, l] (default [1, 1, 1]).",
     )
-    strain: FiniteFloat = Field(
-        default=0.1, ge=1e-4, lt=0.9, description="Axial strain (2D) or path parameter (3D) of the finite states."
+    strain: FiniteFloat | None = Field(
+        default=None,
+        ge=1e-4,
+        lt=0.9,
+        description=(
+            "Axial strain ε_x of the expanded (+) and contracted (−) finite states; both must lie in the "
+            "usable strain range (`report.strain_range`), else 422 `strain_out_of_range` naming it. "
+            "Default: ±0.1 clipped to the range."
+        ),
     )
     seed: int = Field(default=0, ge=0)
     tolerance: ToleranceOptions | None = Field(
@@ -39,6 +46,28 @@ class LatticeState(BaseModel):
     name: Literal["expanded", "contracted"]
     positions: Points
     poisson_ratio: float = Field(description="Secant Poisson ratio of this state relative to the reference.")
+    strain: float = Field(
+        description="Its axial strain ε_x (2D: the requested one, exact; 3D: of the traced configuration nearest it)."
+    )
+
+
+class RangeEndModel(BaseModel):
+    strain: float = Field(description="ε_x at this end of the range.")
+    reason: Literal["singular_point", "node_proximity", "bar_crossing", "strain_extremum", "search_limit"] = Field(
+        description=(
+            "singular_point: the compatibility matrix loses rank; node_proximity: two nodes without a bar come "
+            "closer than `proximity_fraction` of the shortest bar; bar_crossing (2D): a node passes through a bar; "
+            "strain_extremum (3D): ε_x turns back along the motion; search_limit: |ε_x| reached the largest strain examined."
+        )
+    )
+    detail: str = Field(description="What happens there, in one sentence.")
+
+
+class StrainRangeModel(BaseModel):
+    lower: RangeEndModel
+    upper: RangeEndModel
+    proximity_fraction: float = Field(description="Closest approach allowed, as a fraction of the shortest bar.")
+    shortest_bar: float
 
 
 class AuxeticReport(BaseModel):
@@ -46,6 +75,12 @@ class AuxeticReport(BaseModel):
     boundary: dict[str, list[int]] = Field(description="Node sets whose mean positions define the strains.")
     mode_residual: float
     max_relative_bar_error: float = Field(description="Largest relative bar-length change over the states.")
+    strain_range: StrainRangeModel = Field(
+        description="The usable strain range [lower, upper] ∋ 0 over which the exact finite motion stays regular and physical."
+    )
+    min_node_distance: float = Field(
+        description="Closest pair of nodes without a bar over the states, relative to the shortest bar (≥ proximity_fraction)."
+    )
     timings_ms: dict[str, float]
     tolerance: ToleranceReportModel | None = Field(default=None, description="Fabrication tolerances when asked.")
 

@@ -66,6 +66,13 @@ class MotionRequest(RequestModel):
             "the path up to it in detail.best; 'report' answers 200 with status 'singular_path'."
         ),
     )
+    boundary: dict[Literal["left", "right", "bottom", "top"], list[int]] | None = Field(
+        default=None,
+        description=(
+            "Node sets of a lattice (as /v1/design/auxetic's report.boundary): when given, the response "
+            "reports the strain (ε_x, ε_y) and the secant Poisson ratio of every configuration."
+        ),
+    )
 
 
 class SingularityModel(BaseModel):
@@ -107,6 +114,16 @@ class MotionResponse(BaseModel):
         )
     )
     timings_ms: dict[str, float]
+    strains: list[list[float]] | None = Field(
+        default=None,
+        description=(
+            "With `boundary`: (ε_x, ε_y) of each configuration, the change of the extent between the mean "
+            "positions of the opposite boundary sets relative to the input frame's."
+        ),
+    )
+    poisson_ratio: list[float | None] | None = Field(
+        default=None, description="With `boundary`: secant ν = −ε_y/ε_x of each configuration (null at ε_x = 0)."
+    )
 
 
 class RefineOptions(RequestModel):
