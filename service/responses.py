@@ -316,6 +316,7 @@ def refinement_body(r) -> dict:
             "analysis_end": None if r.analysis_end is None else counts_body(r.analysis_end),
             "status": "ok" if r.ok else "refinement_failed",
             "message": r.message,
+            "modes": None if r.mode is None else [r.mode.tolist()],
         }
     )
 

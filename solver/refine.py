@@ -44,13 +44,16 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from zeromode.solver.budget import remaining
+from zeromode.solver.budget import check_budget, remaining
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.finite_motion import (
+    _kabsch,
     bar_lengths,
+    kabsch_distance,
     motion_fidelity,
     relative_bar_error,
 )
+from zeromode.solver.progress import report_progress
 from zeromode.solver.frame import Frame, check_positions
 from zeromode.solver.normalisation import Normalisation, rms_radius
 from zeromode.solver.rigidity import Analysis, analyze
@@ -77,7 +80,10 @@ class Refinement:
     frame: the refined frame (or, after a failure, the best frame found: the refined one if its
     ε is smaller than the original's, else the original, with epsilon_after = epsilon_before).
     path: (K+1, N, d) IPOPT's last iterate X_0 … X_K in the frame's coordinates, kept for
-    diagnosis after a failure too.  displacement: Δ_S (k × d).
+    diagnosis after a failure too.  displacement: Δ_S (k × d).  mode: the refined frame's
+    nontrivial zero mode (N, d) at its reference, None when it has not exactly one.
+    iterations: IPOPT's iteration count (0 when IPOPT stopped before iterating, or was not run:
+    a target that is a rigid motion of x_S is reached by the frame as it is, ε = 0).
     """
 
     frame: Frame
@@ -97,6 +103,7 @@ class Refinement:
     analysis_end: Analysis | None
     ok: bool
     message: str
+    mode: np.ndarray | None = None
 
 
 class RefinementFailed(DomainError):
@@ -157,6 +164,37 @@ def _single_mode(analysis: Analysis) -> bool:
     return analysis.nontrivial_zero_modes == 1
 
 
+def nlp_counts(n: int, d: int, n_unspecified: int, n_bars: int, K: int, stay: bool) -> tuple[int, int]:
+    """(equalities, unknowns) of the NLP (module docstring): K·N_B bar equations (+ N_B for
+    C(X_0)·u = 0) against N_U·d + (K − 1)·N·d + N_U·d coordinates (+ N_U·d mode rates).  IPOPT
+    refuses a problem with more equalities than unknowns whatever their redundancy."""
+    equalities = K * n_bars + (n_bars if stay else 0)
+    unknowns = (2 + int(stay)) * n_unspecified * d + (K - 1) * n * d
+    return equalities, unknowns
+
+
+def _rigid_target(frame: Frame, delta: np.ndarray, a: float, analysis: Analysis | None, t_start: float) -> Refinement:
+    """x_S + Δ_S is a rigid motion of x_S: the frame reaches it unchanged (ε = 0); the path is
+    the reference and the whole frame moved by that rigid motion."""
+    spec = list(frame.specified)
+    x_s = frame.positions[spec]
+    _, _, rotation = _kabsch(x_s, x_s + delta)
+    moved = (frame.positions - x_s.mean(axis=0)) @ rotation + (x_s + delta).mean(axis=0)
+    mode = None
+    if analysis is not None and analysis.modes is not None and _single_mode(analysis):
+        mode = analysis.modes[0]
+    return Refinement(
+        frame=frame, displacement=delta, amplitude=a, epsilon_before=0.0, epsilon_after=0.0,
+        ipopt_status="not_needed", iterations=0, K=1, attempts=0,
+        time_ms=1e3 * (time.perf_counter() - t_start), ipopt_time_ms=0.0,
+        path=np.stack([frame.positions, moved]),
+        max_relative_bar_error=relative_bar_error(moved, frame.edges, bar_lengths(frame.positions, frame.edges)),
+        analysis_reference=analysis, analysis_end=None, ok=True,
+        message="the target is a rigid motion of the specified nodes: the frame reaches it as it is (ε = 0).",
+        mode=mode,
+    )
+
+
 def refine(
     frame: Frame,
     motion_s=None,
@@ -190,12 +228,26 @@ def refine(
         raise InvalidInput("nothing_to_refine", "the frame has no unspecified node to move.")
     if K < 1:
         raise InvalidInput("invalid_option", "K must be at least 1.")
-    unknowns = (2 * K - 1) * n * d + (2 + int(stay_on_solution_space)) * len(unspec) * d
+    _, unknowns = nlp_counts(n, d, len(unspec), frame.n_edges, K, stay_on_solution_space)
     if unknowns > MAX_UNKNOWNS:
         raise DomainError(
             "too_expensive",
             f"the refinement would have {unknowns} unknowns (limit {MAX_UNKNOWNS}); lower K or use a smaller frame.",
         )
+    n_bars = frame.n_edges
+    equalities, free = nlp_counts(n, d, len(unspec), n_bars, K, stay_on_solution_space)
+    if equalities > free:
+        before_counts = analysis if analysis is not None else analyze(frame, bases=False)
+        raise DomainError(
+            "too_few_unknowns",
+            f"the refinement would have {equalities} bar equations for {free} unknowns (K = {K}): the "
+            f"frame has too few free coordinates for this target — its {n_bars} bars (with "
+            f"{before_counts.self_stresses} self-stress(es)) outnumber what its {len(unspec)} unspecified "
+            "nodes can satisfy along a path; ask for a design with more unspecified nodes or fewer "
+            "redundant bars.",
+        )
+    if kabsch_distance(frame.positions[spec] + delta, frame.positions[spec]) <= REACHED_EPS * np.linalg.norm(delta):
+        return _rigid_target(frame, delta, a, analysis, t_start)
     before = analysis if analysis is not None else analyze(frame)
     if not _single_mode(before):
         raise DomainError(
@@ -237,6 +289,7 @@ def refine(
         message="refinement succeeded."
         if ok
         else "refinement failed: " + "; ".join(best.problems) + ".",
+        mode=best.mode if keep_refined else None,
     )
     if not ok:
         raise RefinementFailed(result)
@@ -259,6 +312,7 @@ class _Attempt:
     eps_after: float
     problems: list[str]
     discontinuous: bool
+    mode: np.ndarray | None
 
 
 def _attempt(
@@ -267,14 +321,25 @@ def _attempt(
     spec = np.asarray(frame.specified, dtype=int)
     unspec = np.setdiff1d(np.arange(frame.n_nodes), spec)
     n, d = frame.n_nodes, frame.dim
+    t_build = time.perf_counter()
     norm = Normalisation.of(frame.positions)
     x0 = norm.positions_in(frame.positions)
     target = x0[spec] + delta / norm.length
     nlp, x_init, lbg, ubg, unpack = _build_nlp(
         x0, frame.edges, spec, unspec, target, K, before.modes[0], stay_on_solution_space
     )
-    left = remaining()  # the request's time budget, if any, also bounds IPOPT
-    max_time_s = float(max_time_s) if left is None else min(float(max_time_s), max(left, 1e-3))
+    check_budget()
+    report_progress(0.1, "built the NLP")
+    # max_time_s covers the NLP's construction too, and the request's budget bounds both.
+    left = float(max_time_s) - (time.perf_counter() - t_build)
+    budget = remaining()
+    left = left if budget is None else min(left, budget)
+    if left <= 0:
+        raise DomainError(
+            "too_expensive",
+            f"building the refinement's NLP (K = {K}, {frame.n_nodes} nodes) took the whole time limit "
+            f"of {max_time_s:g} s; lower K or raise max_time_s.",
+        )
     solver = ca.nlpsol(
         "refine",
         "ipopt",
@@ -289,8 +354,8 @@ def _attempt(
             "ipopt.mu_strategy": "adaptive",
             "ipopt.tol": tol,
             "ipopt.max_iter": int(max_iter),
-            "ipopt.max_cpu_time": max_time_s,
-            "ipopt.max_wall_time": max_time_s,
+            "ipopt.max_cpu_time": left,
+            "ipopt.max_wall_time": left,
         },
     )
     t_ipopt = time.perf_counter()
@@ -298,7 +363,9 @@ def _attempt(
     ipopt_ms = 1e3 * (time.perf_counter() - t_ipopt)
     stats = solver.stats()
     status = str(stats.get("return_status", "unknown"))
-    iterations = int(stats.get("iter_count", -1))
+    # IPOPT leaves iter_count unset (any integer) when it refuses a problem before iterating.
+    iterations = int(stats.get("iter_count", 0))
+    iterations = iterations if 0 <= iterations <= int(max_iter) else 0
     configs = unpack(np.asarray(sol["x"]).ravel())  # (K+1, N, d) normalised
     path = norm.positions_out(configs)
     # The ends' specified rows are constants of the NLP: restore them without round-off.
@@ -315,8 +382,8 @@ def _attempt(
     eps_after = np.inf
     try:
         refined = Frame.build(path[0], frame.edges, frame.specified, dim=d)
-        # Counts decide the re-verification; the bases are not needed (cheaper on large frames).
-        an_ref = analyze(refined, bases=False)
+        # Counts decide the re-verification; the reference's bases give the refined mode.
+        an_ref = analyze(refined)
         an_end = analyze(Frame.build(path[-1], frame.edges, frame.specified, dim=d), bases=False)
     except DomainError as exc:  # a diverged iterate, or two joined nodes collapsed onto each other
         problems.append(f"the refined frame is invalid ({exc.message})")
@@ -359,6 +426,7 @@ def _attempt(
         eps_after,
         problems,
         discontinuous,
+        an_ref.modes[0] if an_ref is not None and _single_mode(an_ref) else None,
     )
 
 

@@ -165,3 +165,50 @@ def test_a_design_whose_first_path_straddles_two_branches_still_reaches_its_targ
     check_epsilons(frame, res)
     assert (res.attempts, res.K) in {(1, 8), (2, 16)}
     assert res.path.shape[0] == res.K + 1
+
+
+def test_refined_frame_carries_its_mode():
+    """The refined frame's reported mode is its nontrivial zero mode: C(refined)·u = 0 with C
+    built here, and u is not a rigid motion."""
+    from oracles.rigidity import compatibility_matrix, mode_residual, normalised
+
+    frame = outward_square()
+    res = refine(frame, frame.positions[:4], 0.2)
+    assert res.mode is not None and res.mode.shape == frame.positions.shape
+    x = res.frame.positions
+    assert mode_residual(compatibility_matrix(normalised(x), frame.edges), res.mode) <= 1e-9
+    # The corners' motion is not a rigid motion: their pairwise distances change to first order.
+    u = res.mode[:4]
+    rates = [(x[i] - x[j]) @ (u[i] - u[j]) for i in range(4) for j in range(i + 1, 4)]
+    assert max(abs(r) for r in rates) > 1e-6 * np.linalg.norm(u) ** 2
+
+
+def test_rigid_target_is_reached_without_ipopt():
+    """Targets that are a rotation + translation of x_S: ε = 0 at once, the frame unchanged,
+    the path's end a rigid motion of the reference (every bar kept, checked here)."""
+    frame = outward_square()
+    x_s = frame.positions[:4]
+    c, s = np.cos(0.3), np.sin(0.3)
+    targets = x_s @ np.array([[c, s], [-s, c]]) + [0.5, -0.2]
+    res = refine(frame, targets=targets)
+    assert res.ok and res.epsilon_after == 0.0 and res.iterations == 0
+    assert np.array_equal(res.frame.positions, frame.positions)
+    assert relative_bar_error(res.path, frame.edges, frame.positions) <= 1e-12
+    assert rigid_distance(res.path[-1][:4], targets) <= 1e-12
+
+
+def test_overdetermined_refinement_is_refused_in_design_terms():
+    """A 3 × 3 auxetic sheet with its corner grid specified: K·N_B bar equations outnumber the
+    (K − 1)·N·d + 2·N_U·d coordinates (counted here), so IPOPT could not even start; the
+    refusal names the counts, with a code, before any NLP."""
+    from zeromode.solver.lattice import auxetic_sheet
+
+    lat = auxetic_sheet(3, 3, poisson=-0.5)
+    corners = list(range(16))
+    frame = Frame.build(lat.frame.positions, lat.frame.edges, corners)
+    K, n, n_u, n_b = 8, frame.n_nodes, frame.n_nodes - 16, frame.n_edges
+    assert K * n_b > (K - 1) * n * 2 + 2 * n_u * 2
+    with pytest.raises(DomainError) as err:
+        refine(frame, lat.mode[corners], 0.05, K=K)
+    assert err.value.code == "too_few_unknowns"
+    assert f"{K * n_b} bar equations" in err.value.message

@@ -193,8 +193,14 @@ class RefineResponse(BaseModel):
     epsilon_after: float = Field(
         description="ε of the refined frame, measured by continuation from it (independently of IPOPT)."
     )
-    ipopt_status: str = Field(description="IPOPT's return status.")
-    iterations: int = Field(description="IPOPT iterations (of the solve reported).")
+    modes: list[Points] | None = Field(
+        default=None,
+        description="The refined frame's nontrivial zero mode (N×d) at its reference; null when it has not exactly one.",
+    )
+    ipopt_status: str = Field(
+        description="IPOPT's return status; 'not_needed' when the target is a rigid motion of x_S (ε = 0 without IPOPT)."
+    )
+    iterations: int = Field(description="IPOPT iterations (of the solve reported); 0 when IPOPT did not iterate.")
     K: int = Field(description="Configurations after the reference in the solve reported.")
     attempts: int = Field(
         description="IPOPT solves: 2 when the first path straddled two branches and was redone with 2K."
