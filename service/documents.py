@@ -18,8 +18,7 @@ from zeromode.service.schemas.design import DesignRequest
 from zeromode.service.schemas.lattice import AuxeticRequest, LatticeState
 from zeromode.solver.allostery import AllostericDesign, design_allosteric
 from zeromode.solver.errors import InvalidInput
-from zeromode.solver.lattice import Lattice, auxetic_chain_3d, auxetic_sheet
-from zeromode.solver.pipeline import RefineStage, ToleranceStage, design_pipeline
+from zeromode.solver.pipeline import AuxeticResult, RefineStage, ToleranceStage, auxetic_pipeline, design_pipeline
 from zeromode.solver.tolerance import ToleranceReport, tolerance_report
 
 # What a document is, by its fields (``kind``).
@@ -91,8 +90,8 @@ def respond(doc: dict) -> tuple[dict, BaseModel]:
         return allosteric_body(result, {}, allosteric_tolerance(r, result)), r
     if "cells" in doc or "poisson_ratio" in doc:
         r = validated(doc, AuxeticRequest)
-        lat = lattice(r)
-        return auxetic_body(lat, {}, lattice_tolerance(r, lat)), r
+        result = auxetic(r)
+        return auxetic_body(result, {}), r
     if "positions" in doc and "motions" in doc:
         r = validated(doc, DesignRequest)
         o = r.options
@@ -119,18 +118,20 @@ def allosteric(r: AllostericRequest) -> AllostericDesign:
     )
 
 
-def lattice(r: AuxeticRequest) -> Lattice:
-    """A 2D sheet (cells [n_x, n_y], cell [w, h]) or a 3D chain (cells [n], block [w, h, l]) of a
-    /v1/design/auxetic request (its route calls this too)."""
+def auxetic(r: AuxeticRequest) -> AuxeticResult:
+    """The auxetic pipeline of a /v1/design/auxetic request (its route calls this too): a 2D
+    sheet (cells [n_x, n_y], cell [w, h]) or a 3D chain (cells [n], block [w, h, l]), with the
+    refine, certify and tolerance stages it asks for."""
     cells, sizes = (2, 2) if r.dim == 2 else (1, 3)
     if len(r.cells) != cells:
         raise InvalidInput("invalid_size", f"a {r.dim}D lattice needs {cells} cell count(s).")
     if r.cell is not None and len(r.cell) != sizes:
         raise InvalidInput("invalid_cell", f"a {r.dim}D module has {sizes} half-sizes.")
-    if r.dim == 2:
-        return auxetic_sheet(*r.cells, poisson=r.poisson_ratio, cell=tuple(r.cell or (1.0, 1.0)), strain=r.strain)
-    return auxetic_chain_3d(
-        r.cells[0], poisson=r.poisson_ratio, block=tuple(r.cell or (1.0, 1.0, 1.0)), strain=r.strain, seed=r.seed
+    return auxetic_pipeline(
+        r.dim, r.cells, poisson=r.poisson_ratio, cell=r.cell, strain=r.strain, seed=r.seed,
+        refine_stage=None if r.refine is None else RefineStage(**r.refine.model_dump()),
+        certify_stage=r.certify,
+        tolerance_stage=None if r.tolerance is None else ToleranceStage(**r.tolerance.model_dump()),
     )
 
 
@@ -153,10 +154,3 @@ def allosteric_tolerance(r: AllostericRequest, result: AllostericDesign) -> Tole
         result.design.frame, result.design.modes, source=result.source, target=result.target,
         seed=r.options.seed, **o.model_dump(),
     )
-
-
-def lattice_tolerance(r: AuxeticRequest, lat: Lattice) -> ToleranceReport | None:
-    """The tolerance report a /v1/design/auxetic request asks for (tolerance), or None."""
-    if r.tolerance is None:
-        return None
-    return tolerance_report(lat.frame, [lat.mode], boundary=lat.boundary, seed=r.seed, **r.tolerance.model_dump())

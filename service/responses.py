@@ -152,7 +152,10 @@ def strain_range_body(usable) -> dict:
     }
 
 
-def auxetic_body(lattice, timings_ms: dict, tolerance: ToleranceReport | None = None) -> dict:
+def auxetic_body(result, timings_ms: dict) -> dict:
+    """/v1/design/auxetic for an AuxeticResult: the linear lattice, its states and usable range,
+    with its refinement, certificate and tolerances when asked."""
+    lattice = result.lattice
     body = {
         "frame": frame_body(lattice.frame),
         "modes": [lattice.mode.tolist()],
@@ -168,11 +171,16 @@ def auxetic_body(lattice, timings_ms: dict, tolerance: ToleranceReport | None = 
             "max_relative_bar_error": lattice.max_relative_bar_error,
             "strain_range": strain_range_body(lattice.strain_range),
             "min_node_distance": lattice.min_node_distance,
-            "timings_ms": timings_ms,
+            "timings_ms": {**result.timings_ms, **timings_ms},
         },
     }
-    if tolerance is not None:
-        body["report"]["tolerance"] = tolerance_body(tolerance)
+    if result.tolerance is not None:
+        body["report"]["tolerance"] = tolerance_body(result.tolerance)
+    if result.refinement is not None:
+        body["report"]["refinement"] = refinement_body(result.refinement)
+        body["report"]["refined_poisson_ratio"] = result.refined_poisson_ratio
+    if result.certificate is not None:
+        body["report"]["certificate"] = certificate_body(result.certificate)
     return body
 
 

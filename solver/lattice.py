@@ -56,7 +56,9 @@ class Lattice:
     """A designed lattice: frame, its nontrivial mode (N, d), analysis, Poisson ratio of the
     mode, finite states {name: (positions (N, d), secant Poisson ratio, strain ε_x)} inside the
     usable ``strain_range``, and the sheet's closest pair of nodes without a bar at the states,
-    relative to the shortest bar (``min_node_distance``, ≥ the range's proximity fraction)."""
+    relative to the shortest bar (``min_node_distance``, ≥ the range's proximity fraction).
+    ``driven``: the nodes that move with the affine field, the design's specified nodes (sheet:
+    the corner grid; chain: the blocks' ports and apexes)."""
 
     frame: Frame
     mode: np.ndarray
@@ -68,6 +70,7 @@ class Lattice:
     boundary: dict
     strain_range: StrainRange
     min_node_distance: float
+    driven: np.ndarray
 
 
 def module_nodes(w: float, h: float, beta: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -158,8 +161,8 @@ def auxetic_sheet(
     _, _, nodes, node_motions = module_nodes(w, h, beta)
     module = two_node_module(w, h, float(nodes[0, 0]))
     positions = sheet_positions(module, nx, ny, module.reference)
-    frame = Frame.build(positions, sheet_edges(module, nx, ny))
     n_corners = (nx + 1) * (ny + 1)
+    frame = Frame.build(positions, sheet_edges(module, nx, ny))
     affine = np.array([1.0, beta])
     centres = 0.5 * (positions[n_corners::2] + positions[n_corners + 1 :: 2])
     mode = positions * affine
@@ -177,7 +180,7 @@ def auxetic_sheet(
     states = {
         name: sheet_positions(module, nx, ny, motion.at(eps)) for name, eps in strains.items()
     }
-    return _lattice(frame, mode, analysis, boundary, states, motion.range)
+    return _lattice(frame, mode, analysis, boundary, states, motion.range, np.arange(n_corners))
 
 
 def state_strains(usable: StrainRange, strain: float | None) -> dict[str, float]:
@@ -196,7 +199,7 @@ def state_strains(usable: StrainRange, strain: float | None) -> dict[str, float]
     return {"expanded": strain, "contracted": -strain}
 
 
-def _lattice(frame, mode, analysis, boundary, states, usable: StrainRange) -> Lattice:
+def _lattice(frame, mode, analysis, boundary, states, usable: StrainRange, driven) -> Lattice:
     """The Lattice of a verified frame, its states measured from their positions: secant ν and
     ε_x from the boundary means, bar lengths, and the closest pair of nodes without a bar."""
     lengths = np.linalg.norm(frame.positions[frame.edges[:, 0]] - frame.positions[frame.edges[:, 1]], axis=1)
@@ -218,6 +221,7 @@ def _lattice(frame, mode, analysis, boundary, states, usable: StrainRange) -> La
         boundary={k: np.asarray(v).tolist() for k, v in boundary.items()},
         strain_range=usable,
         min_node_distance=float(closest),
+        driven=np.asarray(driven, dtype=int),
     )
 
 
@@ -285,4 +289,4 @@ def auxetic_chain_3d(
         name: motion.positions[int(np.argmin(np.abs(motion.strains - eps)))]
         for name, eps in state_strains(motion.range, strain).items()
     }
-    return _lattice(frame, mode, composite.analysis, boundary, states, motion.range)
+    return _lattice(frame, mode, composite.analysis, boundary, states, motion.range, frame.specified)

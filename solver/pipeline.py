@@ -31,6 +31,8 @@ import numpy as np
 from zeromode.solver.certificates import SDP_MAX_DIM, Certificate, certify
 from zeromode.solver.design import Design, design
 from zeromode.solver.errors import InvalidInput
+from zeromode.solver.frame import Frame
+from zeromode.solver.lattice import Lattice, auxetic_chain_3d, auxetic_sheet, poisson_ratio
 from zeromode.solver.refine import Refinement, RefinementFailed, refine
 from zeromode.solver.tolerance import ToleranceReport, tolerance_report
 
@@ -73,10 +75,13 @@ class PipelineResult:
     tolerance: ToleranceReport | None = None
 
 
-def stiffness_sdp_fits(design_result: Design) -> bool:
-    """True when the stiffness-allocation LMI (p × p, p = dN − d(d+1)/2 − M) is within SDP_MAX_DIM."""
-    frame = design_result.frame
-    return frame.dim * frame.n_nodes - design_result.target_zero_modes <= SDP_MAX_DIM
+def stiffness_sdp_fits(frame: Frame, zero_modes: int) -> bool:
+    """True when the stiffness-allocation LMI (p × p, p = dN − d(d+1)/2 − M, ``zero_modes`` =
+    d(d+1)/2 + M) is within SDP_MAX_DIM.  The spectral bundle route reaches p = OPTIMAL_MAX_DIM
+    but takes 46 s at p = 2478 (20 × 20 sheet) and 40 s for the 64-block chain
+    (docs/benchmarks/certificates.md): past a pipeline stage's budget, so the pipeline keeps the
+    LMI cap and /v1/certify serves the larger margins."""
+    return frame.dim * frame.n_nodes - zero_modes <= SDP_MAX_DIM
 
 
 def design_pipeline(
@@ -122,7 +127,7 @@ def design_pipeline(
         certificate = certify(
             result.frame,
             list(result.modes),
-            stiffness=stiffness_sdp_fits(result),
+            stiffness=stiffness_sdp_fits(result.frame, result.target_zero_modes),
             analysis=result.analysis,
         )
         timings["certify"] = 1e3 * (time.perf_counter() - t2)
@@ -133,3 +138,70 @@ def design_pipeline(
         timings["tolerance"] = 1e3 * (time.perf_counter() - t3)
     timings["total"] = 1e3 * (time.perf_counter() - t0)
     return PipelineResult(result, refined, certificate, timings, tolerance)
+
+
+@dataclass(frozen=True, eq=False)
+class AuxeticResult:
+    """What the auxetic pipeline produced: the verified lattice (with its usable strain range and
+    finite states), its refinement or None, the refined frame's linear Poisson ratio (None when
+    not refined or when the refined frame has not exactly one nontrivial mode), certificates,
+    tolerances and the wall time of each stage."""
+
+    lattice: Lattice
+    refinement: Refinement | None
+    refined_poisson_ratio: float | None
+    certificate: Certificate | None
+    timings_ms: dict[str, float]
+    tolerance: ToleranceReport | None = None
+
+
+def auxetic_pipeline(
+    dim: int,
+    cells,
+    *,
+    poisson: float,
+    cell=None,
+    strain: float | None = None,
+    seed: int = 0,
+    refine_stage: RefineStage | None = None,
+    certify_stage: bool = False,
+    tolerance_stage: ToleranceStage | None = None,
+) -> AuxeticResult:
+    """A 2D sheet (cells (n_x, n_y), cell (w, h)) or 3D chain (cells (n,), cell (w, h, l)), then
+    (if asked) the stages of design_pipeline on it: refinement of the unspecified nodes with the
+    specified ones (sheet corners, chain ports and apexes) driven along the lattice's mode,
+    certificates and tolerances of the linear lattice.  Raises the DomainErrors of the stages
+    it runs (a refinement whose problem has more equations than unknowns is refused by refine)."""
+    t0 = time.perf_counter()
+    if dim == 2:
+        lat = auxetic_sheet(*cells, poisson=poisson, cell=tuple(cell or (1.0, 1.0)), strain=strain)
+    else:
+        lat = auxetic_chain_3d(cells[0], poisson=poisson, block=tuple(cell or (1.0, 1.0, 1.0)), strain=strain, seed=seed)
+    timings = {"design": 1e3 * (time.perf_counter() - t0)}
+    refined, refined_nu = None, None
+    if refine_stage is not None:
+        t1 = time.perf_counter()
+        frame = Frame.build(lat.frame.positions, lat.frame.edges, lat.driven, dim=lat.frame.dim)
+        try:
+            refined = refine(frame, motion_s=lat.mode[lat.driven], **asdict(refine_stage))
+        except RefinementFailed as exc:
+            refined = exc.best
+        if refined.mode is not None:
+            sets = {k: np.asarray(v) for k, v in lat.boundary.items()}
+            refined_nu = poisson_ratio(refined.frame.positions, refined.mode, sets)
+        timings["refine"] = 1e3 * (time.perf_counter() - t1)
+    certificate = None
+    if certify_stage:
+        t2 = time.perf_counter()
+        zero_modes = lat.frame.dim * (lat.frame.dim + 1) // 2 + 1
+        certificate = certify(
+            lat.frame, [lat.mode], stiffness=stiffness_sdp_fits(lat.frame, zero_modes), analysis=lat.analysis
+        )
+        timings["certify"] = 1e3 * (time.perf_counter() - t2)
+    tolerance = None
+    if tolerance_stage is not None:
+        t3 = time.perf_counter()
+        tolerance = tolerance_report(lat.frame, [lat.mode], boundary=lat.boundary, seed=seed, **asdict(tolerance_stage))
+        timings["tolerance"] = 1e3 * (time.perf_counter() - t3)
+    timings["total"] = 1e3 * (time.perf_counter() - t0)
+    return AuxeticResult(lat, refined, refined_nu, certificate, timings, tolerance)

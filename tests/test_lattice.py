@@ -230,3 +230,36 @@ def test_3d_chain_boundary_lists_are_sets(chains):
         assert set(lat.boundary) == {"left", "right", "bottom", "top"}
         for name, nodes in lat.boundary.items():
             assert len(nodes) == len(set(nodes)), (n, name, nodes)
+
+
+# --------------------------------------------------------------------------- the pipeline over HTTP
+def test_auxetic_refine_and_certify_in_one_request(client):
+    """A 1 × 1 sheet refined (corners driven along the mode) and certified in one request: the
+    refined path keeps every bar (recomputed here), the refined mode is a zero mode of the
+    refined frame (C built here) and its linear ν is what the boundary means give here."""
+    response = client.post(
+        "/v1/design/auxetic",
+        json={"cells": [1, 1], "poisson_ratio": -0.5, "refine": {"amplitude": 0.05}, "certify": True},
+    )
+    assert response.status_code == 200, response.text
+    report = response.json()["report"]
+    refinement = report["refinement"]
+    assert refinement["status"] == "ok" and refinement["epsilon_after"] <= 1e-6
+    assert refinement["iterations"] >= 0
+    x = np.array(refinement["frame"]["positions"])
+    edges = np.array(refinement["frame"]["edges"])
+    assert relative_bar_error(np.array(refinement["path"]), edges, x) <= 1e-6
+    mode = np.array(refinement["modes"][0])
+    assert mode_residual(compatibility_matrix(normalised(x), edges), mode) <= 1e-9
+    sets = {k: np.asarray(v) for k, v in report["boundary"].items()}
+    ex, ey = boundary_strains(x, mode, sets, finite=False)
+    assert abs(report["refined_poisson_ratio"] + ey / ex) <= 1e-9
+    assert report["certificate"]["self_stress"] is not None
+    assert {"design", "refine", "certify", "total"} <= set(report["timings_ms"])
+
+
+def test_auxetic_refinement_with_more_equations_than_unknowns_is_refused(client):
+    response = client.post("/v1/design/auxetic", json={"cells": [3, 3], "poisson_ratio": -0.5, "refine": {}})
+    assert response.status_code == 422
+    detail = response.json()["detail"]
+    assert detail["code"] == "too_few_unknowns" and "576 bar equations" in detail["message"]

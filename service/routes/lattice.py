@@ -7,7 +7,7 @@ import time
 
 from fastapi import APIRouter, HTTPException
 
-from zeromode.service.documents import allosteric, allosteric_tolerance, lattice, lattice_tolerance
+from zeromode.service.documents import allosteric, allosteric_tolerance, auxetic
 from zeromode.service.responses import (
     allosteric_body,
     auxetic_body,
@@ -32,11 +32,11 @@ router = APIRouter(prefix="/v1/design", tags=["design"])
 @router.post("/auxetic", response_model=AuxeticResponse, responses=ERROR_RESPONSES)
 def post_auxetic(request: AuxeticRequest) -> dict:
     """A lattice of coupled symmetric modules with one nontrivial zero mode of the requested
-    (negative) Poisson ratio, with its expanded and contracted finite states."""
+    (negative) Poisson ratio, its usable strain range and its expanded and contracted finite
+    states inside it; optionally refined and certified in the same call (solver/pipeline.py)."""
     t0 = time.perf_counter()
-    lat = lattice(request)
-    tolerance = lattice_tolerance(request, lat)
-    return auxetic_body(lat, {"total": 1e3 * (time.perf_counter() - t0)}, tolerance)
+    result = auxetic(request)
+    return auxetic_body(result, {"total": 1e3 * (time.perf_counter() - t0)})
 
 
 @router.post("/allosteric", response_model=AllostericResponse, responses=ERROR_RESPONSES)

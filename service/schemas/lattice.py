@@ -6,7 +6,9 @@ from typing import Literal
 
 from pydantic import BaseModel, Field, FiniteFloat
 
+from zeromode.service.schemas.certify import CertifyResponse
 from zeromode.service.schemas.common import AnalysisCounts, Points, RequestModel, ResultFrame
+from zeromode.service.schemas.design import DesignRefineOptions
 from zeromode.service.schemas.tolerance import ToleranceOptions, ToleranceReportModel
 
 
@@ -39,6 +41,22 @@ class AuxeticRequest(RequestModel):
     seed: int = Field(default=0, ge=0)
     tolerance: ToleranceOptions | None = Field(
         default=None, description="Report in `report.tolerance` how precisely the design must be built (as /v1/design)."
+    )
+    refine: DesignRefineOptions | None = Field(
+        default=None,
+        description=(
+            "Refine for finite-motion fidelity (as /v1/design's options.refine): the unspecified nodes move so that "
+            "the specified ones (sheet corners; chain ports and apexes) reach a·(their mode) along one motion. "
+            "`frame` and `modes` stay the linear lattice; the result is in `report.refinement`. A refinement with "
+            "more bar equations than unknowns (sheets, whose self-stresses repeat bars) is 422 `too_few_unknowns`."
+        ),
+    )
+    certify: bool = Field(
+        default=False,
+        description=(
+            "Embed SDP certificates (as /v1/certify) in report.certificate; the optimal-stiffness margin when its "
+            "LMI is at most 48, else the uniform margin."
+        ),
     )
 
 
@@ -83,6 +101,11 @@ class AuxeticReport(BaseModel):
     )
     timings_ms: dict[str, float]
     tolerance: ToleranceReportModel | None = Field(default=None, description="Fabrication tolerances when asked.")
+    refinement: dict | None = Field(default=None, description="The /v1/refine result when `refine` was asked.")
+    refined_poisson_ratio: float | None = Field(
+        default=None, description="Linear ν of the refined frame's mode (null if it has not exactly one nontrivial mode)."
+    )
+    certificate: CertifyResponse | None = Field(default=None, description="SDP certificates when `certify`.")
 
 
 class AuxeticResponse(BaseModel):
