@@ -25,6 +25,8 @@ The ground is the given frame less the bars removed; it must stay rigid (the fra
 decides, see ``verify``). The response is verified from the modified frame alone
 (allostery.response, a least-squares solve with the source rows fixed) and so is the count of
 zero modes. A strain ratio tries the pair nodes and kept bars with the fewest changes first.
+A similar request (the network and motions translated, rotated, rescaled) gets the similar answer:
+added nodes are placed in their anchors' own canonical frame (``_similar_module``).
 """
 
 from __future__ import annotations
@@ -37,14 +39,14 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
-from zeromode.solver.allostery import check_source_pins, response
+from zeromode.solver.allostery import _polish, check_source_pins, response
 from zeromode.solver.budget import check_budget
 from zeromode.solver.design import check_motions_nonrigid
 from zeromode.solver.eigen import smallest_eigenpairs
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame, check_positions
-from zeromode.solver.hierarchy import place_module
-from zeromode.solver.normalisation import Normalisation
+from zeromode.solver.hierarchy import Module, place_module
+from zeromode.solver.normalisation import Normalisation, rms_radius
 from zeromode.solver.placement import target_zero_modes
 from zeromode.solver.rank import nullspace, orthonormal_range
 from zeromode.solver.rigidity import (
@@ -326,6 +328,70 @@ def _ground_near(frame: Frame, nodes, moving: set, count: int) -> list[int]:
     return out
 
 
+def _principal_axes(x: np.ndarray) -> np.ndarray:
+    """Rows: a proper rotation (d, d) from the centred points' (n, d) principal axes, largest
+    spread first, each signed by its positive third moment (2D: e_2 ⟂ e_1; 3D: e_3 = e_1 × e_2).
+    Rotating the points rotates these axes with them."""
+    _, vectors = np.linalg.eigh(x.T @ x)
+    axes = vectors[:, ::-1].T
+    skew = np.sum((x @ axes.T) ** 3, axis=0)
+    axes = np.where(skew[:, None] < 0, -axes, axes)
+    if len(axes) == 2:
+        return np.array([axes[0], [-axes[0, 1], axes[0, 0]]])
+    return np.array([axes[0], axes[1], np.cross(axes[0], axes[1])])
+
+
+# Placement sees the given nodes' canonical positions and motions rounded to 2^-GRID_BITS of
+# their largest magnitude: the round-off by which similar requests differ there (~1e-13 for a
+# network shifted 1e3 of its size away) must not cross a grid line, and polishing restores
+# exactness afterwards. The allowed-motion basis (entries ≤ 1) is rounded to 2^-NULL_GRID_BITS:
+# it differs by ~1e-15 between similar requests, and placement's rank decisions need it far
+# finer than 1e-9 (2^-24 already made a 3D tie module miss a zero mode).
+GRID_BITS = 30
+NULL_GRID_BITS = 40
+
+
+def _grid(a: np.ndarray) -> np.ndarray:
+    """``a`` rounded to multiples of 2^(⌊log₂ max|a|⌋ − GRID_BITS)."""
+    peak = float(np.max(np.abs(a)))
+    step = 2.0 ** (np.floor(np.log2(peak)) - GRID_BITS) if peak > 0 else 1.0
+    return np.round(a / step) * step
+
+
+def _similar_module(positions: np.ndarray, motion: np.ndarray, null: np.ndarray, target: int, seed: int) -> Module:
+    """hierarchy.place_module in the given nodes' own frame, so that a similar request gets the
+    similar module (as allostery._attempt does for a chain): positions centred, scaled by their
+    RMS radius and turned to their principal axes (``_principal_axes``), motions turned and
+    scaled alike, all rounded to a grid (``_grid``); ``null`` (orthonormal, dk × z)
+    replaced by a basis that depends on its span only — its projector applied to a fixed probe,
+    orthonormalised (QR, positive diagonal), on a coarser grid — since placement samples
+    solution spaces in the basis it is given. The placed nodes joined to given nodes are then
+    polished onto the exact solution spaces (allostery._polish)."""
+    k, d = positions.shape
+    centre = positions.mean(axis=0)
+    length = rms_radius(positions) or 1.0
+    turn = _principal_axes((positions - centre) / length)
+    speed = rms_radius(motion) or float(np.sqrt(np.mean(motion**2))) or 1.0
+    y = (positions - centre) @ turn.T / length
+    v = motion @ turn.T / speed
+    z = null.shape[1]
+    span = np.einsum("ab,kbz->kaz", turn, null.reshape(k, d, z)).reshape(k * d, z)
+    probe = np.random.default_rng(0).standard_normal((k * d, z))
+    basis, r = np.linalg.qr(span @ (span.T @ probe))
+    basis = basis * np.where(np.diag(r) < 0, -1.0, 1.0)
+    basis = np.round(basis * 2.0**NULL_GRID_BITS) / 2.0**NULL_GRID_BITS
+    module = place_module(_grid(y), _grid(v), basis, target, seed)
+    placed, moved = module.positions.copy(), module.motion.copy()
+    placed[:k], moved[:k] = y, v
+    _polish(placed, moved, module.edges, k)
+    return Module(
+        positions=np.vstack([positions, centre + length * placed[k:] @ turn]),
+        motion=np.vstack([motion, speed * moved[k:] @ turn]),
+        edges=module.edges,
+        given=k,
+    )
+
+
 def _build(frame, src, tgt, moving_src, u_ms, moving_tgt, u_mt, seed) -> NetworkAllostery:
     """One plan: remove the strained bars, tie each site (with the ground nodes that came loose
     near it) to one degree of freedom, couple the sites."""
@@ -343,7 +409,7 @@ def _build(frame, src, tgt, moving_src, u_ms, moving_tgt, u_mt, seed) -> Network
         raising the rank, until ``null`` — how they may move — has ``target`` dimensions."""
         at = np.vstack([x, np.asarray(added_x).reshape(-1, d)])
         moved = np.vstack([motion, np.asarray(added_u).reshape(-1, d)])
-        module = place_module(at[state], moved[state], null, target, seed)
+        module = _similar_module(at[state], moved[state], null, target, seed)
         k = module.given
         index = np.concatenate([state, n + len(added_x) + np.arange(module.unspecified)])
         added_x.extend(module.positions[k:])

@@ -158,6 +158,33 @@ def test_strain_ratio_designs_are_the_same_up_to_the_same_similarity(scale, shif
     assert eta == pytest.approx(-2.0, rel=1e-9)
 
 
+@pytest.mark.parametrize(
+    ("scale", "speed", "shift", "theta"),
+    [(1e6, 1e-6, 3e6, 0.7), (1e-6, 1e6, -5e-6, 2.0), (1.0, 2.0, 1e3, 0.0), (37.0, 1.0, 0.5, 1.0)],
+)
+def test_motion_designs_are_the_same_up_to_the_same_similarity(scale, speed, shift, theta):
+    """x ↦ λQx + t, u ↦ μQu with site motions: the same bars, the added nodes and the mode moved
+    by the same maps, and the moved answer exact on its own (checked from scratch)."""
+    task = make_task(50, 0, 1.0)
+    x = task.frame.positions
+    source, target = nearest(x, task.source_pair[0], 3), nearest(x, task.target_pair[0], 2)
+    rng = np.random.default_rng(0)
+    u_src, u_tgt = rng.standard_normal((3, 2)), rng.standard_normal((2, 2))
+    q = rotation(theta)
+    reference = tune_network(task.frame, source, target, source_motion=u_src, target_motion=u_tgt)
+    moved_frame = Frame.build(scale * x @ q.T + shift, task.frame.edges)
+    moved = tune_network(
+        moved_frame, source, target, source_motion=speed * u_src @ q.T, target_motion=speed * u_tgt @ q.T
+    )
+    assert moved.removed_edges == reference.removed_edges
+    assert np.array_equal(moved.added_edges, reference.added_edges)
+    expected = scale * reference.frame.positions @ q.T + shift
+    assert np.abs(moved.frame.positions - expected).max() <= 1e-9 * np.abs(expected).max()
+    expected_u = speed * reference.mode @ q.T
+    assert np.abs(moved.mode - expected_u).max() <= 1e-9 * np.abs(expected_u).max()
+    check_answer(moved_frame, moved, source, target, speed * u_tgt @ q.T)
+
+
 def refusals():
     task = make_task(40, 0, 1.0)
     frame, s, t = task.frame, list(task.source_pair), list(task.target_pair)
