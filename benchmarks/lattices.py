@@ -15,8 +15,8 @@ Counts of the perfect lattices (N nodes, m cells per side):
   * triangulated (2D, z = 6): rigid, self-stresses (m − 2)²;
   * kagome (2D, z = 4 in the bulk, Maxwell-marginal): O(m) zero modes along the boundary,
     no self-stress (its straight lines of bonds end on the free boundary);
-  * square (2D, z = 4): without jitter m − 2 self-stresses along each axis (interior lines)
-    and about 2m zero modes (every row and column shears);
+  * square (2D, z = 4): without jitter no self-stress (the bars of a row constrain only
+    that row's x-differences) and 2m zero modes (every row slides along x, every column along y);
   * cubic with face diagonals (3D, z = 12): rigid, about 3N self-stresses;
   * face-centred cubic (3D, z = 12): rigid, about 3N self-stresses.
 """
@@ -71,8 +71,9 @@ def triangulated_lattice(n: int, jitter: float = 0.0, seed: int = 0) -> Frame:
 def square_lattice(n: int, jitter: float = 0.0, seed: int = 0) -> Frame:
     """2D square lattice (unit bonds, coordination 4), N = m²: a hard case for rank decisions.
 
-    Without jitter every straight row and column of bonds carries a self-stress and every
-    row and column shears freely, so both null spaces have about 2m dimensions.
+    Without jitter every row slides freely along x and every column along y: 2m zero modes
+    (3 of them rigid), no self-stress, and many singular values at the threshold's scale once
+    jittered.
     """
     bonds = [(0, 0, (1, 0)), (0, 0, (0, 1))]
     return _patch(n, np.eye(2), np.zeros((1, 2)), bonds, jitter, seed)

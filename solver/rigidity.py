@@ -61,17 +61,19 @@ def compatibility_matrix(positions: np.ndarray, edges: np.ndarray, dense: bool =
     if nb == 0:
         return np.zeros((0, n * d)) if dense else sp.csr_matrix((0, n * d))
     i, j = edges[:, 0], edges[:, 1]
-    diff = positions[i] - positions[j]  # (N_B, d)
-    rows = np.repeat(np.arange(nb), 2 * d)
+    # Each row lists the lower-numbered node first, so the CSR arrays are built directly
+    # (2d sorted entries per row) without a sort: x_first − x_second there, its negative after.
+    first, second = np.minimum(i, j), np.maximum(i, j)
+    diff = positions[first] - positions[second]  # (N_B, d)
     cols = np.concatenate(
-        [(d * i)[:, None] + np.arange(d), (d * j)[:, None] + np.arange(d)], axis=1
+        [(d * first)[:, None] + np.arange(d), (d * second)[:, None] + np.arange(d)], axis=1
     ).ravel()
     vals = np.concatenate([diff, -diff], axis=1).ravel()
     if dense:
         c = np.zeros((nb, n * d))
-        c[rows, cols] = vals  # (row, col) pairs are distinct: i ≠ j within a row
+        c[np.repeat(np.arange(nb), 2 * d), cols] = vals  # (row, col) pairs are distinct
         return c
-    return sp.csr_matrix((vals, (rows, cols)), shape=(nb, n * d))
+    return sp.csr_matrix((vals, cols, np.arange(0, 2 * d * nb + 1, 2 * d)), shape=(nb, n * d))
 
 
 def rigid_motions(positions: np.ndarray, rtol: float = RTOL) -> np.ndarray:
