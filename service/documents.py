@@ -132,6 +132,9 @@ def auxetic(r: AuxeticRequest) -> AuxeticResult:
         refine_stage=None if r.refine is None else RefineStage(**r.refine.model_dump()),
         certify_stage=r.certify,
         tolerance_stage=None if r.tolerance is None else ToleranceStage(**r.tolerance.model_dump()),
+        finite_strain=None
+        if r.finite_strain is None
+        else (*r.finite_strain.strain_range, r.finite_strain.tolerance),
     )
 
 

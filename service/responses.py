@@ -181,6 +181,17 @@ def auxetic_body(result, timings_ms: dict) -> dict:
         body["report"]["refined_poisson_ratio"] = result.refined_poisson_ratio
     if result.certificate is not None:
         body["report"]["certificate"] = certificate_body(result.certificate)
+    held = result.finite_strain
+    if held is not None:
+        body["report"]["finite_strain"] = {
+            "strain_range": list(held.requested),
+            "tolerance": held.tolerance,
+            "strains": held.strains.tolist(),
+            "secant_poisson_ratios": held.secant_ratios.tolist(),
+            "max_deviation": held.max_deviation,
+            "max_relative_bar_error": held.max_relative_bar_error,
+            "module": {"family": "trammel", "stretch": held.stretch, "coordinates": list(held.coordinates)},
+        }
     return body
 
 

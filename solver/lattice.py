@@ -180,7 +180,7 @@ def auxetic_sheet(
     states = {
         name: sheet_positions(module, nx, ny, motion.at(eps)) for name, eps in strains.items()
     }
-    return _lattice(frame, mode, analysis, boundary, states, motion.range, np.arange(n_corners))
+    return measured_lattice(frame, mode, analysis, boundary, states, motion.range, np.arange(n_corners))
 
 
 def state_strains(usable: StrainRange, strain: float | None) -> dict[str, float]:
@@ -199,7 +199,7 @@ def state_strains(usable: StrainRange, strain: float | None) -> dict[str, float]
     return {"expanded": strain, "contracted": -strain}
 
 
-def _lattice(frame, mode, analysis, boundary, states, usable: StrainRange, driven) -> Lattice:
+def measured_lattice(frame, mode, analysis, boundary, states, usable: StrainRange, driven) -> Lattice:
     """The Lattice of a verified frame, its states measured from their positions: secant ν and
     ε_x from the boundary means, bar lengths, and the closest pair of nodes without a bar."""
     lengths = np.linalg.norm(frame.positions[frame.edges[:, 0]] - frame.positions[frame.edges[:, 1]], axis=1)
@@ -207,7 +207,7 @@ def _lattice(frame, mode, analysis, boundary, states, usable: StrainRange, drive
     for name, x in states.items():
         err = np.max(np.abs(np.linalg.norm(x[frame.edges[:, 0]] - x[frame.edges[:, 1]], axis=1) / lengths - 1))
         worst = max(worst, float(err))
-        closest = min(closest, _closest_unjoined(x, frame.edges) / lengths.min())
+        closest = min(closest, closest_unjoined(x, frame.edges) / lengths.min())
         ex, ey = boundary_strains(frame.positions, x - frame.positions, boundary)
         measured[name] = (x, -ey / ex, ex)
     return Lattice(
@@ -225,7 +225,7 @@ def _lattice(frame, mode, analysis, boundary, states, usable: StrainRange, drive
     )
 
 
-def _closest_unjoined(x: np.ndarray, edges: np.ndarray) -> float:
+def closest_unjoined(x: np.ndarray, edges: np.ndarray) -> float:
     """The smallest distance between two nodes of ``x`` that share no bar: a node with D bars
     has its nearest unjoined node among its D + 1 nearest (k-d tree, O(N log N))."""
     n = len(x)
@@ -289,4 +289,4 @@ def auxetic_chain_3d(
         name: motion.positions[int(np.argmin(np.abs(motion.strains - eps)))]
         for name, eps in state_strains(motion.range, strain).items()
     }
-    return _lattice(frame, mode, composite.analysis, boundary, states, motion.range, frame.specified)
+    return measured_lattice(frame, mode, composite.analysis, boundary, states, motion.range, frame.specified)

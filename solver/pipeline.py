@@ -31,6 +31,7 @@ import numpy as np
 from zeromode.solver.certificates import SDP_MAX_DIM, Certificate, certify
 from zeromode.solver.design import Design, design
 from zeromode.solver.errors import InvalidInput
+from zeromode.solver.finite_strain import FiniteStrainSheet, finite_strain_sheet
 from zeromode.solver.frame import Frame
 from zeromode.solver.lattice import Lattice, auxetic_chain_3d, auxetic_sheet, poisson_ratio
 from zeromode.solver.refine import Refinement, RefinementFailed, refine
@@ -153,6 +154,7 @@ class AuxeticResult:
     certificate: Certificate | None
     timings_ms: dict[str, float]
     tolerance: ToleranceReport | None = None
+    finite_strain: FiniteStrainSheet | None = None
 
 
 def auxetic_pipeline(
@@ -166,14 +168,27 @@ def auxetic_pipeline(
     refine_stage: RefineStage | None = None,
     certify_stage: bool = False,
     tolerance_stage: ToleranceStage | None = None,
+    finite_strain: tuple[float, float, float] | None = None,
 ) -> AuxeticResult:
     """A 2D sheet (cells (n_x, n_y), cell (w, h)) or 3D chain (cells (n,), cell (w, h, l)), then
     (if asked) the stages of design_pipeline on it: refinement of the unspecified nodes with the
     specified ones (sheet corners, chain ports and apexes) driven along the lattice's mode,
     certificates and tolerances of the linear lattice.  Raises the DomainErrors of the stages
-    it runs (a refinement whose problem has more equations than unknowns is refused by refine)."""
+    it runs (a refinement whose problem has more equations than unknowns is refused by refine).
+    finite_strain (ε_lo, ε_hi, tolerance): a 2D sheet whose secant ν stays within the tolerance
+    of ``poisson`` over [ε_lo, ε_hi] (finite_strain.finite_strain_sheet; its states at the ends,
+    ``strain`` unused)."""
     t0 = time.perf_counter()
-    if dim == 2:
+    held = None
+    if finite_strain is not None:
+        if dim != 2:
+            raise InvalidInput("invalid_options", "finite_strain holds the secant ratio of 2D sheets only.")
+        held = finite_strain_sheet(
+            *cells, poisson=poisson, strain_range=finite_strain[:2], tolerance=finite_strain[2],
+            cell=tuple(cell or (1.0, 1.0)),
+        )
+        lat = held.lattice
+    elif dim == 2:
         lat = auxetic_sheet(*cells, poisson=poisson, cell=tuple(cell or (1.0, 1.0)), strain=strain)
     else:
         lat = auxetic_chain_3d(cells[0], poisson=poisson, block=tuple(cell or (1.0, 1.0, 1.0)), strain=strain, seed=seed)
@@ -204,4 +219,4 @@ def auxetic_pipeline(
         tolerance = tolerance_report(lat.frame, [lat.mode], boundary=lat.boundary, seed=seed, **asdict(tolerance_stage))
         timings["tolerance"] = 1e3 * (time.perf_counter() - t3)
     timings["total"] = 1e3 * (time.perf_counter() - t0)
-    return AuxeticResult(lat, refined, refined_nu, certificate, timings, tolerance)
+    return AuxeticResult(lat, refined, refined_nu, certificate, timings, tolerance, held)

@@ -61,6 +61,8 @@ STRAIN_XTOL = 1e-13
 # located by bisection on Newton's success; Newton's basin shrinks like √|ε − ε*| there, so the
 # fold is located to about this much.
 FOLD_XTOL = 1e-9
+# Patches by (module topology, reach): see _Patch.of.
+_PATCHES: dict = {}
 # Step of the 3D chain's continuation (finite_motion's path parameter) while the range is scanned.
 CHAIN_MAX_STEP = 0.01
 
@@ -124,6 +126,15 @@ class _Patch:
 
     @classmethod
     def of(cls, module: SymmetricModule, reach: tuple[int, int]) -> _Patch:
+        """The patch of ``module`` with copies up to ``reach``; it depends on the module's
+        topology only (corners are told apart on the normalised lattice), so it is cached."""
+        key = (module.kinds, module.edges.tobytes(), module.orbit.tobytes(), reach)
+        if key not in _PATCHES:
+            _PATCHES[key] = cls._build(module, reach)
+        return _PATCHES[key]
+
+    @classmethod
+    def _build(cls, module: SymmetricModule, reach: tuple[int, int]) -> _Patch:
         offsets = [(0, 0)] + [
             (i, j) for i in range(-reach[0], reach[0] + 1) for j in range(-reach[1], reach[1] + 1) if (i, j) != (0, 0)
         ]
@@ -141,18 +152,23 @@ class _Patch:
                 local[(o, k)] = index[key]
         to_patch = {o: np.array([local[(o, k)] for k in range(module.n_nodes)]) for o in offsets}
         bars = np.unique(np.sort(np.vstack([to_patch[o][module.edges] for o in offsets]), axis=1), axis=0)
-        own = set(to_patch[(0, 0)].tolist())
-        joined = {tuple(b) for b in bars.tolist()}
-        pairs = sorted({tuple(sorted((p, q))) for p in own for q in range(len(node)) if p != q} - joined)
-        node_bar = [
-            (p, b)
-            for b, (q, r) in enumerate(bars.tolist())
-            for p in range(len(node))
-            if p not in (q, r) and (p in own or q in own or r in own)
-        ]
+        m = len(node)
+        own = np.unique(to_patch[(0, 0)])
+        mine = np.zeros(m, dtype=bool)
+        mine[own] = True
+        # Pairs with one end in module (0, 0) and no bar, as codes lo·m + hi (each once).
+        lo_hi = np.sort(np.column_stack([np.repeat(own, m), np.tile(np.arange(m), len(own))]), axis=1)
+        codes = np.setdiff1d(lo_hi[:, 0] * m + lo_hi[:, 1], bars[:, 0] * m + bars[:, 1])
+        codes = codes[codes // m != codes % m]
+        pairs = np.column_stack([codes // m, codes % m])
+        p_all, b_all = np.meshgrid(np.arange(len(node)), np.arange(len(bars)), indexing="ij")
+        p_all, b_all = p_all.ravel(), b_all.ravel()
+        q_all, r_all = bars[b_all, 0], bars[b_all, 1]
+        keep = (p_all != q_all) & (p_all != r_all) & (mine[p_all] | mine[q_all] | mine[r_all])
+        node_bar = np.column_stack([p_all[keep], b_all[keep]])
         return cls(
             np.array(node), np.array(offset, dtype=float), bars,
-            np.array(pairs, dtype=int).reshape(-1, 2), np.array(node_bar, dtype=int).reshape(-1, 2), reach,
+            pairs.astype(int).reshape(-1, 2), node_bar.astype(int).reshape(-1, 2), reach,
         )
 
     def positions(self, module: SymmetricModule, q: np.ndarray) -> np.ndarray:
@@ -208,6 +224,20 @@ def _events(module: SymmetricModule, patch: _Patch, q: np.ndarray, shortest: flo
     return {"singular_point": singular, "node_proximity": gap, "bar_crossing": area, "projection": (t >= 0) & (t <= 1)}
 
 
+def _event(module: SymmetricModule, patch: _Patch, q: np.ndarray, shortest: float, kind: str, k: int) -> float:
+    """Watched function k of ``kind`` at q alone (as _events, without the others)."""
+    if kind == "singular_point":
+        return _regularity(module, q)[k]
+    x = patch.positions(module, q)
+    if kind == "node_proximity":
+        p, r = patch.pairs[k]
+        return float(np.linalg.norm(x[p] - x[r]) / shortest - PROXIMITY_FRACTION)
+    p, b = patch.node_bar[k]
+    qa, qb = x[patch.bars[b, 0]], x[patch.bars[b, 1]]
+    along, rel = qb - qa, x[p] - qa
+    return float((along[0] * rel[1] - along[1] * rel[0]) / np.dot(along, along))
+
+
 def _inside(module: SymmetricModule, patch: _Patch, q: np.ndarray, k: int) -> bool:
     """Whether node–bar pair k has its node between the bar's ends (projection in [0, 1])."""
     x = patch.positions(module, q)
@@ -236,10 +266,12 @@ class ModuleMotion:
         return q
 
 
-def module_range(module: SymmetricModule, cells: tuple[int, int]) -> ModuleMotion:
+def module_range(module: SymmetricModule, cells: tuple[int, int], limits: tuple[float, float] | None = None) -> ModuleMotion:
     """The usable range of the n_x × n_y sheet (``cells``) tiled from ``module``, and the
     module's motion sampled over it.  The patch of copies watched grows with the nodes' reach
-    (needed_reach) as the scan goes."""
+    (needed_reach) as the scan goes.  ``limits`` (lo < 0 < hi): scan no further than these
+    strains (an end there is "search_limit"); default ±MAX_SCAN_STRAIN."""
+    lo_limit, hi_limit = limits if limits is not None else (-MAX_SCAN_STRAIN, MAX_SCAN_STRAIN)
     shortest = float(np.sqrt(np.min(module.squared_lengths)))
     q0 = module.reference
     patches = {}
@@ -256,7 +288,8 @@ def module_range(module: SymmetricModule, cells: tuple[int, int]) -> ModuleMotio
         prev = _events(module, patch, q0, shortest)
         end = None
         while end is None:
-            target = sign * min(abs(eps) + SCAN_STEP, MAX_SCAN_STRAIN)
+            limit = hi_limit if sign > 0 else -lo_limit
+            target = sign * min(abs(eps) + SCAN_STEP, limit)
             q_next = _advance(module, q, eps, target)
             if q_next is None:
                 end = _stalled(module, q, eps, target)
@@ -276,8 +309,9 @@ def module_range(module: SymmetricModule, cells: tuple[int, int]) -> ModuleMotio
                 break
             eps, q, prev = target, q_next, now
             samples[eps] = q
-            if abs(eps) >= MAX_SCAN_STRAIN:
-                end = RangeEnd(eps, "search_limit", REASONS["search_limit"])
+            if abs(eps) >= limit:
+                detail = REASONS["search_limit"] if limits is None else f"the scan stopped at the requested strain {eps:+g}"
+                end = RangeEnd(eps, "search_limit", detail)
         ends.append(end)
         if end.strain not in samples:
             q_end = module.configuration(end.strain, q + (end.strain - eps) * module.tangent(q))
@@ -328,7 +362,7 @@ def _first_event(module, patch, prev, now, q, eps, target, shortest) -> RangeEnd
                 q_s = module.configuration(s, q + (s - eps) * module.tangent(q))
                 if q_s is None:
                     return np.nan
-                return float(_events(module, patch, q_s, shortest)[kind][k])
+                return _event(module, patch, q_s, shortest, kind, k)
 
             try:
                 root = brentq(f, eps, target, xtol=STRAIN_XTOL)

@@ -9,6 +9,7 @@ from fastapi import APIRouter, HTTPException
 
 from zeromode.service.documents import allosteric, allosteric_tolerance, auxetic
 from zeromode.service.responses import (
+    json_safe,
     allosteric_body,
     auxetic_body,
     inaccurate_design_body,
@@ -23,6 +24,7 @@ from zeromode.service.schemas.allostery import (
 from zeromode.service.schemas.common import ERROR_RESPONSES
 from zeromode.service.schemas.lattice import AuxeticRequest, AuxeticResponse
 from zeromode.solver.allostery import InaccurateDesign
+from zeromode.solver.finite_strain import FiniteStrainUnreachable
 from zeromode.solver.frame import Frame
 from zeromode.solver.network_allostery import tune_network
 
@@ -35,7 +37,10 @@ def post_auxetic(request: AuxeticRequest) -> dict:
     (negative) Poisson ratio, its usable strain range and its expanded and contracted finite
     states inside it; optionally refined and certified in the same call (solver/pipeline.py)."""
     t0 = time.perf_counter()
-    result = auxetic(request)
+    try:
+        result = auxetic(request)
+    except FiniteStrainUnreachable as exc:
+        raise HTTPException(422, detail={"code": exc.code, "message": exc.message, "best": json_safe(exc.best)}) from exc
     return auxetic_body(result, {"total": 1e3 * (time.perf_counter() - t0)})
 
 

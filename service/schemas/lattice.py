@@ -58,6 +58,32 @@ class AuxeticRequest(RequestModel):
             "LMI is at most 48, else the uniform margin."
         ),
     )
+    finite_strain: FiniteStrainOptions | None = Field(
+        default=None,
+        description=(
+            "2D only: hold the secant Poisson ratio within `tolerance` of `poisson_ratio` over `strain_range` "
+            "(a trammel module chosen on one module, then tiled and verified on the full sheet; report.finite_strain). "
+            "The states are at the ends of the range (`strain` is unused). Out of reach: 422 "
+            "`finite_strain_unreachable` with the best figures in detail.best."
+        ),
+    )
+
+
+class FiniteStrainOptions(RequestModel):
+    strain_range: list[FiniteFloat] = Field(
+        min_length=2, max_length=2, description="[ε_lo, ε_hi] (ε_lo < 0 < ε_hi) over which the secant ν is held."
+    )
+    tolerance: FiniteFloat = Field(default=0.02, gt=0, le=1, description="Largest |ν_secant − poisson_ratio| allowed.")
+
+
+class FiniteStrainReport(BaseModel):
+    strain_range: list[float] = Field(description="The range asked for.")
+    tolerance: float
+    strains: list[float] = Field(description="ε_x at which the full sheet was verified.")
+    secant_poisson_ratios: list[float] = Field(description="Secant ν measured on the full sheet at each of them.")
+    max_deviation: float = Field(description="max |ν_secant − poisson_ratio| over them (≤ tolerance).")
+    max_relative_bar_error: float = Field(description="Largest relative bar-length change over them.")
+    module: dict = Field(description="The module chosen: family 'trammel', its stretch s and axis-node coordinates (c, e).")
 
 
 class LatticeState(BaseModel):
@@ -106,6 +132,7 @@ class AuxeticReport(BaseModel):
         default=None, description="Linear ν of the refined frame's mode (null if it has not exactly one nontrivial mode)."
     )
     certificate: CertifyResponse | None = Field(default=None, description="SDP certificates when `certify`.")
+    finite_strain: FiniteStrainReport | None = Field(default=None, description="When `finite_strain` was asked.")
 
 
 class AuxeticResponse(BaseModel):

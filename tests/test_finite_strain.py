@@ -1,0 +1,113 @@
+"""Sheets holding their secant Poisson ratio over a strain range, checked from positions.
+
+Independent routes: the boundary sets are found here from the geometry (corner rows and
+columns), the secant ν of every configuration from their mean positions, bar lengths
+recomputed, the rank of the tiled sheet's compatibility matrix by numpy's SVD, and the sheet's
+own finite motion traced on the full frame by continuation (not the module's Newton solves the
+design used).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from oracles.motion import boundary_strains, relative_bar_error
+from oracles.rigidity import zero_modes_and_stresses
+
+from zeromode.solver.errors import InvalidInput
+from zeromode.solver.finite_motion import trace_motion
+from zeromode.solver.finite_strain import FiniteStrainUnreachable, finite_strain_sheet
+from zeromode.solver.pipeline import auxetic_pipeline
+
+
+def corner_sets(x: np.ndarray, nx: int, ny: int) -> dict:
+    """The corner grid's boundary rows and columns (corners come first, (n_x+1)(n_y+1) of them)."""
+    corners = np.arange((nx + 1) * (ny + 1))
+    cx, cy = x[corners, 0], x[corners, 1]
+    return {
+        "left": corners[np.isclose(cx, cx.min())],
+        "right": corners[np.isclose(cx, cx.max())],
+        "bottom": corners[np.isclose(cy, cy.min())],
+        "top": corners[np.isclose(cy, cy.max())],
+    }
+
+
+@pytest.fixture(scope="module")
+def held():
+    return finite_strain_sheet(3, 3, poisson=-0.5, strain_range=(-0.1, 0.1), tolerance=0.02)
+
+
+def test_held_sheet_is_one_mechanism_and_keeps_nu_along_its_own_motion(held):
+    lat = held.lattice
+    x, edges = lat.frame.positions, lat.frame.edges
+    zero_modes, _ = zero_modes_and_stresses(x, edges)
+    assert zero_modes == 4  # 3 rigid + the one mechanism
+    sets = corner_sets(x, 3, 3)
+    assert {k: set(v) for k, v in lat.boundary.items()} == {k: set(v.tolist()) for k, v in sets.items()}
+    # The sheet's own motion, traced on the full frame, keeps ν_secant within ±0.02 of −0.5
+    # everywhere in ε_x ∈ [−0.1, 0.1].
+    path = trace_motion(lat.frame, lat.mode, amplitude=0.02, max_step=0.001)
+    assert relative_bar_error(path.positions, edges, x) <= 1e-9
+    seen = []
+    for config in path.positions:
+        ex, ey = boundary_strains(x, config, sets, finite=True)
+        if 1e-3 < abs(ex) <= 0.1:
+            seen.append(ex)
+            assert abs(-ey / ex + 0.5) <= 0.02, ex
+    assert min(seen) < -0.09 and max(seen) > 0.09
+
+
+def test_held_sheet_states_and_report(held):
+    lat = held.lattice
+    x, edges = lat.frame.positions, lat.frame.edges
+    sets = corner_sets(x, 3, 3)
+    for name, (state, nu, eps) in lat.states.items():
+        assert relative_bar_error([state], edges, x) <= 1e-9
+        ex, ey = boundary_strains(x, state, sets, finite=True)
+        assert abs(ex - (0.1 if name == "expanded" else -0.1)) <= 1e-12
+        assert abs(-ey / ex - nu) <= 1e-12 and abs(nu + 0.5) <= 0.02
+    assert held.max_deviation <= 0.02 and np.all(np.abs(held.secant_ratios + 0.5) <= 0.02)
+    assert lat.strain_range.lower.strain <= -0.1 and lat.strain_range.upper.strain >= 0.1
+
+
+def test_unreachable_tolerance_answers_with_the_best_figures():
+    with pytest.raises(FiniteStrainUnreachable) as err:
+        finite_strain_sheet(2, 2, poisson=-0.5, strain_range=(-0.1, 0.1), tolerance=1e-6)
+    assert err.value.code == "finite_strain_unreachable"
+    best = err.value.best["best_deviation"]
+    assert 1e-6 < best["max_deviation"] < 1e-3
+
+
+def test_refusals():
+    with pytest.raises(InvalidInput) as err:
+        auxetic_pipeline(3, (2,), poisson=-0.5, finite_strain=(-0.1, 0.1, 0.02))
+    assert err.value.code == "invalid_options"
+    with pytest.raises(InvalidInput) as err:
+        finite_strain_sheet(2, 2, poisson=-0.5, strain_range=(0.05, 0.1), tolerance=0.02)
+    assert err.value.code == "invalid_strain_range"
+    with pytest.raises(InvalidInput) as err:
+        finite_strain_sheet(51, 50, poisson=-0.5, strain_range=(-0.1, 0.1), tolerance=0.02)
+    assert err.value.code == "invalid_size"
+
+
+def test_over_http(client):
+    refused = client.post(
+        "/v1/design/auxetic",
+        json={"cells": [2, 2], "poisson_ratio": -0.5, "finite_strain": {"strain_range": [-0.1, 0.1], "tolerance": 1e-6}},
+    )
+    assert refused.status_code == 422
+    detail = refused.json()["detail"]
+    assert detail["code"] == "finite_strain_unreachable" and detail["best"]["best_deviation"]["max_deviation"] > 1e-6
+    response = client.post(
+        "/v1/design/auxetic",
+        json={"cells": [2, 2], "poisson_ratio": -0.5, "finite_strain": {"strain_range": [-0.1, 0.1]}},
+    )
+    assert response.status_code == 200, response.text
+    body = response.json()
+    x = np.array(body["frame"]["positions"])
+    sets = corner_sets(x, 2, 2)
+    for state in body["states"]:
+        ex, ey = boundary_strains(x, np.array(state["positions"]), sets, finite=True)
+        assert abs(abs(ex) - 0.1) <= 1e-12 and abs(-ey / ex + 0.5) <= 0.02
+    report = body["report"]["finite_strain"]
+    assert report["max_deviation"] <= 0.02 and report["module"]["family"] == "trammel"
