@@ -3,16 +3,19 @@
 from __future__ import annotations
 
 import logging
+import re
 import secrets
 import uuid
 
 from fastapi import FastAPI
 from fastapi.middleware.cors import CORSMiddleware
+from fastapi.middleware.gzip import GZipMiddleware
 from fastapi.responses import JSONResponse
 from starlette.datastructures import Headers, MutableHeaders
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from zeromode.service import __version__
+from zeromode.service.body import BodyRefusal, read_checked_body, replay
 from zeromode.service.errors import error_body, install_error_handlers
 from zeromode.service.routes import (
     analyze,
@@ -31,13 +34,25 @@ from zeromode.service.settings import Settings, settings_scope
 from zeromode.solver.budget import time_budget
 
 log = logging.getLogger("zeromode")
+# A caller's request id is kept only if it is this kind of token (no control characters in logs).
+_REQUEST_ID = re.compile(r"[A-Za-z0-9._:-]{1,64}")
+# Responses smaller than this are sent uncompressed (gzip's header would outweigh the saving).
+GZIP_MINIMUM_BYTES = 1024
+
+
+def _request_id(given: str | None) -> str:
+    """The caller's X-Request-Id when it is a short token (it goes into logs and headers),
+    otherwise a fresh one."""
+    if given is not None and _REQUEST_ID.fullmatch(given):
+        return given
+    return uuid.uuid4().hex[:16]
 
 
 class LimitsAndAuth:
-    """Pure ASGI middleware (no per-request task or body streaming, unlike BaseHTTPMiddleware):
-    body-size limit, Content-Length required on bodies, optional API key, the app's settings as
-    the current settings and the per-request time budget, and a request id echoed in the
-    response and the log."""
+    """Pure ASGI middleware (no per-request task, unlike BaseHTTPMiddleware): body-size limit on
+    the bytes received (service/body.py: gzip, UTF-8, JSON depth), optional API key, the app's
+    settings as the current settings and the per-request time budget, and a request id echoed in
+    the response and the log."""
 
     def __init__(self, app: ASGIApp, settings: Settings):
         self.app = app
@@ -49,25 +64,27 @@ class LimitsAndAuth:
             return
         settings = self.settings
         headers = Headers(scope=scope)
-        request_id = headers.get("x-request-id") or uuid.uuid4().hex[:16]
+        request_id = _request_id(headers.get("x-request-id"))
         length = headers.get("content-length")
         refusal = None
         if length is not None and length.isdigit() and int(length) > settings.max_body_bytes:
-            refusal = (413, "body_too_large", f"the request body has {length} bytes; the limit is {settings.max_body_bytes}.")
-        elif length is None and scope["method"] in ("POST", "PUT", "PATCH"):
-            # A chunked body has no Content-Length and would slip past the size limit above.
-            refusal = (411, "length_required", "a request body needs a Content-Length header (no chunked bodies).")
+            refusal = BodyRefusal(413, "body_too_large", f"the request body has {length} bytes; the limit is {settings.max_body_bytes}.")
         elif (
             settings.api_key
             and scope["path"].startswith("/v1/")
             and not secrets.compare_digest(headers.get("x-api-key", ""), settings.api_key)
         ):
-            refusal = (401, "unauthorized", "a valid X-API-Key header is required.")
+            refusal = BodyRefusal(401, "unauthorized", "a valid X-API-Key header is required.")
+        elif scope["method"] in ("POST", "PUT", "PATCH"):
+            # Counted as received: a chunked body, or a Content-Length that lies, cannot pass.
+            try:
+                receive = replay(await read_checked_body(scope, receive, settings.max_body_bytes), receive)
+            except BodyRefusal as error:
+                refusal = error
         if refusal is not None:
-            status, code, message = refusal
-            response = JSONResponse(status_code=status, content=error_body(code, message))
+            response = JSONResponse(status_code=refusal.status, content=error_body(refusal.code, refusal.message))
             response.headers["x-request-id"] = request_id
-            log.info("request_id=%s %s %s -> %s", request_id, scope["method"], scope["path"], status)
+            log.info("request_id=%s %s %s -> %s", request_id, scope["method"], scope["path"], refusal.status)
             await response(scope, receive, send)
             return
         status_seen = []
@@ -91,6 +108,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     settings = Settings() if settings is None else settings
     app = FastAPI(
         title="zeromode",
+        # No slash redirects: starlette builds their URL from the Host header (an open redirect).
+        redirect_slashes=False,
         version=__version__,
         description=(
             "Inverse design of bar-and-joint (Maxwell) frames whose only non-rigid zero modes "
@@ -103,6 +122,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         app.include_router(module.router)
 
     app.add_middleware(LimitsAndAuth, settings=settings)
+    app.add_middleware(GZipMiddleware, minimum_size=GZIP_MINIMUM_BYTES)
     describe = app.openapi
 
     def openapi() -> dict:
@@ -114,7 +134,12 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
     if settings.cors_origins:
         app.add_middleware(
-            CORSMiddleware, allow_origins=list(settings.cors_origins), allow_methods=["GET", "POST"]
+            CORSMiddleware,
+            allow_origins=list(settings.cors_origins),
+            allow_methods=["GET", "POST", "DELETE"],
+            # A browser client must be able to send its key and a compressed JSON body.
+            allow_headers=["x-api-key", "content-type", "content-encoding", "x-request-id"],
+            expose_headers=["x-request-id"],
         )
     return app
 

@@ -14,5 +14,6 @@ class Health(BaseModel):
 
 
 @router.get("/health", response_model=Health)
-def health() -> dict:
+async def health() -> dict:
+    # async: served on the event loop, never queued behind compute in the thread pool.
     return {"status": "ok", "version": __version__}
