@@ -57,6 +57,9 @@ SIGN = 1.0
 WINDOW_XTOL = 1e-3
 WINDOW_EVALUATIONS = 16
 WINDOW_SEARCHES = 3
+# The search compares candidates' ranges: their events are located to this strain (the chosen
+# module's range is then scanned to round-off).
+COVER_XTOL = 1e-5
 # Modules whose nodes reach past this many neighbours (in x or y) at the reference are not
 # considered: their axis nodes lie among the bars of modules three cells away, and the range
 # scan (whose patch grows with the reach) would make the cost grow with the sheet up to that size.
@@ -154,7 +157,7 @@ def finite_strain_sheet(
         shortest = float(np.sqrt(np.min(module.squared_lengths)))
         if max(needed_reach(module, module.reference, shortest, (MAX_REACH + 1,) * 2)) > MAX_REACH:
             return 0.0
-        usable = module_range(module, scan_cells, limits=(lo, hi)).range
+        usable = module_range(module, scan_cells, limits=(lo, hi), xtol=COVER_XTOL).range
         return min(usable.upper.strain / hi, usable.lower.strain / lo)
 
     devs = []

@@ -266,11 +266,17 @@ class ModuleMotion:
         return q
 
 
-def module_range(module: SymmetricModule, cells: tuple[int, int], limits: tuple[float, float] | None = None) -> ModuleMotion:
+def module_range(
+    module: SymmetricModule,
+    cells: tuple[int, int],
+    limits: tuple[float, float] | None = None,
+    xtol: float = STRAIN_XTOL,
+) -> ModuleMotion:
     """The usable range of the n_x × n_y sheet (``cells``) tiled from ``module``, and the
     module's motion sampled over it.  The patch of copies watched grows with the nodes' reach
     (needed_reach) as the scan goes.  ``limits`` (lo < 0 < hi): scan no further than these
-    strains (an end there is "search_limit"); default ±MAX_SCAN_STRAIN."""
+    strains (an end there is "search_limit"); default ±MAX_SCAN_STRAIN.  xtol: how precisely an
+    event is located in strain (a search that only compares ranges needs less than round-off)."""
     lo_limit, hi_limit = limits if limits is not None else (-MAX_SCAN_STRAIN, MAX_SCAN_STRAIN)
     shortest = float(np.sqrt(np.min(module.squared_lengths)))
     q0 = module.reference
@@ -297,14 +303,14 @@ def module_range(module: SymmetricModule, cells: tuple[int, int], limits: tuple[
                 q_end = _advance(module, q, eps, end.strain)
                 if q_end is not None:
                     now = _events(module, patch, q_end, shortest)
-                    end = _first_event(module, patch, prev, now, q, eps, end.strain, shortest) or end
+                    end = _first_event(module, patch, prev, now, q, eps, end.strain, shortest, xtol) or end
                 break
             reach = tuple(max(r, s) for r, s in zip(patch.reach, needed_reach(module, q_next, shortest, cells)))
             if reach != patch.reach:
                 patch = patch_for(reach)
                 prev = _events(module, patch, q, shortest)
             now = _events(module, patch, q_next, shortest)
-            end = _first_event(module, patch, prev, now, q, eps, target, shortest)
+            end = _first_event(module, patch, prev, now, q, eps, target, shortest, xtol)
             if end is not None:
                 break
             eps, q, prev = target, q_next, now
@@ -349,7 +355,7 @@ def _stalled(module: SymmetricModule, q: np.ndarray, eps: float, target: float) 
     return RangeEnd(lo, "singular_point", "the module's motion cannot be continued beyond this strain: " + REASONS["singular_point"])
 
 
-def _first_event(module, patch, prev, now, q, eps, target, shortest) -> RangeEnd | None:
+def _first_event(module, patch, prev, now, q, eps, target, shortest, xtol=STRAIN_XTOL) -> RangeEnd | None:
     """The event closest to ``eps`` among the sign changes between two samples, located."""
     best = None
     for kind in ("singular_point", "node_proximity", "bar_crossing"):
@@ -365,7 +371,7 @@ def _first_event(module, patch, prev, now, q, eps, target, shortest) -> RangeEnd
                 return _event(module, patch, q_s, shortest, kind, k)
 
             try:
-                root = brentq(f, eps, target, xtol=STRAIN_XTOL)
+                root = brentq(f, eps, target, xtol=xtol)
             except ValueError:
                 root = target
             if kind == "bar_crossing":
