@@ -1,17 +1,25 @@
-"""Analysis benchmark: rank, zero modes and self-stresses of lattice frames, beside PyRigi (issue 2).
+"""Analysis benchmark: rank, zero modes and self-stresses of lattice frames, against one CHOLMOD
+factorisation and against PyRigi (issues 2 and 15).
 
 Run from the repository root:  .venv/bin/python -m benchmarks.bench_analysis [--quick]
 
 Times ``analyze`` (library level, no HTTP, single-threaded BLAS as the service runs it) on 2D
 triangulated and kagome patches of 10²…10⁵ nodes and on 3D cubic-with-face-diagonals and fcc
-patches up to 10⁴ nodes: counts only (``bases=False``) and, for small frames, with both bases.
-Medians over several runs for the small sizes; the machine is shared, so read medians and
-ratios, not single numbers. On the ≤ 200-node frames PyRigi answers the same questions
-(numerical rank, infinitesimal rigidity, nontrivial infinitesimal flexes, equilibrium stresses)
-on the same normalised positions, and its counts must agree with ours.
+patches of 10²…3·10⁴ nodes: counts only (``bases=False``) and with both bases (the default
+call, where they fit in BASIS_MAX_NUMBERS). Beside each frame, in the same process and run, one
+supernodal CHOLMOD factorisation of CᵀC + δI with CHOLMOD's own (AMD) ordering: the cost of any
+factorisation-based rank method, the yardstick of issue 15. Times are process CPU seconds
+(medians), which a shared machine disturbs less than wall time; the load average is recorded.
 
-A second table measures the dense/sparse crossover (``DENSE_MAX_DOF``): both routes on the
-same frames of growing size, with bases (the service's default) and counts only.
+PyRigi (≥ 1.3) answers on the 10²-node frames, on the same normalised positions: one call
+(``rigidity_matrix_rank``, from which every count follows) against one zeromode call for the
+counts, and the four calls of the earlier benchmark (rank, infinitesimal rigidity, nontrivial
+flexes, stresses) against one zeromode call that also returns both bases. Its counts must agree.
+
+A second table measures the dense/sparse crossover that ``analyze`` uses (DENSE_MAX_ENTRIES*).
+A third runs the 2D frames of 10⁶ nodes (triangulated; kagome with its many boundary zero
+modes), each once in a fresh process, for the counts' time and the process's peak memory
+(``--skip-million`` leaves it out).
 """
 
 from __future__ import annotations
@@ -22,91 +30,156 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 import argparse
+import json
 import platform
+import subprocess
+import sys
 import time
 import warnings
 from pathlib import Path
 
 import numpy as np
+import scipy.sparse.linalg as spla
 
 from benchmarks.lattices import LATTICES
 from zeromode.solver import Frame, analyze
-from zeromode.solver.rigidity import DENSE_MAX_DOF
+from zeromode.solver.factorisation import cholesky
+from zeromode.solver.rigidity import (
+    BASIS_MAX_NUMBERS,
+    DENSE_MAX_ENTRIES_BASES,
+    DENSE_MAX_ENTRIES_COUNTS,
+    SHIFT,
+    compatibility_matrix,
+)
 
 OUT = Path(__file__).resolve().parent.parent / "docs" / "benchmarks" / "analysis.md"
 PYRIGI_MAX_NODES = 200
+COUNTS = ("rank", "zero_modes", "rigid_body_modes", "nontrivial_zero_modes", "self_stresses")
+FULL_SIZES = {
+    "triangulated": [100, 1000, 10_000, 100_000],
+    "kagome": [100, 1000, 10_000, 100_000],
+    "cubic-diagonal": [100, 1000, 10_000, 30_000],
+    "fcc": [100, 1000, 10_000, 30_000],
+}
+MILLION = ("triangulated", "kagome")
+REST_HEADING = "## Through the service"
+QUICK_SIZES = {
+    "triangulated": [100, 1000, 10_000],
+    "kagome": [100, 1000, 10_000],
+    "cubic-diagonal": [100, 1000],
+    "fcc": [100],
+}
 
 
-def median_time(fn, runs: int) -> tuple[float, object]:
-    """Median wall time of ``runs`` calls and the last result."""
+def median_cpu(fn, runs: int) -> tuple[float, object]:
+    """Median process CPU time of ``runs`` calls, and the last result."""
     times, result = [], None
     for _ in range(runs):
-        t0 = time.perf_counter()
+        t0 = time.process_time()
         result = fn()
-        times.append(time.perf_counter() - t0)
+        times.append(time.process_time() - t0)
     return float(np.median(times)), result
 
 
-def runs_for(n: int, dim: int) -> int:
-    if n <= 1000:
-        return 5
-    return 3 if n <= 10_000 and dim == 2 else 1
+def counts(a) -> dict[str, int]:
+    return {name: getattr(a, name) for name in COUNTS}
 
 
-def pyrigi_counts(frame: Frame) -> tuple[float, dict]:
-    """PyRigi's numerical answers on the frame's normalised positions, and their total time.
+def runs_for(n: int) -> int:
+    return 7 if n <= 1000 else 5 if n <= 10_000 else 3 if n <= 100_000 else 1
 
-    PyRigi's numerical rank uses an absolute singular-value tolerance (1e-9), so it is given
-    the same scale-normalised positions zeromode decides its rank on.
-    """
+
+def cholmod_factorisation(frame: Frame):
+    """A callable that factorises CᵀC + δI of the normalised frame once, CHOLMOD's own order.
+
+    CᵀC is formed outside the timed call; δ = SHIFT·‖C‖_F² (the scale only matters for
+    positive definiteness)."""
+    c = compatibility_matrix(frame.normalised_positions(), frame.edges)
+    gram = (c.T @ c).tocsr()
+    shift = SHIFT * spla.norm(c) ** 2
+    return lambda: cholesky(gram, shift=shift)
+
+
+def pyrigi_framework(frame: Frame):
     from pyrigi import Framework, Graph
 
     x = frame.normalised_positions()
-    graph = Graph([(int(i), int(j)) for i, j in frame.edges])
-    graph.add_nodes_from(range(frame.n_nodes))
-    framework = Framework(graph, {i: [float(v) for v in p] for i, p in enumerate(x)})
+    graph = Graph()
+    graph.add_vertices(range(frame.n_nodes))
+    graph.add_edges([(int(i), int(j)) for i, j in frame.edges])
+    return Framework(graph, {i: [float(v) for v in p] for i, p in enumerate(x)})
+
+
+def pyrigi_calls(frame: Frame) -> tuple[float, float, dict]:
+    """CPU seconds of PyRigi's one-call rank and of its four numerical calls, and its counts.
+
+    PyRigi's numerical rank uses an absolute tolerance, so it is given the same scale-
+    normalised positions zeromode decides its rank on."""
+    framework = pyrigi_framework(frame)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # PyRigi warns that numerical answers are numerical
-        t0 = time.perf_counter()
+        t0 = time.process_time()
+        rank = int(framework.rigidity_matrix_rank(numerical=True))
+        one = time.process_time() - t0
+        t0 = time.process_time()
         counts = {
             "rank": int(framework.rigidity_matrix_rank(numerical=True)),
             "inf_rigid": bool(framework.is_inf_rigid(numerical=True)),
             "flexes": len(framework.nontrivial_inf_flexes(numerical=True)),
             "stresses": len(framework.stresses(numerical=True)),
         }
-        seconds = time.perf_counter() - t0
-    return seconds, counts
+        four = time.process_time() - t0
+    assert counts["rank"] == rank
+    return one, four, counts
 
 
 def fmt_time(seconds: float | None) -> str:
     if seconds is None:
         return "–"
+    if seconds < 1e-2:
+        return f"{1e3 * seconds:.2f} ms"
     return f"{1e3 * seconds:.1f} ms" if seconds < 1 else f"{seconds:.2f} s"
 
 
-def lattice_table(sizes: dict[str, list[int]], pyrigi: set[tuple[str, int]]) -> list[str]:
+def lattice_table(sizes: dict[str, list[int]]) -> tuple[list[str], list[str], dict]:
+    """The lattice rows, the PyRigi rows, and the counts-per-size summary for the README."""
     rows = [
         (
             "| frame | d | N | N_B | route | rank | nontrivial zero modes | self-stresses "
-            "| counts | with bases | PyRigi | PyRigi agrees | PyRigi ÷ ours (bases) |"
+            "| counts | CHOLMOD factorisation | counts ÷ CHOLMOD | with bases | bases ÷ counts |"
         ),
         "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
+    pyrigi_rows = [
+        (
+            "| frame | N | PyRigi, 1 call (rank) | zeromode counts | ratio "
+            "| PyRigi, 4 calls | zeromode with bases | ratio | same counts |"
+        ),
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    summary: dict = {}
     for name, targets in sizes.items():
         for target in targets:
             frame = LATTICES[name](target)
             n, d = frame.n_nodes, frame.dim
-            runs = runs_for(n, d)
-            counts_s, a = median_time(lambda f=frame: analyze(f, bases=False), runs)
-            bases_s, bases_cell = None, "–"
-            if target <= 1000:
-                bases_s, b = median_time(lambda f=frame: analyze(f), runs)
-                assert b.counts() == a.counts()
-                bases_cell = fmt_time(bases_s) if b.bases_included else "too large"
-            c = a.counts()
-            py_s, agree, ratio = None, "", ""
-            if (name, target) in pyrigi and n <= PYRIGI_MAX_NODES:
-                py_s, py = pyrigi_counts(frame)
+            runs = runs_for(n)
+            counts_s, a = median_cpu(lambda f=frame: analyze(f, bases=False), runs)
+            chol_s, _ = median_cpu(cholmod_factorisation(frame), runs)
+            bases_s, b = median_cpu(lambda f=frame: analyze(f), runs)
+            c = counts(a)
+            assert counts(b) == c
+            numbers = c["nontrivial_zero_modes"] * d * n + c["self_stresses"] * frame.n_edges
+            with_bases = fmt_time(bases_s) if b.bases_included else f"too large ({numbers:.1e})"
+            ratio = f"{bases_s / counts_s:.1f}×" if b.bases_included else "–"
+            rows.append(
+                f"| {name} | {d} | {n} | {frame.n_edges} | {a.method} | {c['rank']} "
+                f"| {c['nontrivial_zero_modes']} | {c['self_stresses']} | {fmt_time(counts_s)} "
+                f"| {fmt_time(chol_s)} | {counts_s / chol_s:.2f} | {with_bases} | {ratio} |"
+            )
+            print(rows[-1], flush=True)
+            summary[(name, target)] = (counts_s, chol_s)
+            if n <= PYRIGI_MAX_NODES:
+                one, four, py = pyrigi_calls(frame)
                 ours = {
                     "rank": c["rank"],
                     "inf_rigid": c["nontrivial_zero_modes"] == 0,
@@ -114,21 +187,23 @@ def lattice_table(sizes: dict[str, list[int]], pyrigi: set[tuple[str, int]]) -> 
                     "stresses": c["self_stresses"],
                 }
                 agree = "yes" if py == ours else f"**no**: {py} vs {ours}"
-                ratio = f"{py_s / bases_s:.0f}×" if b.bases_included else ""
-            rows.append(
-                f"| {name} | {d} | {n} | {frame.n_edges} | {a.method} | {c['rank']} "
-                f"| {c['nontrivial_zero_modes']} | {c['self_stresses']} | {fmt_time(counts_s)} "
-                f"| {bases_cell} | {fmt_time(py_s)} | {agree} | {ratio} |"
-            )
-            print(rows[-1], flush=True)
-    return rows
+                pyrigi_rows.append(
+                    f"| {name} | {n} | {fmt_time(one)} | {fmt_time(counts_s)} "
+                    f"| {one / counts_s:.0f}× | {fmt_time(four)} | {fmt_time(bases_s)} "
+                    f"| {four / bases_s:.0f}× | {agree} |"
+                )
+                print(pyrigi_rows[-1], flush=True)
+    return rows, pyrigi_rows, summary
 
 
 def crossover_table(dofs: list[int]) -> list[str]:
     """Dense and sparse route on the same frames around the crossover, with and without bases."""
     rows = [
-        "| frame | dN | N_B | dense, bases | sparse, bases | dense, counts | sparse, counts |",
-        "|---|---|---|---|---|---|---|",
+        (
+            "| frame | dN | N_B | N_B·dN | dense, counts | sparse, counts "
+            "| dense, bases | sparse, bases |"
+        ),
+        "|---|---|---|---|---|---|---|---|",
     ]
     for name in ("triangulated", "kagome", "cubic-diagonal"):
         seen = set()
@@ -136,48 +211,149 @@ def crossover_table(dofs: list[int]) -> list[str]:
             dim = 3 if name == "cubic-diagonal" else 2
             frame = LATTICES[name](dof // dim)
             dn = frame.dim * frame.n_nodes
-            if dn in seen:  # the 3D patch side is an integer: nearby targets give the same frame
+            if dn in seen:  # the patch side is an integer: nearby targets give the same frame
                 continue
             seen.add(dn)
             cells = []
-            for bases in (True, False):
+            for bases in (False, True):
                 for method in ("dense", "sparse"):
-                    seconds, _ = median_time(
-                        lambda f=frame, m=method, b=bases: analyze(f, method=m, bases=b), 3
+                    seconds, _ = median_cpu(
+                        lambda f=frame, m=method, b=bases: analyze(f, method=m, bases=b), 7
                     )
                     cells.append(fmt_time(seconds))
-            rows.append(f"| {name} | {dn} | {frame.n_edges} | " + " | ".join(cells) + " |")
+            rows.append(
+                f"| {name} | {dn} | {frame.n_edges} | {dn * frame.n_edges} | "
+                + " | ".join(cells)
+                + " |"
+            )
             print(rows[-1], flush=True)
     return rows
 
 
+def one_million(name: str) -> dict:
+    """Counts of one 10⁶-node frame in this process (run by ``million_table`` in a child)."""
+    frame = LATTICES[name](1_000_000)
+    t0, w0 = time.process_time(), time.perf_counter()
+    a = analyze(frame, bases=False)
+    cpu, wall = time.process_time() - t0, time.perf_counter() - w0
+    return {"n": frame.n_nodes, "nb": frame.n_edges, "cpu": cpu, "wall": wall, **counts(a),
+            "gap": [a.rank_gap.last_nonzero, a.rank_gap.first_zero]}
+
+
+def million_table() -> list[str]:
+    """Each 10⁶-node frame once, alone in a fresh process: CPU and wall seconds of the counts
+    (frame built beforehand) and the child's peak resident memory (from wait4)."""
+    rows = [
+        "| frame | N | N_B | rank | nontrivial zero modes | self-stresses | σ_r / σ_{r+1} "
+        "| counts (CPU) | counts (wall) | peak memory |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for name in MILLION:
+        child = subprocess.Popen(
+            [sys.executable, "-m", "benchmarks.bench_analysis", "--one-million", name],
+            stdout=subprocess.PIPE, cwd=Path(__file__).resolve().parent.parent,
+        )
+        out = child.stdout.read()
+        _, status, usage = os.wait4(child.pid, 0)
+        assert status == 0, f"{name}: exit status {status}"
+        r = json.loads(out.decode().strip().splitlines()[-1])
+        peak_gib = usage.ru_maxrss * 1024 / 2**30  # ru_maxrss is in KiB on Linux
+        ratio = f"{r['gap'][0] / r['gap'][1]:.1e}" if r["gap"][1] > 0 else "∞"
+        rows.append(
+            f"| {name} | {r['n']} | {r['nb']} | {r['rank']} | {r['nontrivial_zero_modes']} "
+            f"| {r['self_stresses']} | {ratio} | {fmt_time(r['cpu'])} | {fmt_time(r['wall'])} "
+            f"| {peak_gib:.2f} GiB |"
+        )
+        print(rows[-1], flush=True)
+    return rows
+
+
+def rest_table() -> list[str]:
+    """POST /v1/analyze through the ASGI app (FastAPI's TestClient: the service's whole stack
+    of middleware, validation and serialisation, without sockets): wall seconds, medians of 3,
+    of lattices sent as JSON, gzip-compressed for the 10⁵-node one, with and without bases."""
+    import gzip
+
+    from fastapi.testclient import TestClient
+
+    from zeromode.service.app import create_app
+
+    client = TestClient(create_app())
+    rows = [
+        "| frame | N | request body | options | status | wall | response body |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for name, target, compress in (
+        ("triangulated", 1000, False),
+        ("kagome", 1000, False),
+        ("triangulated", 100_000, True),
+    ):
+        frame = LATTICES[name](target)
+        for bases in (False, True) if target <= 10_000 else (False,):
+            body = json.dumps({
+                "frame": {"dim": frame.dim, "positions": frame.positions.tolist(),
+                          "edges": frame.edges.tolist()},
+                "options": {"bases": bases},
+            }).encode()
+            headers = {"content-type": "application/json", "accept-encoding": "gzip"}
+            if compress:
+                body = gzip.compress(body, compresslevel=6)
+                headers["content-encoding"] = "gzip"
+            times = []
+            for _ in range(3):
+                t0 = time.perf_counter()
+                response = client.post("/v1/analyze", content=body, headers=headers)
+                times.append(time.perf_counter() - t0)
+            sent = response.headers.get("content-length") or str(len(response.content))
+            encoding = response.headers.get("content-encoding", "identity")
+            rows.append(
+                f"| {name} | {frame.n_nodes} | {len(body) / 1e6:.1f} MB"
+                f"{' gzip' if compress else ''} | bases={str(bases).lower()} "
+                f"| {response.status_code} | {fmt_time(float(np.median(times)))} "
+                f"| {int(sent) / 1e6:.2f} MB {encoding} |"
+            )
+            print(rows[-1], flush=True)
+    return rows
+
+
+def load() -> str:
+    return " ".join(Path("/proc/loadavg").read_text().split()[:3]) if Path("/proc/loadavg").exists() else "n/a"
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="small sizes only (about a minute)")
+    parser.add_argument("--quick", action="store_true", help="small sizes only (a few minutes)")
     parser.add_argument("--out", type=Path, default=OUT)
+    parser.add_argument("--skip-million", action="store_true", help="leave out the 10⁶-node runs")
+    parser.add_argument("--one-million", choices=MILLION, help=argparse.SUPPRESS)  # the child
+    parser.add_argument(
+        "--rest-only", action="store_true", help="rerun the service table alone, in place"
+    )
     args = parser.parse_args()
-    if args.quick:
-        sizes = {
-            "triangulated": [100, 1000, 10_000],
-            "kagome": [100, 1000, 10_000],
-            "cubic-diagonal": [100, 1000],
-            "fcc": [100],
-        }
-        pyrigi = {("triangulated", 100)}
-        dofs = [300, 600]
-    else:
-        sizes = {
-            "triangulated": [100, 1000, 10_000, 100_000],
-            "kagome": [100, 1000, 10_000, 100_000],
-            "cubic-diagonal": [100, 1000, 10_000],
-            "fcc": [100, 1000, 10_000],
-        }
-        pyrigi = {(name, 100) for name in sizes}
-        dofs = [200, 300, 400, 600, 1000]
+    if args.one_million:
+        print(json.dumps(one_million(args.one_million)))
+        return
+    if args.rest_only:
+        text = args.out.read_text()
+        start = text.index(REST_HEADING)
+        end = text.index("\n## ", start + len(REST_HEADING))
+        table = "\n".join(rest_table())
+        head, tail = text[start:end].split("\n| frame", 1)[0], text[end:]
+        args.out.write_text(text[:start] + head + "\n" + table + "\n" + tail)
+        print(f"wrote {args.out}")
+        return
+    sizes = QUICK_SIZES if args.quick else FULL_SIZES
+    dofs = [50, 100, 150, 200, 300] if args.quick else [30, 50, 80, 120, 160, 200, 300, 400]
+    load_before = load()
+    print(f"load average {load_before}", flush=True)
     print("## Lattices", flush=True)
-    lattice_rows = lattice_table(sizes, pyrigi)
+    lattice_rows, pyrigi_rows, _ = lattice_table(sizes)
     print("## Dense/sparse crossover", flush=True)
     crossover_rows = crossover_table(dofs)
+    print("## REST", flush=True)
+    rest_rows = rest_table()
+    million_rows = [] if args.quick or args.skip_million else million_table()
+    load_after = load()
     lines = [
         "# Analysis benchmark",
         "",
@@ -185,31 +361,73 @@ def main() -> None:
             f"`.venv/bin/python -m benchmarks.bench_analysis{' --quick' if args.quick else ''}` "
             f"on {platform.machine()}, {os.cpu_count()} cores, Python "
             f"{platform.python_version()}, BLAS threads {os.environ['OPENBLAS_NUM_THREADS']}; "
-            "a shared, noisy machine."
+            f"a shared machine, load average (1, 5, 15 min) {load_before} at the start and "
+            f"{load_after} at the end. Times are process CPU seconds."
         ),
         "",
         (
-            "Library-level `analyze` times (frame already built). *counts*: `bases=False`; "
-            "*with bases*: the default call, which also returns orthonormal bases of the "
-            "nontrivial zero modes and self-stresses (sizes up to 10³; *too large*: past "
-            "BASIS_MAX_NUMBERS the service returns counts only). Medians of 5 runs up to 10³ "
-            "nodes, 3 runs for 2D at 10⁴, one run above. *route*: dense SVD up to "
-            f"DENSE_MAX_DOF = {DENSE_MAX_DOF} degrees of freedom, sparse shift-invert subspace "
-            "iteration above. *PyRigi* (one run): `rigidity_matrix_rank`, `is_inf_rigid`, "
-            "`nontrivial_inf_flexes` and `stresses`, all `numerical=True`, on the same "
-            "normalised positions; *PyRigi agrees*: its rank, rigidity, flex count and stress "
-            "count equal ours."
+            "Library-level `analyze` (frame already built). *counts*: `bases=False`; *with "
+            "bases*: the default call, which also returns orthonormal bases of the nontrivial "
+            f"zero modes and self-stresses while they hold at most {BASIS_MAX_NUMBERS:.0e} "
+            "numbers (*too large (k)*: counts only, as the service returns them; k numbers the "
+            "bases would hold). *CHOLMOD "
+            "factorisation*: one supernodal Cholesky factorisation of CᵀC + δI of the same frame "
+            "with CHOLMOD's own ordering (AMD; cvxopt's build has no METIS), CᵀC formed "
+            "beforehand — the cost of any factorisation-based rank method. Medians of 7 runs up "
+            "to 10³ nodes, 5 at 10⁴, 3 at 3·10⁴…10⁵. *route*: see the crossover table."
         ),
         "",
         *lattice_rows,
         "",
+        "## PyRigi",
+        "",
+        (
+            "PyRigi 1.3 on the same normalised positions, one run. *1 call*: "
+            "`rigidity_matrix_rank(numerical=True)`, from which every count follows, against "
+            "one `analyze(bases=False)`: the fair ratio. *4 calls*: `rigidity_matrix_rank`, "
+            "`is_inf_rigid`, `nontrivial_inf_flexes` and `stresses` (each rebuilds the matrix; "
+            "the figure the README quoted before), against one `analyze` that also returns both "
+            "bases. *same counts*: PyRigi's rank, rigidity, flex and stress counts equal ours."
+        ),
+        "",
+        *pyrigi_rows,
+        "",
         "## Dense/sparse crossover",
         "",
-        "The same frames through both routes (`method=`), medians of 3 runs.",
+        (
+            "The same frames through both routes (`method=`), medians of 7 runs. `analyze` takes "
+            f"the dense SVD while N_B·dN ≤ {DENSE_MAX_ENTRIES_COUNTS} for counts and "
+            f"≤ {DENSE_MAX_ENTRIES_BASES} with bases, the sparse route above."
+        ),
         "",
         *crossover_rows,
         "",
     ]
+    lines += [
+        REST_HEADING,
+        "",
+        (
+            "`POST /v1/analyze` through the app's whole ASGI stack (middleware, validation, "
+            "serialisation; FastAPI's TestClient, no sockets), wall time, medians of 3, "
+            "`Accept-Encoding: gzip`. *response body*: bytes on the wire and their encoding."
+        ),
+        "",
+        *rest_rows,
+        "",
+    ]
+    if million_rows:
+        lines += [
+            "## 10⁶ nodes",
+            "",
+            (
+                "Counts only (`analyze(frame, bases=False)`), each frame once, alone in a fresh "
+                "process (the frame built before the clock starts); *peak memory*: the process's "
+                "maximum resident set, frame construction and interpreter included."
+            ),
+            "",
+            *million_rows,
+            "",
+        ]
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text("\n".join(lines))
     print(f"wrote {args.out}")

@@ -1,0 +1,101 @@
+"""A 10⁵-node frame through REST: /v1/analyze on a real uvicorn server on loopback.
+
+The request body is gzip-compressed JSON (``Content-Encoding: gzip``), so a frame whose plain
+JSON nears the body limit still fits; the response is asked for with ``Accept-Encoding: gzip``.
+The counts are checked against the patch's geometry (a triangulated rhombus is rigid, every bar
+beyond 2N − 3 is a self-stress), not against the solver.
+"""
+
+from __future__ import annotations
+
+import gzip
+import json
+import socket
+import threading
+import time
+from collections.abc import Iterator
+
+import httpx
+import pytest
+import uvicorn
+
+from benchmarks.lattices import triangulated_lattice
+from zeromode.service.app import create_app
+
+STARTUP_TIMEOUT_S = 60.0
+
+
+@pytest.fixture(scope="module")
+def url() -> Iterator[str]:
+    """The real app (default settings) served by uvicorn on a loopback port the kernel chose."""
+    sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    sock.bind(("127.0.0.1", 0))
+    address = f"http://127.0.0.1:{sock.getsockname()[1]}"
+    server = uvicorn.Server(uvicorn.Config(create_app(), log_level="warning", lifespan="off"))
+    thread = threading.Thread(target=server.run, kwargs={"sockets": [sock]}, daemon=True)
+    thread.start()
+    try:
+        deadline = time.monotonic() + STARTUP_TIMEOUT_S
+        while True:
+            try:
+                if httpx.get(f"{address}/health", timeout=2.0).status_code == 200:
+                    break
+            except httpx.TransportError:
+                pass
+            assert thread.is_alive() and time.monotonic() < deadline, "the server did not start"
+            time.sleep(0.05)
+        yield address
+    finally:
+        server.should_exit = True
+        thread.join(timeout=10)
+        sock.close()
+
+
+def test_a_100k_node_lattice_through_rest_with_gzip_bodies(url):
+    frame = triangulated_lattice(100_000)
+    n, nb = frame.n_nodes, frame.n_edges
+    body = {
+        "frame": {
+            "dim": 2,
+            "positions": frame.positions.tolist(),
+            "edges": frame.edges.tolist(),
+        },
+        "options": {"bases": False},
+    }
+    plain = json.dumps(body).encode()
+    packed = gzip.compress(plain, compresslevel=6)
+    assert len(packed) < len(plain) / 2
+    response = httpx.post(
+        f"{url}/v1/analyze",
+        content=packed,
+        headers={
+            "content-type": "application/json",
+            "content-encoding": "gzip",
+            "accept-encoding": "gzip",
+        },
+        timeout=120.0,
+    )
+    assert response.status_code == 200, response.text[:300]
+    answer = response.json()  # httpx undoes the response's gzip
+    assert (answer["nodes"], answer["edges"], answer["method"]) == (n, nb, "sparse")
+    assert answer["rank"] == 2 * n - 3
+    assert answer["nontrivial_zero_modes"] == 0
+    assert answer["self_stresses"] == nb - (2 * n - 3)
+    assert answer["rank_gap"]["first_zero"] < 1e-12 * answer["rank_gap"]["last_nonzero"]
+
+
+def test_a_gzip_body_that_inflates_past_the_limit_is_refused(url):
+    # 1 MB of zeros compresses to about 1 kB: the limit must count the decompressed bytes.
+    from zeromode.service.settings import Settings
+
+    limit = Settings().max_body_bytes
+    bomb = gzip.compress(b'{"frame": ' + b" " * (limit + 1) + b"}")
+    response = httpx.post(
+        f"{url}/v1/analyze",
+        content=bomb,
+        headers={"content-type": "application/json", "content-encoding": "gzip"},
+        timeout=60.0,
+    )
+    assert response.status_code == 413
+    assert response.json()["detail"]["code"] == "body_too_large"
