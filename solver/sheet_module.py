@@ -181,11 +181,6 @@ class SymmetricModule:
         rest = np.linalg.solve(jac[:, 1:], -w * jac[:, 0])
         return np.concatenate([[w], rest])
 
-    def poisson_ratio(self, q: np.ndarray) -> float:
-        """Linear Poisson ratio at q: ν = −(db/b)/(da/a) along the curve."""
-        t = self.tangent(q)
-        return float(-(t[1] / q[1]) / (t[0] / q[0]))
-
 
 def _image_key(kind: str, sign: np.ndarray) -> tuple:
     """What tells the nodes of an orbit apart: both signs, or one for an axis pair."""
@@ -216,8 +211,8 @@ def trammel_module(w: float, h: float, c: float, e: float) -> SymmetricModule:
 def trammel_coordinates(w: float, h: float, beta: float, stretch: float, sign: float) -> tuple[float, float]:
     """(c, e) of the trammel whose corner traces the ellipse with conjugate semi-diameters
     p = (w, h) and q = stretch·(w, βh): through the reference corner, tangent there to the affine
-    path (w(1 + ε), h(1 + βε)) of linear Poisson ratio −β.  Along it ε_y − βε ≈ −ε²/(2·stretch²)·(β…)
-    so the secant ratio departs from −β by O(ε/stretch²).
+    path (w(1 + ε), h(1 + βε)) of linear Poisson ratio −β.  Along the ellipse the secant ratio
+    departs from −β by O(ε/stretch²) (finite_strain.py).
 
     With P = [p q], the symmetric M with M·Mᵀ = P·Pᵀ is V·diag(s₁√μ₁, s₂√μ₂)·Vᵀ (P·Pᵀ = V·diag(μ)·Vᵀ;
     ``sign`` = s₂ with s₁ = +1, the two trammels that are not mirror images); the rod has length
@@ -232,9 +227,6 @@ def trammel_coordinates(w: float, h: float, beta: float, stretch: float, sign: f
     rod = float(np.trace(m))
     cos_sin = np.linalg.solve(m, p)
     return rod * float(cos_sin[0]), rod * float(cos_sin[1])
-
-
-FAMILIES = {2: "two_node", 4: "trammel"}
 
 
 # ----------------------------------------------------------------------------------------------
