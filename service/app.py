@@ -67,7 +67,11 @@ class LimitsAndAuth:
         request_id = _request_id(headers.get("x-request-id"))
         length = headers.get("content-length")
         refusal = None
-        if length is not None and length.isdigit() and int(length) > settings.max_body_bytes:
+        header_bytes = sum(len(name) + len(value) + 4 for name, value in scope["headers"])
+        if header_bytes > settings.max_header_bytes:
+            # h11 bounds only headers that arrive incomplete; a complete oversized block is refused here.
+            refusal = BodyRefusal(431, "headers_too_large", f"the request headers have {header_bytes} bytes; the limit is {settings.max_header_bytes}.")
+        elif length is not None and length.isdigit() and int(length) > settings.max_body_bytes:
             refusal = BodyRefusal(413, "body_too_large", f"the request body has {length} bytes; the limit is {settings.max_body_bytes}.")
         elif (
             settings.api_key

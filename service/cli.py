@@ -56,11 +56,16 @@ def cmd_serve(args) -> int:
         f"'content-type: application/json' -d @- http://{args.host}:{args.port}/v1/design)",
         flush=True,
     )
+    from zeromode.service.settings import Settings, server_options
+
     app = "zeromode.service.app:app"
+    options = server_options(Settings())
     if args.workers <= 1:
-        uvicorn.run(app, host=args.host, port=args.port, log_level="info")
+        uvicorn.run(app, host=args.host, port=args.port, log_level="info", **options)
         return 0
-    config = uvicorn.Config(app, host=args.host, port=args.port, workers=args.workers, log_level="info")
+    config = uvicorn.Config(
+        app, host=args.host, port=args.port, workers=args.workers, log_level="info", **options
+    )
     Multiprocess(config, sockets=[_tcp_listener(args.host, args.port)]).run()
     return 0
 

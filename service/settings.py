@@ -48,6 +48,11 @@ class Settings(BaseSettings):
     max_pending_jobs: int = Field(default=8, ge=0)
     max_stored_jobs: int = Field(default=1000, ge=0)
     job_ttl_s: float = Field(default=86_400.0, ge=0)
+    max_connections: int = Field(
+        default=512, gt=0, description="Open connections and requests per process; more get 503."
+    )
+    max_header_bytes: int = Field(default=16_384, gt=0, description="Request line and headers.")
+    keep_alive_s: float = Field(default=5.0, gt=0, description="Idle time of a kept-alive connection.")
     api_key: str | None = Field(default=None, description="Required X-API-Key on /v1/ when set.")
     cors_origins: Annotated[tuple[str, ...], NoDecode] = Field(
         default=(), description="Allowed CORS origins (comma-separated in the environment)."
@@ -77,6 +82,17 @@ def settings_scope(settings: Settings) -> Iterator[None]:
         yield
     finally:
         _CURRENT.reset(token)
+
+
+def server_options(settings: Settings) -> dict:
+    """uvicorn's options for these settings: the h11 parser (it bounds the header bytes; the
+    httptools parser does not), the connection cap and the keep-alive timeout."""
+    return {
+        "http": "h11",
+        "h11_max_incomplete_event_size": settings.max_header_bytes,
+        "limit_concurrency": settings.max_connections,
+        "timeout_keep_alive": settings.keep_alive_s,
+    }
 
 
 def current_settings() -> Settings:
