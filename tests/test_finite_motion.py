@@ -336,3 +336,23 @@ def test_periodic_cell_motion_tiled_on_a_sheet_matches_the_sheet_continuation():
     (direct_sing,) = direct.singularities
     assert direct_sing.extra_zero_modes == sing.extra_zero_modes
     assert np.abs(direct.positions[direct_sing.step] - end).max() <= 1e-4 * np.ptp(frame.positions)
+
+
+def test_stop_ends_each_direction_at_the_first_configuration_it_accepts():
+    """``stop(x, sign)`` sees every new configuration (in the frame's coordinates) and ends its
+    direction there, that configuration kept; the other direction runs to the amplitude."""
+    frame = four_bar()
+    x0 = frame.positions
+    seen = {1: 0, -1: 0}
+
+    def stop(x, sign):
+        seen[sign] += 1
+        assert x.shape == x0.shape
+        # A configuration is on the motion: every bar keeps its length (recomputed here).
+        assert relative_bar_error([x], frame.edges, x0) <= 1e-9
+        return sign == 1 and seen[1] == 3
+
+    path = trace_motion(frame, amplitude=0.5, max_step=0.02, stop=stop)
+    assert seen[1] == 3 and path.reference_index == len(path.parameter) - 4
+    assert path.parameter[-1] < 0.1 and path.parameter[0] == pytest.approx(-0.5)
+    assert not path.singularities
