@@ -41,11 +41,13 @@ from zeromode.solver.rank import RTOL, RankGap, complement_within, decide_rank, 
 # crossover (finite motion, eigenmodes, certificates, zero_mode_residual below).
 DENSE_MAX_DOF = 400
 # analyze takes the full SVD of C while C has at most this many entries (N_B·dN), the sparse
-# route above. Measured (benchmarks/bench_analysis.py, crossover table): the SVD's cost grows
-# as N_B·dN·min(N_B, dN) while the sparse route costs a few milliseconds of fixed overhead
-# plus, with bases, a QR of each basis; counts alone break even near 15 000 entries
-# (dN ≈ 120 on 2D and 3D lattices), counts with bases near 40 000 (dN ≈ 200).
-DENSE_MAX_ENTRIES_COUNTS = 15_000
+# route above. Measured (benchmarks/bench_analysis.py, crossover table in
+# docs/benchmarks/analysis.md): the SVD's cost grows as N_B·dN·min(N_B, dN) while the sparse
+# route costs 4–5 ms of fixed overhead plus, with bases, a QR of each basis; counts alone
+# break even near 20 000–25 000 entries (triangulated: 20 600 entries 4.6 ms both, 33 700
+# dense 7.6 ms against sparse 5.7 ms; kagome 19 650: dense 4.5 ms, sparse 5.5 ms), counts
+# with bases near 40 000 (dN ≈ 200).
+DENSE_MAX_ENTRIES_COUNTS = 25_000
 DENSE_MAX_ENTRIES_BASES = 40_000
 # Bases are returned only while they stay this small (numbers); counts are always exact.
 BASIS_MAX_NUMBERS = 4_000_000
