@@ -38,6 +38,12 @@ class Settings(BaseSettings):
     max_specified: int = Field(default=64, gt=0, description="Specified nodes of a design.")
     max_motions: int = Field(default=4, gt=0, description="Target motions of a design.")
     max_samples: int = Field(default=1000, ge=0, description="Samples of a solution space.")
+    max_basis_numbers: int = Field(
+        default=250_000,
+        ge=0,
+        description="Numbers of mode and stress bases /v1/analyze returns (about 5 MB of JSON); "
+        "larger bases are left out with bases_included false, the counts stay exact.",
+    )
     time_budget_s: float = Field(default=60.0, gt=0, description="Wall time of one request.")
     job_time_budget_s: float = Field(default=900.0, ge=0, description="Wall time of one job.")
     job_dir: str = Field(

@@ -45,6 +45,21 @@ def check_positions(positions, dim: int | None = None, name: str = "positions") 
     return x
 
 
+# Stages that work in the caller's units (the finite motion's bar lengths and their squares)
+# need squared distances to stay finite: √(1.8e308) ≈ 1.3e154, with room for sums.
+MAX_UNNORMALISED_COORDINATE = 1e150
+
+
+def check_extent(positions: np.ndarray, name: str = "positions") -> None:
+    """Refuse positions (n, d) whose squared distances would overflow double precision."""
+    extent = float(np.max(np.abs(positions))) if positions.size else 0.0
+    if extent > MAX_UNNORMALISED_COORDINATE:
+        raise InvalidInput(
+            "out_of_range",
+            f"{name} reach {extent:.3g}; this stage needs coordinates within ±{MAX_UNNORMALISED_COORDINATE:.0e} (rescale the input).",
+        )
+
+
 @dataclass(frozen=True, eq=False)
 class Frame:
     """A validated bar-and-joint frame.

@@ -167,23 +167,30 @@ class Analysis:
         return self.edges - self.rank
 
 
-def analyze(frame: Frame, rtol: float = RTOL, method: str = "auto", bases: bool = True) -> Analysis:
+def analyze(
+    frame: Frame, rtol: float = RTOL, method: str = "auto", bases: bool = True, basis_limit: int = BASIS_MAX_NUMBERS
+) -> Analysis:
     """Analyse ``frame``: rank of C, zero modes, rigid motions, self-stresses, and their bases.
 
     method: "dense" (full SVD), "sparse" (shift-invert subspace iteration) or "auto"
     (dense while C has at most DENSE_MAX_ENTRIES_BASES entries, or DENSE_MAX_ENTRIES_COUNTS
-    with bases=False).  bases=False skips the bases.
+    with bases=False).  bases=False skips the bases; so do bases of more than ``basis_limit``
+    numbers in all (counts stay exact, ``bases_included`` says which).
     """
     x = frame.normalised_positions()
     rigid = rigid_motions(x, rtol)
     if method == "auto":
         limit = DENSE_MAX_ENTRIES_BASES if bases else DENSE_MAX_ENTRIES_COUNTS
-        method = "dense" if frame.dim * frame.n_nodes * frame.n_edges <= limit else "sparse"
+        # The dense SVD holds C and, with bases, the dN × dN matrix V: a frame with few bars
+        # (none, at the extreme) is dense-sized by dN, not by its handful of rows.
+        ndof = frame.dim * frame.n_nodes
+        size = ndof * max(frame.n_edges, ndof if bases else 0)
+        method = "dense" if size <= limit else "sparse"
     c = compatibility_matrix(x, frame.edges, dense=method == "dense")
     if method == "dense":
         modes, stresses, rank, gap = _dense_null_spaces(c, rigid, rtol)
     elif method == "sparse":
-        modes, stresses, rank, gap = _sparse_null_spaces(c, x, frame.edges, rigid, rtol, bases)
+        modes, stresses, rank, gap = _sparse_null_spaces(c, x, frame.edges, rigid, rtol, bases, basis_limit)
     else:
         raise ValueError(f"unknown method {method!r}")
     n, d = frame.n_nodes, frame.dim
@@ -191,7 +198,7 @@ def analyze(frame: Frame, rtol: float = RTOL, method: str = "auto", bases: bool 
     include = (
         bases
         and modes is not None
-        and _bases_fit(z_nontrivial, frame.n_edges - rank, c.shape)
+        and _bases_fit(z_nontrivial, frame.n_edges - rank, c.shape, basis_limit)
         and modes.shape[1] == z_nontrivial
     )
     return Analysis(
@@ -209,10 +216,10 @@ def analyze(frame: Frame, rtol: float = RTOL, method: str = "auto", bases: bool 
     )
 
 
-def _bases_fit(modes: int, stresses: int, shape: tuple[int, int]) -> bool:
-    """Whether m nontrivial modes (dN each) and s self-stresses (N_B each) fit BASIS_MAX_NUMBERS."""
+def _bases_fit(modes: int, stresses: int, shape: tuple[int, int], limit: int) -> bool:
+    """Whether m nontrivial modes (dN each) and s self-stresses (N_B each) fit in ``limit`` numbers."""
     nb, ndof = shape
-    return max(modes, 0) * ndof + max(stresses, 0) * nb <= BASIS_MAX_NUMBERS
+    return max(modes, 0) * ndof + max(stresses, 0) * nb <= limit
 
 
 def _dense_null_spaces(c: np.ndarray, rigid: np.ndarray, rtol: float):
@@ -273,7 +280,7 @@ class _NullProblem:
 
 
 def _sparse_null_spaces(c: sp.csr_matrix, x: np.ndarray, edges: np.ndarray, rigid: np.ndarray,
-                        rtol: float, want_bases: bool):
+                        rtol: float, want_bases: bool, basis_limit: int):
     """Rank of a large sparse C (N_B × dN) and, when wanted, bases of N(C) ⊖ rigid and N(Cᵀ).
 
     dim N(C) − dim N(Cᵀ) = dN − N_B (the Maxwell count) and N(C) holds the ρ rigid motions,
@@ -286,12 +293,12 @@ def _sparse_null_spaces(c: sp.csr_matrix, x: np.ndarray, edges: np.ndarray, rigi
     factor by the push-through identity. The singular values are those of C either way.
 
     Returns (modes dN × m ⟂ rigid, stresses N_B × s, rank, gap); the bases are None unless
-    ``want_bases`` and they fit in BASIS_MAX_NUMBERS.
+    ``want_bases`` and they fit in ``basis_limit`` numbers.
     """
     nb, ndof = c.shape
     rho = rigid.shape[1]
     if nb == 0:
-        empty = want_bases and _bases_fit(ndof - rho, 0, c.shape)
+        empty = want_bases and _bases_fit(ndof - rho, 0, c.shape, basis_limit)
         modes = complement_within(np.eye(ndof), rigid) if empty else None
         return modes, np.zeros((0, 0)), 0, RankGap(0.0, 0.0)
     ct = c.T
@@ -328,7 +335,7 @@ def _sparse_null_spaces(c: sp.csr_matrix, x: np.ndarray, edges: np.ndarray, rigi
     rank = ndof - rho - found.shape[1] if count_modes else nb - found.shape[1]
     gap = RankGap(kept, dropped)
     n_modes, n_stresses = ndof - rho - rank, nb - rank
-    if not (want_bases and _bases_fit(n_modes, n_stresses, c.shape)):
+    if not (want_bases and _bases_fit(n_modes, n_stresses, c.shape, basis_limit)):
         return None, None, rank, gap
     # The counted side's vectors take one more step together (polish); the other side's
     # dimension is now known.

@@ -17,6 +17,7 @@ from collections.abc import Iterator
 import httpx
 import pytest
 import uvicorn
+from fastapi.testclient import TestClient
 
 from tests.client.conftest import loopback_socket, wait_for_health
 from zeromode.service.app import create_app
@@ -136,11 +137,11 @@ def test_gzip_bodies_are_decoded_and_bombs_refused(url):
 
 
 def test_large_responses_come_gzipped(url):
-    body = json.dumps({"frame": {"dim": 2, "positions": [[i, i % 3] for i in range(300)], "edges": []}})
+    body = json.dumps({"frame": {"dim": 2, "positions": [[i, i % 3] for i in range(100)], "edges": []}})
     response = post(url, body.encode(), **{"accept-encoding": "gzip"})
     assert response.status_code == 200
     assert response.headers.get("content-encoding") == "gzip"
-    assert response.json()["nodes"] == 300  # httpx decodes it: the body is intact
+    assert response.json()["nodes"] == 100  # httpx decodes it: the body is intact
 
 
 @pytest.mark.parametrize(
@@ -236,3 +237,40 @@ def test_connections_past_the_cap_are_answered_503_and_the_service_recovers(serv
         conn.close()
     time.sleep(0.3)
     assert httpx.get(f"{served}/health").status_code == 200
+
+
+# --- inputs that once gave a 5xx or ran past the budget (issue #18, item 6) -------------------
+
+
+@pytest.fixture(scope="module")
+def app_client() -> Iterator[TestClient]:
+    with TestClient(create_app(), raise_server_exceptions=False) as c:
+        yield c
+
+
+def test_motion_of_coordinates_whose_squares_overflow_is_refused(app_client):
+    big = 9e307
+    frame = {"dim": 2, "positions": [[0, 0], [big, 0], [0, big], [big, big]], "edges": [[0, 1], [1, 3], [3, 2], [2, 0]]}
+    response = app_client.post("/v1/motion", json={"frame": frame})
+    assert (response.status_code, response.json()["detail"]["code"]) == (422, "out_of_range")
+
+
+def test_many_nodes_without_bars_are_counted_without_dense_work(app_client):
+    n = 10_001
+    frame = {"dim": 2, "positions": [[i, (i * i) % 97] for i in range(n)], "edges": []}
+    t0 = time.perf_counter()
+    body = app_client.post("/v1/analyze", json={"frame": frame}).json()
+    elapsed = time.perf_counter() - t0
+    # No bars: C is 0 × 2N, every one of the 2N velocities is a zero mode, 3 of them rigid.
+    assert (body["rank"], body["zero_modes"], body["rigid_body_modes"]) == (0, 2 * n, 3)
+    assert body["bases_included"] is False and elapsed < 10  # was 227 s and +3 GB
+
+
+def test_the_service_returns_bases_only_up_to_its_setting():
+    n = 200  # a chain: n − 1 bars, 2n − (n − 1) − 3 = n − 2 nontrivial modes of 2n numbers each
+    frame = {"dim": 2, "positions": [[i, 0.3 * (i % 2)] for i in range(n)], "edges": [[i, i + 1] for i in range(n - 1)]}
+    for limit, included in ((2 * n * (n - 2), True), (2 * n * (n - 2) - 1, False)):
+        with TestClient(create_app(Settings(max_basis_numbers=limit))) as c:
+            body = c.post("/v1/analyze", json={"frame": frame}).json()
+        assert body["bases_included"] is included and body["nontrivial_zero_modes"] == n - 2
+        assert len(body["modes"]) == (n - 2 if included else 0)

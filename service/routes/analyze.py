@@ -10,6 +10,7 @@ from zeromode.service.convert import frame_from_model
 from zeromode.service.responses import analyze_body
 from zeromode.service.schemas.analyze import AnalyzeRequest, AnalyzeResponse
 from zeromode.service.schemas.common import ERROR_RESPONSES
+from zeromode.service.settings import current_settings
 from zeromode.solver.rigidity import analyze
 
 router = APIRouter(prefix="/v1", tags=["analysis"])
@@ -21,5 +22,6 @@ def post_analyze(request: AnalyzeRequest) -> dict:
     t0 = time.perf_counter()
     frame = frame_from_model(request.frame)
     opts = request.options
-    result = analyze(frame, rtol=opts.rtol, method=opts.method, bases=opts.bases)
+    limit = current_settings().max_basis_numbers
+    result = analyze(frame, rtol=opts.rtol, method=opts.method, bases=opts.bases, basis_limit=limit)
     return analyze_body(result, {"total": 1e3 * (time.perf_counter() - t0)})

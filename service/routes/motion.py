@@ -18,6 +18,7 @@ from zeromode.service.schemas.motion import (
     RefineRequest,
     RefineResponse,
 )
+from zeromode.solver.frame import check_extent
 from zeromode.solver.finite_motion import SingularPath, trace_motion
 from zeromode.solver.lattice import path_strains
 from zeromode.solver.refine import RefinementFailed, refine
@@ -50,6 +51,7 @@ def post_motion(request: MotionRequest):
     """
     t0 = time.perf_counter()
     frame = frame_from_model(request.frame)
+    check_extent(frame.positions)
     path = trace_motion(
         frame, **request.model_dump(include={"mode", "amplitude", "max_step", "direction", "max_steps"})
     )
