@@ -709,7 +709,7 @@ def _attempt(sim: Similarity, src, tgt, options: ChainOptions, distance: float) 
     """One design with these chain options, verified and measured.
 
     src, tgt: (x, u) of each site in the caller's units. The chain is built from the sites'
-    canonical coordinates rounded to a grid (``_on_grid``), so a similar request builds the
+    canonical coordinates rounded to a grid (``on_grid``), so a similar request builds the
     very same canonical chain — a solution space sampled in a basis that a rounding error can
     rotate would otherwise pick other points — and the unspecified nodes joined to a site are
     then moved onto the exact sites' solution spaces (``_polish``, a ~1e-12 correction)."""
@@ -717,7 +717,7 @@ def _attempt(sim: Similarity, src, tgt, options: ChainOptions, distance: float) 
     k_src, k = len(x_src), len(x_src) + len(x_tgt)
     y = sim.positions_in(np.vstack([x_src, x_tgt]))
     v = sim.motions_in(np.vstack([u_src, u_tgt]))
-    y_grid, v_grid = _on_grid(y), _on_grid(v)
+    y_grid, v_grid = on_grid(y), on_grid(v)
     fronts = (float(y_grid[:k_src, 0].max()), float(y_grid[k_src:, 0].min()))
     plan = plan_chain(*fronts, options)
     direct = fronts[1] - fronts[0] < DIRECT_GAP * options.aspect * options.port
@@ -762,10 +762,11 @@ GRID_BITS = 40
 POLISH_STEPS = 6
 
 
-def _on_grid(a: np.ndarray) -> np.ndarray:
-    """``a`` rounded to multiples of 2^(⌊log₂ max|a|⌋ − GRID_BITS)."""
+def on_grid(a: np.ndarray, bits: int = GRID_BITS) -> np.ndarray:
+    """``a`` rounded to multiples of 2^(⌊log₂ max|a|⌋ − bits): a canonical value that similar
+    requests, differing by round-off far below the grid, share."""
     peak = float(np.max(np.abs(a)))
-    grid = 2.0 ** (math.floor(math.log2(peak)) - GRID_BITS) if peak > 0 else 1.0
+    grid = 2.0 ** (math.floor(math.log2(peak)) - bits) if peak > 0 else 1.0
     return np.round(a / grid) * grid
 
 

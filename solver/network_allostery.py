@@ -39,7 +39,7 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
-from zeromode.solver.allostery import _polish, check_source_pins, response
+from zeromode.solver.allostery import _polish, check_source_pins, on_grid, response
 from zeromode.solver.budget import check_budget
 from zeromode.solver.design import check_motions_nonrigid
 from zeromode.solver.eigen import smallest_eigenpairs
@@ -351,13 +351,6 @@ GRID_BITS = 30
 NULL_GRID_BITS = 40
 
 
-def _grid(a: np.ndarray) -> np.ndarray:
-    """``a`` rounded to multiples of 2^(⌊log₂ max|a|⌋ − GRID_BITS)."""
-    peak = float(np.max(np.abs(a)))
-    step = 2.0 ** (np.floor(np.log2(peak)) - GRID_BITS) if peak > 0 else 1.0
-    return np.round(a / step) * step
-
-
 def _similar_module(positions: np.ndarray, motion: np.ndarray, null: np.ndarray, target: int, seed: int) -> Module:
     """hierarchy.place_module in the given nodes' own frame, so that a similar request gets the
     similar module (as allostery._attempt does for a chain): positions centred, scaled by their
@@ -380,7 +373,7 @@ def _similar_module(positions: np.ndarray, motion: np.ndarray, null: np.ndarray,
     basis, r = np.linalg.qr(span @ (span.T @ probe))
     basis = basis * np.where(np.diag(r) < 0, -1.0, 1.0)
     basis = np.round(basis * 2.0**NULL_GRID_BITS) / 2.0**NULL_GRID_BITS
-    module = place_module(_grid(y), _grid(v), basis, target, seed)
+    module = place_module(on_grid(y, GRID_BITS), on_grid(v, GRID_BITS), basis, target, seed)
     placed, moved = module.positions.copy(), module.motion.copy()
     placed[:k], moved[:k] = y, v
     _polish(placed, moved, module.edges, k)
