@@ -10,8 +10,11 @@ The worker that accepted a job runs it on one of its ``job_threads`` daemon thre
 its state in memory while it is active; a heartbeat thread rewrites the status files of its
 active jobs every few seconds. A queued or running job whose file has not been touched for
 ``LOST_AFTER_S`` belongs to a worker that stopped: readers report it as failed (``job_lost``).
-Limits: ``max_pending_jobs`` active jobs per worker, ``max_stored_jobs`` files (the oldest
-finished ones go first) and ``job_ttl_s`` before a job is forgotten.
+Limits: ``max_pending_jobs`` active jobs per worker and ``max_jobs_per_client`` of them for one
+client (its API key, else its address), ``max_stored_jobs`` files (the oldest finished ones go
+first), ``job_ttl_s`` before a job is forgotten, ``max_job_result_bytes`` per result and
+``max_job_store_bytes`` for the whole directory (a result that does not fit fails its job with a
+code instead of filling the disk).
 """
 
 from __future__ import annotations
@@ -48,7 +51,8 @@ _ID = re.compile(r"[0-9a-f]{32}")
 
 
 class JobRejected(Exception):
-    """The job cannot be accepted now (too many active or stored jobs): HTTP 429."""
+    """The job cannot be accepted now (too many active jobs, of all or of one client, or a full
+    store: HTTP 429), or its result cannot be stored (the job fails with this code)."""
 
     def __init__(self, code: str, message: str):
         super().__init__(message)
@@ -73,6 +77,7 @@ class _Active:
 
     state: dict[str, Any]
     run: Callable[[], dict[str, Any]]
+    client: str = ""
     lock: threading.Lock = field(default_factory=threading.Lock)
     written: float = 0.0
     dirty: bool = False
@@ -102,11 +107,39 @@ class JobStore:
     def _result_path(self, job_id: str) -> Path:
         return self.dir / f"{job_id}.result.json"
 
-    def _write(self, path: Path, doc: dict[str, Any]) -> None:
+    def _write(self, path: Path, doc: dict[str, Any] | bytes) -> None:
         tmp = path.with_name(f".{path.name}.{os.getpid()}.{threading.get_ident()}.tmp")
-        with open(tmp, "w") as fh:
-            json.dump(doc, fh, allow_nan=False, separators=(",", ":"))
+        with open(tmp, "wb") as fh:
+            fh.write(doc if isinstance(doc, bytes) else _encoded(doc))
         os.replace(tmp, path)
+
+    def _used_bytes(self) -> int:
+        """Bytes the job directory holds now (status and result files)."""
+        total = 0
+        for path in self.dir.iterdir():
+            try:
+                total += path.stat().st_size
+            except FileNotFoundError:  # removed by another worker meanwhile
+                continue
+        return total
+
+    def _storable(self, result: dict[str, Any]) -> bytes:
+        """The result as stored, or JobRejected when it is over its own or the store's limit."""
+        data = _encoded(result)
+        limit = self.settings.max_job_result_bytes
+        if len(data) > limit:
+            raise JobRejected(
+                "result_too_large",
+                f"the result has {len(data)} bytes; a stored job result may have {limit} "
+                "(ask for less, e.g. options.bases false, or run the request directly).",
+            )
+        quota = self.settings.max_job_store_bytes
+        if self._used_bytes() + len(data) > quota:
+            raise JobRejected(
+                "job_store_full",
+                f"the job store would pass its {quota}-byte quota; fetch or let expire older results.",
+            )
+        return data
 
     def _read(self, path: Path) -> dict[str, Any] | None:
         try:
@@ -133,14 +166,27 @@ class JobStore:
 
     # --- accepting and reading jobs ------------------------------------------------------------
 
-    def submit(self, endpoint: str, run: Callable[[], dict[str, Any]]) -> dict[str, Any]:
-        """Queue ``run`` (the endpoint's work) as a new job; its first status record."""
+    def submit(self, endpoint: str, run: Callable[[], dict[str, Any]], client: str = "") -> dict[str, Any]:
+        """Queue ``run`` (the endpoint's work) as a new job of ``client``; its first status record."""
         with self._lock:
             if len(self._active) >= self.settings.max_pending_jobs:
                 raise JobRejected(
                     "too_many_jobs",
                     f"this worker already has {len(self._active)} queued or running jobs (the limit "
                     f"is {self.settings.max_pending_jobs}); wait for one to finish.",
+                )
+            # Fair share: one client cannot hold every slot of the worker.
+            mine = sum(job.client == client for job in self._active.values())
+            if mine >= self.settings.max_jobs_per_client:
+                raise JobRejected(
+                    "too_many_jobs_for_client",
+                    f"you already have {mine} queued or running jobs here (the limit per client is "
+                    f"{self.settings.max_jobs_per_client}); wait for one to finish.",
+                )
+            if self._used_bytes() >= self.settings.max_job_store_bytes:
+                raise JobRejected(
+                    "job_store_full",
+                    f"the job store holds its {self.settings.max_job_store_bytes}-byte quota; try again later.",
                 )
             self._make_room()
             job_id = uuid.uuid4().hex
@@ -155,7 +201,7 @@ class JobStore:
                 "finished": None,
                 "worker": os.getpid(),
             }
-            job = _Active(state, run)
+            job = _Active(state, run, client)
             self._active[job_id] = job
         self._update(job)
         self._queue.put(job)
@@ -252,7 +298,7 @@ class JobStore:
                 progress_scope(progress),
             ):
                 result = job.run()
-            self._write(self._result_path(job.state["id"]), result)
+            self._write(self._result_path(job.state["id"]), self._storable(result))
         except Exception as exc:  # noqa: BLE001 — every failure is the job's answer
             self._update(
                 job, status="failed", finished=_now_iso(), message="failed", error=_error(exc)
@@ -276,9 +322,13 @@ class JobStore:
                             log.exception("cannot write the status of job %s", job.state["id"])
 
 
+def _encoded(doc: dict[str, Any]) -> bytes:
+    return json.dumps(doc, allow_nan=False, separators=(",", ":")).encode()
+
+
 def _error(exc: Exception) -> dict[str, str]:
     """The {"code", "message"} a failed job reports: those the endpoint would have answered."""
-    if isinstance(exc, DomainError):
+    if isinstance(exc, DomainError | JobRejected):
         return {"code": exc.code, "message": exc.message}
     detail = exc.detail if isinstance(exc, JobFailed | HTTPException) else None
     if isinstance(detail, dict) and "code" in detail:

@@ -53,6 +53,15 @@ class Settings(BaseSettings):
     job_threads: int = Field(default=1, ge=1)
     max_pending_jobs: int = Field(default=8, ge=0)
     max_stored_jobs: int = Field(default=1000, ge=0)
+    max_jobs_per_client: int = Field(
+        default=2, ge=1, description="Queued or running jobs of one client (API key or address) per worker."
+    )
+    max_job_result_bytes: int = Field(
+        default=20_000_000, gt=0, description="Largest stored job result; a larger one fails the job."
+    )
+    max_job_store_bytes: int = Field(
+        default=2_000_000_000, gt=0, description="Disk the job directory may use in all."
+    )
     job_ttl_s: float = Field(default=86_400.0, ge=0)
     max_connections: int = Field(
         default=512, gt=0, description="Open connections and requests per process; more get 503."

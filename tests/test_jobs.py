@@ -399,3 +399,43 @@ def test_python_client_jobs(live_url):
         with pytest.raises(ZeromodeError) as unknown:
             client.job("0" * 32)
         assert unknown.value.status == 404 and unknown.value.code == "unknown_job"
+
+
+def test_a_result_over_its_size_limit_fails_the_job_and_is_not_stored(tmp_path):
+    client = app_client(tmp_path, max_job_result_bytes=200)
+    request = {"frame": SINGULAR_MOTION["frame"]}
+    direct = client.post("/v1/analyze", json=request)
+    assert len(direct.content) > 200  # the same answer would not fit
+    job_id = submit(client, "/v1/analyze", request)
+    status = wait(client, job_id)
+    assert status["status"] == "failed"
+    assert_error(status["error"], "result_too_large")
+    assert "200" in status["error"]["message"]
+    assert not list(tmp_path.glob("*.result.json"))
+
+
+def test_the_job_store_keeps_to_its_disk_quota(tmp_path):
+    client = app_client(tmp_path, max_job_store_bytes=1)
+    status = wait(client, submit(client, "/v1/analyze", {"frame": SINGULAR_MOTION["frame"]}))
+    assert_error(status["error"], "job_store_full")
+    assert not list(tmp_path.glob("*.result.json"))
+    # Now its status file alone passes the quota: the next job is refused at once.
+    r = client.post("/v1/jobs", json={"endpoint": "/v1/analyze", "request": {"frame": SINGULAR_MOTION["frame"]}})
+    assert r.status_code == 429
+    assert_error(r.json()["detail"], "job_store_full")
+
+
+def test_one_client_cannot_hold_every_job_slot(tmp_path):
+    client = app_client(tmp_path, max_jobs_per_client=1, max_pending_jobs=4)
+    slow = {"dim": 2, "cells": [30, 30], "poisson_ratio": -0.5}
+    first = submit(client, "/v1/design/auxetic", slow)
+    r = client.post("/v1/jobs", json={"endpoint": "/v1/design/auxetic", "request": AUXETIC})
+    assert r.status_code == 429
+    assert_error(r.json()["detail"], "too_many_jobs_for_client")
+    # Another client (another API key) still gets a slot while the first job runs.
+    other = client.post(
+        "/v1/jobs", json={"endpoint": "/v1/design/auxetic", "request": AUXETIC}, headers={"x-api-key": "other"}
+    )
+    assert other.status_code == 202
+    assert wait(client, first)["status"] == "done"
+    assert wait(client, other.json()["id"])["status"] == "done"

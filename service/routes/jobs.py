@@ -77,6 +77,12 @@ def _store(request: Request) -> JobStore:
         return state.job_store
 
 
+def _client(request: Request) -> str:
+    """Who a job belongs to, for the fair share of job slots: the API key, else the address."""
+    key = request.headers.get("x-api-key")
+    return f"key:{key}" if key else f"address:{request.client.host if request.client else ''}"
+
+
 def _run(job: Runnable, body: BaseModel) -> dict[str, Any]:
     """Run the endpoint's function and return the JSON body the endpoint would have answered."""
     out = job.run(body)
@@ -110,9 +116,7 @@ def submit_job(job: JobRequest, request: Request) -> JSONResponse:
             [{**e, "loc": ("body", "request", *e["loc"])} for e in exc.errors()]
         ) from exc
     try:
-        accepted = _store(request).submit(
-            job.endpoint, partial(_run, runnable, body)
-        )
+        accepted = _store(request).submit(job.endpoint, partial(_run, runnable, body), _client(request))
     except JobRejected as exc:
         return JSONResponse(status_code=429, content=error_body(exc.code, exc.message))
     return JSONResponse(
