@@ -46,17 +46,19 @@ def check_positions(positions, dim: int | None = None, name: str = "positions") 
 
 
 # Stages that work in the caller's units (the finite motion's bar lengths and their squares)
-# need squared distances to stay finite: √(1.8e308) ≈ 1.3e154, with room for sums.
-MAX_UNNORMALISED_COORDINATE = 1e150
+# need squared distances to stay finite and nonzero: √(1.8e308) ≈ 1.3e154 and √(2.2e-308) ≈
+# 1.5e-154, with room for sums. Frames are refused unless their extent lies between these.
+UNNORMALISED_EXTENT = (1e-150, 1e150)
 
 
 def check_extent(positions: np.ndarray, name: str = "positions") -> None:
-    """Refuse positions (n, d) whose squared distances would overflow double precision."""
-    extent = float(np.max(np.abs(positions))) if positions.size else 0.0
-    if extent > MAX_UNNORMALISED_COORDINATE:
+    """Refuse positions (n, d) whose squared distances would overflow or underflow."""
+    extent = float(np.max(np.abs(positions - positions.mean(axis=0)))) if len(positions) > 1 else 0.0
+    low, high = UNNORMALISED_EXTENT
+    if extent > high or 0 < extent < low:
         raise InvalidInput(
             "out_of_range",
-            f"{name} reach {extent:.3g}; this stage needs coordinates within ±{MAX_UNNORMALISED_COORDINATE:.0e} (rescale the input).",
+            f"{name} span {extent:.3g}; this stage needs a frame between {low:.0e} and {high:.0e} across (rescale the input).",
         )
 
 

@@ -248,11 +248,15 @@ def app_client() -> Iterator[TestClient]:
         yield c
 
 
-def test_motion_of_coordinates_whose_squares_overflow_is_refused(app_client):
-    big = 9e307
-    frame = {"dim": 2, "positions": [[0, 0], [big, 0], [0, big], [big, big]], "edges": [[0, 1], [1, 3], [3, 2], [2, 0]]}
+@pytest.mark.parametrize("scale", [9e307, 1e-300])
+def test_motion_of_coordinates_whose_squares_overflow_or_underflow_is_refused(app_client, scale):
+    square = [[0, 0], [scale, 0], [0, scale], [scale, scale]]
+    frame = {"dim": 2, "positions": square, "edges": [[0, 1], [1, 3], [3, 2], [2, 0]]}
     response = app_client.post("/v1/motion", json={"frame": frame})
     assert (response.status_code, response.json()["detail"]["code"]) == (422, "out_of_range")
+    # Within the range the same four-bar moves (it is a 200 at the scales users have).
+    ok = app_client.post("/v1/motion", json={"frame": {**frame, "positions": [[x * 1e6 for x in p] for p in [[0, 0], [1, 0], [0, 1], [1, 1]]]}})
+    assert ok.status_code in (200, 422) and ok.json().get("detail", {}).get("code") != "out_of_range"
 
 
 def test_many_nodes_without_bars_are_counted_without_dense_work(app_client):
