@@ -16,10 +16,9 @@ from collections.abc import Iterator
 
 import httpx
 import pytest
-import uvicorn
 from fastapi.testclient import TestClient
 
-from tests.client.conftest import loopback_socket, wait_for_health
+from tests.client.conftest import loopback_socket, served, wait_for_health
 from zeromode.service.app import create_app
 from zeromode.service.settings import Settings
 
@@ -32,15 +31,8 @@ TRIANGLE = {"dim": 2, "positions": [[0, 0], [1, 0], [0, 1]], "edges": [[0, 1], [
 @pytest.fixture(scope="module")
 def url() -> Iterator[str]:
     settings = Settings(max_body_bytes=LIMIT, api_key=KEY, cors_origins=(ORIGIN,))
-    sock = loopback_socket()
-    address = f"http://127.0.0.1:{sock.getsockname()[1]}"
-    server = uvicorn.Server(uvicorn.Config(create_app(settings), log_level="warning", lifespan="off"))
-    thread = threading.Thread(target=server.run, kwargs={"sockets": [sock]}, daemon=True)
-    thread.start()
-    wait_for_health(address, thread.is_alive)
-    yield address
-    server.should_exit = True
-    thread.join(10)
+    with served(create_app(settings)) as address:
+        yield address
 
 
 def raw(url: str, request: bytes) -> tuple[int, dict]:
@@ -206,7 +198,7 @@ def test_request_ids_are_bounded_and_sanitised(url, given):
 
 
 @pytest.fixture(scope="module")
-def served() -> Iterator[str]:
+def deployed() -> Iterator[str]:
     """`zeromode serve` as deployed: its uvicorn options come from the settings."""
     port = loopback_socket()
     number = port.getsockname()[1]
@@ -221,22 +213,22 @@ def served() -> Iterator[str]:
     process.wait(10)
 
 
-def test_oversized_headers_are_refused_by_the_server(served):
-    response = httpx.get(f"{served}/health", headers={"x-padding": "a" * 100_000})
+def test_oversized_headers_are_refused_by_the_server(deployed):
+    response = httpx.get(f"{deployed}/health", headers={"x-padding": "a" * 100_000})
     assert 400 <= response.status_code < 500
-    assert httpx.get(f"{served}/health").status_code == 200
+    assert httpx.get(f"{deployed}/health").status_code == 200
 
 
-def test_connections_past_the_cap_are_answered_503_and_the_service_recovers(served):
-    idle = [socket.create_connection(("127.0.0.1", int(served.rsplit(":", 1)[1]))) for _ in range(12)]
+def test_connections_past_the_cap_are_answered_503_and_the_service_recovers(deployed):
+    idle = [socket.create_connection(("127.0.0.1", int(deployed.rsplit(":", 1)[1]))) for _ in range(12)]
     for conn in idle:
         conn.sendall(b"GET /health HTTP/1.1\r\nHost: x\r\n")  # headers never finished
     time.sleep(0.3)
-    assert httpx.get(f"{served}/health").status_code == 503  # refused at once, not queued
+    assert httpx.get(f"{deployed}/health").status_code == 503  # refused at once, not queued
     for conn in idle:
         conn.close()
     time.sleep(0.3)
-    assert httpx.get(f"{served}/health").status_code == 200
+    assert httpx.get(f"{deployed}/health").status_code == 200
 
 
 # --- inputs that once gave a 5xx or ran past the budget (issue #18, item 6) -------------------

@@ -10,46 +10,21 @@ from __future__ import annotations
 
 import gzip
 import json
-import socket
-import threading
-import time
 from collections.abc import Iterator
 
 import httpx
 import pytest
-import uvicorn
 
 from benchmarks.lattices import triangulated_lattice
+from tests.client.conftest import served
 from zeromode.service.app import create_app
-
-STARTUP_TIMEOUT_S = 60.0
 
 
 @pytest.fixture(scope="module")
 def url() -> Iterator[str]:
-    """The real app (default settings) served by uvicorn on a loopback port the kernel chose."""
-    sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-    sock.bind(("127.0.0.1", 0))
-    address = f"http://127.0.0.1:{sock.getsockname()[1]}"
-    server = uvicorn.Server(uvicorn.Config(create_app(), log_level="warning", lifespan="off"))
-    thread = threading.Thread(target=server.run, kwargs={"sockets": [sock]}, daemon=True)
-    thread.start()
-    try:
-        deadline = time.monotonic() + STARTUP_TIMEOUT_S
-        while True:
-            try:
-                if httpx.get(f"{address}/health", timeout=2.0).status_code == 200:
-                    break
-            except httpx.TransportError:
-                pass
-            assert thread.is_alive() and time.monotonic() < deadline, "the server did not start"
-            time.sleep(0.05)
+    """The real app (default settings) served by uvicorn on loopback."""
+    with served(create_app()) as address:
         yield address
-    finally:
-        server.should_exit = True
-        thread.join(timeout=10)
-        sock.close()
 
 
 def test_a_100k_node_lattice_through_rest_with_gzip_bodies(url):

@@ -16,14 +16,13 @@ from __future__ import annotations
 
 import os
 import shutil
-import threading
 from pathlib import Path
 
 import meshio
 import numpy as np
 import pytest
-import uvicorn
 
+from tests.client.conftest import served
 from zeromode.service.app import create_app
 
 CHROMIUM_ARGS = [
@@ -67,31 +66,8 @@ def browser():
 @pytest.fixture(scope="module")
 def live_url():
     """The real app served by uvicorn on a loopback port the kernel chose."""
-    import socket
-
-    sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-    sock.bind(("127.0.0.1", 0))
-    server = uvicorn.Server(uvicorn.Config(create_app(), log_level="warning", lifespan="off"))
-    thread = threading.Thread(target=server.run, kwargs={"sockets": [sock]}, daemon=True)
-    thread.start()
-    try:
-        import time
-
-        import httpx
-
-        url = f"http://127.0.0.1:{sock.getsockname()[1]}"
-        deadline = time.monotonic() + 60
-        while time.monotonic() < deadline:
-            try:
-                if httpx.get(url + "/health", timeout=2).status_code == 200:
-                    break
-            except httpx.TransportError:
-                time.sleep(0.05)
+    with served(create_app()) as url:
         yield url
-    finally:
-        server.should_exit = True
-        thread.join(timeout=10)
-        sock.close()
 
 
 def drawing(page) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

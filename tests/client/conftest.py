@@ -13,6 +13,7 @@ import sys
 import threading
 import time
 from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -51,12 +52,13 @@ def wait_for_health(url: str, alive: Callable[[], bool], log: Callable[[], str] 
     )
 
 
-@pytest.fixture(scope="session")
-def service_url() -> Iterator[str]:
-    """The real app (default settings) served by uvicorn in a background thread."""
+@contextmanager
+def served(app) -> Iterator[str]:
+    """``app`` served by a real uvicorn in a background thread on a loopback port the kernel
+    chose; its URL once /health answers, the server stopped on exit."""
     sock = loopback_socket()
     url = f"http://127.0.0.1:{sock.getsockname()[1]}"
-    server = uvicorn.Server(uvicorn.Config(create_app(), log_level="warning", lifespan="off"))
+    server = uvicorn.Server(uvicorn.Config(app, log_level="warning", lifespan="off"))
     thread = threading.Thread(target=server.run, kwargs={"sockets": [sock]}, daemon=True)
     thread.start()
     try:
@@ -66,6 +68,13 @@ def service_url() -> Iterator[str]:
         server.should_exit = True
         thread.join(timeout=10)
         sock.close()
+
+
+@pytest.fixture(scope="session")
+def service_url() -> Iterator[str]:
+    """The real app (default settings) served by uvicorn in a background thread."""
+    with served(create_app()) as url:
+        yield url
 
 
 @dataclass(frozen=True)
