@@ -54,7 +54,7 @@ class Settings(BaseSettings):
     max_pending_jobs: int = Field(default=8, ge=0)
     max_stored_jobs: int = Field(default=1000, ge=0)
     max_jobs_per_client: int = Field(
-        default=2, ge=1, description="Queued or running jobs of one client (API key or address) per worker."
+        default=4, ge=1, description="Queued or running jobs of one client (API key or address) per worker."
     )
     max_job_result_bytes: int = Field(
         default=20_000_000, gt=0, description="Largest stored job result; a larger one fails the job."
