@@ -344,9 +344,14 @@ class RigidityMargin:
     uniform: float | None
     optimal: float | None = None
     optimal_upper_bound: float | None = None
-    gain: float | None = None
+    gain: float | None = field(init=False, default=None)  # optimal / uniform, derived
     stiffness: np.ndarray | None = None
     sdp: LmiSolution | None = None
+
+    def __post_init__(self) -> None:
+        positive = self.uniform is not None and self.uniform > 0
+        gain = self.optimal / self.uniform if self.optimal is not None and positive else None
+        object.__setattr__(self, "gain", gain)
 
 
 @dataclass(frozen=True, eq=False)
@@ -510,17 +515,7 @@ def rigidity_margin(
         ),
         **solve_options,
     )
-    return RigidityMargin(
-        m,
-        p,
-        0,
-        uniform,
-        solution.lower,
-        solution.upper,
-        solution.lower / uniform if uniform > 0 else None,
-        solution.x,
-        solution,
-    )
+    return RigidityMargin(m, p, 0, uniform, solution.lower, solution.upper, stiffness=solution.x, sdp=solution)
 
 
 def _bundle_margin(m: int, p: int, uniform: float, c, span) -> RigidityMargin:
@@ -532,17 +527,7 @@ def _bundle_margin(m: int, p: int, uniform: float, c, span) -> RigidityMargin:
     record = LmiSolution(
         result.stiffness, result.lower, result.upper, run.solver, run.status, run.time_ms, (run,)
     )
-    return RigidityMargin(
-        m,
-        p,
-        0,
-        uniform,
-        result.lower,
-        result.upper,
-        result.lower / uniform if uniform > 0 else None,
-        result.stiffness,
-        record,
-    )
+    return RigidityMargin(m, p, 0, uniform, result.lower, result.upper, stiffness=result.stiffness, sdp=record)
 
 
 def check_size(frame: Frame, n_modes: int, stiffness: bool) -> None:
