@@ -145,13 +145,7 @@ def _solve_group(x, u, anchors_h, anchors_v, z) -> np.ndarray | None:
 def _gain(state: Placement, position: np.ndarray, anchors) -> tuple[int, float]:
     """(rank the node's bars add, their smallest singular value over the largest): the rows of
     its bars on [N_old, its own coordinates], unit rows, as in Placement.best_in."""
-    d = state.d
-    x = np.asarray(state.positions)
-    idx = np.asarray(anchors)
-    diff = x[idx] - position
-    null_blocks = state._null.reshape(len(x), d, -1)[idx]
-    rows = np.hstack([np.einsum("ad,adz->az", diff, null_blocks), -diff])
-    s = np.linalg.svd(rows / np.linalg.norm(rows, axis=1, keepdims=True), compute_uv=False)
+    s = np.linalg.svd(state.bar_rows(position, anchors), compute_uv=False)
     return int(np.count_nonzero(s > PLACEMENT_RTOL * s[0])), float(s[-1] / s[0])
 
 

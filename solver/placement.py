@@ -168,6 +168,17 @@ class Placement:
                     break
         return sorted(int(anchors[i]) for i in chosen)
 
+    def bar_rows(self, position: np.ndarray, anchors) -> np.ndarray:
+        """Unit rows (a, z + d) of a new node's bars to ``anchors`` on [N_old, its own
+        coordinates]: row i is ((x_i − x)ᵀ N_old[i], −(x_i − x)ᵀ) / its norm (the one-node
+        case of ``best_in``'s batch)."""
+        x = np.asarray(self.positions)
+        idx = np.asarray(anchors)
+        diff = x[idx] - position
+        null_blocks = self._null.reshape(len(x), self.d, -1)[idx]
+        rows = np.hstack([np.einsum("ad,adz->az", diff, null_blocks), -diff])
+        return rows / np.linalg.norm(rows, axis=1, keepdims=True)
+
     def add(self, position: np.ndarray, motions: np.ndarray, anchors: list[int]) -> None:
         """Join a node at ``position`` to ``anchors`` and update N(C) incrementally.
 
@@ -175,22 +186,16 @@ class Placement:
         N_new = blockdiag(N_old, I_d) · N([A·N_old, B]) — orthonormal, from a tiny SVD.
         """
         d = self.d
-        x = np.asarray(self.positions)
-        idx = np.asarray(anchors)
-        diff = x[idx] - position
-        null_blocks = self._null.reshape(len(x), d, -1)[idx]
-        rows = np.hstack([np.einsum("ad,adz->az", diff, null_blocks), -diff])
-        rows /= np.linalg.norm(rows, axis=1, keepdims=True)
-        kernel, gained, _ = nullspace(rows, RTOL)
+        kernel, gained, _ = nullspace(self.bar_rows(position, anchors), RTOL)
         z = self._null.shape[1]
         grown = np.zeros((self._null.shape[0] + d, z + d))
         grown[: self._null.shape[0], :z] = self._null
         grown[self._null.shape[0] :, z:] = np.eye(d)
         self._null = grown @ kernel
         self.rank += gained
+        self.edges.extend((a, len(self.positions)) for a in anchors)  # the new node's index
         self.positions.append(position)
         self.motions.append(motions)
-        self.edges.extend((a, len(x)) for a in anchors)
         self.anchor_sets.append(tuple(anchors))
 
 
