@@ -34,7 +34,13 @@ from scipy.optimize import minimize_scalar
 
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame
-from zeromode.solver.lattice import MAX_SHEET_CELLS, Lattice, boundary_strains, closest_unjoined, measured_lattice
+from zeromode.solver.lattice import (
+    MAX_SHEET_CELLS,
+    Lattice,
+    boundary_strains,
+    closest_unjoined,
+    measured_lattice,
+)
 from zeromode.solver.progress import report_progress
 from zeromode.solver.rigidity import analyze
 from zeromode.solver.sheet_module import (

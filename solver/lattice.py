@@ -40,7 +40,7 @@ from zeromode.solver.multimode import spatial_quadric
 from zeromode.solver.rigidity import Analysis, analyze, zero_mode_residual
 from zeromode.solver.sheet_module import sheet_edges, sheet_positions, two_node_module
 from zeromode.solver.solution_space import solution_space
-from zeromode.solver.strain_range import PROXIMITY_FRACTION, StrainRange, chain_range, module_range
+from zeromode.solver.strain_range import StrainRange, chain_range, module_range
 from zeromode.solver.tolerances import ROOT_IMAG_RTOL
 
 MAX_SHEET_CELLS = 2500

@@ -53,9 +53,9 @@ from zeromode.solver.finite_motion import (
     motion_fidelity,
     relative_bar_error,
 )
-from zeromode.solver.progress import report_progress
 from zeromode.solver.frame import Frame, check_positions
 from zeromode.solver.normalisation import Normalisation, rms_radius
+from zeromode.solver.progress import report_progress
 from zeromode.solver.rigidity import Analysis, analyze
 from zeromode.solver.tolerances import REACHED_EPS
 

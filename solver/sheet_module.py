@@ -104,13 +104,16 @@ class SymmetricModule:
             columns += _KIND_COORDS[kind]
         if columns != len(coords):
             raise ValueError(f"{name}: {len(coords)} coordinates for orbits needing {columns}.")
-        node = lambda o, g: keys[(o, _image_key(kinds[o], MIRRORS[g]))]  # noqa: E731
+        def node(o: int, g: int) -> int:
+            """The node of orbit o that is the image of its representative under mirror g."""
+            return keys[(o, _image_key(kinds[o], MIRRORS[g]))]
+
         reps = np.array([[node(*a), node(*b)] for a, b in bar_orbits], dtype=int)
         edges = []
         for (oa, ga), (ob, gb) in bar_orbits:
             for sign in MIRRORS:
-                image = lambda o, g: node(o, _mirror_index(MIRRORS[g] * sign))  # noqa: E731
-                e = tuple(sorted((image(oa, ga), image(ob, gb))))
+                ends = (node(oa, _mirror_index(MIRRORS[ga] * sign)), node(ob, _mirror_index(MIRRORS[gb] * sign)))
+                e = tuple(sorted(ends))
                 if e not in edges:
                     edges.append(e)
         # Sorted by (higher, lower) node: the two-node module's bars in lattice.py's historic order.
