@@ -397,7 +397,8 @@ def main() -> None:
         (
             "The same frames through both routes (`method=`), medians of 7 runs. `analyze` takes "
             f"the dense SVD while N_B·dN ≤ {DENSE_MAX_ENTRIES_COUNTS} for counts and "
-            f"≤ {DENSE_MAX_ENTRIES_BASES} with bases, the sparse route above."
+            f"dN·max(N_B, dN) ≤ {DENSE_MAX_ENTRIES_BASES} with bases (sized by dN² since a frame with "
+            "few bars still needs the dN × dN matrix V), the sparse route above."
         ),
         "",
         *crossover_rows,
