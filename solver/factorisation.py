@@ -63,12 +63,16 @@ def cholesky(a: sp.spmatrix, order: np.ndarray | None = None, shift: float = 0.0
     range(n); None: CHOLMOD's own approximate minimum degree order). Raises ArithmeticError
     if it is not numerically positive definite."""
     n = a.shape[0]
-    a = a.tocoo()
-    low = a.row >= a.col
-    diagonal = np.arange(n)
+    if a.format not in ("csr", "csc"):
+        a = a.tocsr()
+    # The compressed index of each entry, expanded: the row of a CSR entry, the column of a CSC one.
+    major = np.repeat(np.arange(n, dtype=np.int64), np.diff(a.indptr))
+    row, col = (major, a.indices) if a.format == "csr" else (a.indices, major)
+    low = row >= col
+    diagonal = np.arange(n, dtype=np.int64)
     values = cvx_matrix(np.concatenate([a.data[low], np.full(n, float(shift))]))
-    rows = cvx_matrix(np.concatenate([a.row[low], diagonal]).astype(np.int64))
-    cols = cvx_matrix(np.concatenate([a.col[low], diagonal]).astype(np.int64))
+    rows = cvx_matrix(np.concatenate([row[low], diagonal]))
+    cols = cvx_matrix(np.concatenate([col[low], diagonal]))
     lower = cvx_spmatrix(values, rows, cols, (n, n))  # repeated (row, col) entries are summed
     options = dict(cholmod.options)  # module-wide settings: restore them for other users
     cholmod.options.update({"supernodal": 2, "nmethods": 0 if order is None else 1})

@@ -27,9 +27,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+from scipy.linalg import blas, lapack
 
 from zeromode.solver.budget import check_budget
 from zeromode.solver.errors import DomainError
@@ -251,6 +251,13 @@ ROUNDOFF = 1e-13
 CHOLQR_MAX_RATIO = 1e6
 # Above this many independent null vectors on the side counted, the block is too wide.
 MAX_NULL_VECTORS = 20_000
+# The Gram matrix is ordered by geometric nested dissection in 3D from this many nodes, by
+# CHOLMOD's approximate minimum degree below it and in 2D. Measured (ordering + factorisation
+# + 3 block solves, docs/benchmarks/analysis.md): in 2D the minimum degree order costs less at
+# every size from 10³ to 10⁵ nodes (kagome CCᵀ 10⁵: 0.74 s against 1.17 s; triangulated CᵀC
+# 1.37 s against 1.47 s); in 3D dissection wins from about 500 nodes (cubic 10³: 21 ms
+# against 26 ms; 10⁴: 0.6–0.8 s against 2.4 s) and loses below (cubic 343: 7.6 ms against 5.1).
+NESTED_DISSECTION_MIN_NODES = 500
 
 
 @dataclass(frozen=True, eq=False)
@@ -304,23 +311,11 @@ def _sparse_null_spaces(c: sp.csr_matrix, x: np.ndarray, edges: np.ndarray, rigi
     ct = c.T
     surplus = ndof - nb
     count_modes = surplus <= rho
-    # Both Gram matrices follow the bar graph: (CᵀC)_ij ≠ 0 for the d × d blocks of joined
-    # nodes, (CCᵀ)_ef ≠ 0 for bars sharing a node. One dissection of the nodes orders both:
-    # a node's d coordinates together, a bar with the later of its two nodes (bars inside one
-    # half never share a node with bars inside the other, so the halves stay separated).
-    node_order = nested_dissection(x, edges)
-    if count_modes:
-        d = x.shape[1]
-        gram = ct @ c
-        order = (d * node_order[:, None] + np.arange(d)).ravel()
-    else:
-        gram = c @ ct
-        position = np.empty_like(node_order)
-        position[node_order] = np.arange(node_order.size)
-        order = np.argsort(position[edges].max(axis=1), kind="stable")
-    sigma_max = _largest_singular_value(c)
+    gram = ct @ c if count_modes else c @ ct
+    rng = np.random.default_rng(0)
+    sigma_max = _largest_singular_value(gram, rng)
     tol = rtol * sigma_max
-    factor = cholesky(gram, order, shift=SHIFT * sigma_max**2)
+    factor = cholesky(gram, _elimination_order(x, edges, count_modes), shift=SHIFT * sigma_max**2)
     if count_modes:
         modes = _NullProblem(c, factor.solve, rigid)
         stresses = _NullProblem(ct, lambda w: w - c @ factor.solve(ct @ w), np.zeros((nb, 0)))
@@ -329,7 +324,7 @@ def _sparse_null_spaces(c: sp.csr_matrix, x: np.ndarray, edges: np.ndarray, rigi
         stresses = _NullProblem(ct, factor.solve, np.zeros((nb, 0)))
     floor = max(surplus, rho)
     counted, bound = (modes, floor - rho) if count_modes else (stresses, floor - surplus)
-    found, kept, dropped = _null_by_subspace_iteration(counted, tol, bound)
+    found, kept, dropped = _null_by_subspace_iteration(counted, tol, bound, rng)
     if rho:  # the rigid motions are zeros of C too: the largest of them may top the found ones
         dropped = max(dropped, float(np.linalg.norm(c @ rigid, 2)))
     rank = ndof - rho - found.shape[1] if count_modes else nb - found.shape[1]
@@ -346,18 +341,41 @@ def _sparse_null_spaces(c: sp.csr_matrix, x: np.ndarray, edges: np.ndarray, rigi
     return (found, rest, rank, gap) if count_modes else (rest, found, rank, gap)
 
 
-def _largest_singular_value(c: sp.csr_matrix, steps: int = 10) -> float:
-    """σ_max(C) by seeded power iteration on CᵀC: on lattices 10 steps give it within 5 %
-    (from below), ample for a relative threshold and a shift."""
-    v = np.random.default_rng(0).standard_normal(c.shape[1])
+def _elimination_order(x: np.ndarray, edges: np.ndarray, count_modes: bool) -> np.ndarray | None:
+    """The order in which the Gram matrix's unknowns are eliminated: None (CHOLMOD's own
+    approximate minimum degree) for 2D frames and 3D frames below NESTED_DISSECTION_MIN_NODES,
+    geometric nested dissection of the nodes above.
+
+    Both Gram matrices follow the bar graph: (CᵀC)_ij ≠ 0 for the d × d blocks of joined
+    nodes, (CCᵀ)_ef ≠ 0 for bars sharing a node. One dissection of the nodes orders both:
+    a node's d coordinates together, a bar with the later of its two nodes (bars inside one
+    half never share a node with bars inside the other, so the halves stay separated).
+    """
+    n, d = x.shape
+    if d == 2 or n < NESTED_DISSECTION_MIN_NODES:
+        return None
+    node_order = nested_dissection(x, edges)
+    if count_modes:
+        return (d * node_order[:, None] + np.arange(d)).ravel()
+    position = np.empty_like(node_order)
+    position[node_order] = np.arange(node_order.size)
+    return np.argsort(position[edges].max(axis=1), kind="stable")
+
+
+def _largest_singular_value(gram: sp.spmatrix, rng: np.random.Generator, steps: int = 10) -> float:
+    """σ_max(C) = √λ_max of its Gram matrix CᵀC or CCᵀ (same nonzero eigenvalues) by power
+    iteration from a random start: on lattices 10 steps give it within 5 % (from below),
+    ample for a relative threshold and a shift."""
+    v = rng.standard_normal(gram.shape[0])
     for _ in range(steps):
-        v = c.T @ (c @ v)
-        v /= np.linalg.norm(v)
-    return float(np.linalg.norm(c @ v))
+        v = gram @ v
+        v /= np.sqrt(v @ v)
+    return float(np.sqrt(v @ (gram @ v)))
 
 
 def _null_by_subspace_iteration(
-    problem: _NullProblem, tol: float, lower_bound: int, first_steps: int = 2, max_rounds: int = 60
+    problem: _NullProblem, tol: float, lower_bound: int, rng: np.random.Generator,
+    first_steps: int = 2, max_rounds: int = 60,
 ):
     """Orthonormal basis of N(matrix) ⊖ span(known) (columns), the smallest nonzero Ritz
     singular value and the largest zero one: the count behind the rank.
@@ -377,7 +395,6 @@ def _null_by_subspace_iteration(
     room = n - problem.known.shape[1]
     if room == 0:
         return np.zeros((n, 0)), 0.0, 0.0
-    rng = np.random.default_rng(0)
     y = problem.deflate(rng.standard_normal((n, min(room, lower_bound + OVERSAMPLE))))
     steps, previous = first_steps, None
     for _ in range(max_rounds):
@@ -460,15 +477,18 @@ def _orthonormal(y: np.ndarray) -> np.ndarray:
     """
     q = y
     for _ in range(2):
-        try:
-            r = sla.cholesky(q.T @ q, check_finite=False)
-        except np.linalg.LinAlgError:
-            return np.linalg.qr(y)[0]
-        diagonal = np.abs(np.diag(r))
-        if diagonal.min() * CHOLQR_MAX_RATIO < diagonal.max():
-            return np.linalg.qr(y)[0]
-        q = sla.solve_triangular(r, q.T, trans="T", check_finite=False).T
+        r, info = lapack.dpotrf(q.T @ q)  # upper R, RᵀR = qᵀq; info > 0: not positive definite
+        diagonal = np.abs(r.diagonal())
+        if info or diagonal.min() * CHOLQR_MAX_RATIO < diagonal.max():
+            return _householder_q(y)
+        q = blas.dtrsm(1.0, r, q, side=1)  # q R⁻¹
     return q
+
+
+def _householder_q(y: np.ndarray) -> np.ndarray:
+    """The n × k factor Q of y = QR (n ≥ k) by Householder reflections (LAPACK geqrf, orgqr)."""
+    qr, tau, _, _ = lapack.dgeqrf(y)
+    return lapack.dorgqr(qr, tau)[0]
 
 
 def _ritz_pairs(matrix: sp.spmatrix, y: np.ndarray):
@@ -481,7 +501,8 @@ def _ritz_pairs(matrix: sp.spmatrix, y: np.ndarray):
     k = y.shape[1]
     if k == 0:
         return np.zeros(0), y
-    _, s, wt = np.linalg.svd(np.linalg.qr(matrix @ y, mode="r"))
+    qr = lapack.dgeqrf(matrix @ y)[0]
+    _, s, wt, _ = lapack.dgesdd(np.triu(qr[:k]))
     theta = np.zeros(k)
     theta[: s.size] = s
     order = np.argsort(theta, kind="stable")
