@@ -3,9 +3,13 @@
 from __future__ import annotations
 
 import logging
+import os
 import re
 import secrets
+import threading
 import uuid
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
 
 from fastapi import FastAPI
 from fastapi.middleware.cors import CORSMiddleware
@@ -17,6 +21,7 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 from zeromode.service import __version__
 from zeromode.service.body import BodyRefusal, read_checked_body, replay
 from zeromode.service.errors import error_body, install_error_handlers
+from zeromode.service.jobs import jobs_of_app
 from zeromode.service.routes import (
     analyze,
     certify,
@@ -28,6 +33,7 @@ from zeromode.service.routes import (
     lattice,
     motion,
     plot,
+    sweeps,
     viewer,
 )
 from zeromode.service.settings import Settings, settings_scope
@@ -106,12 +112,37 @@ class LimitsAndAuth:
         )
 
 
+@asynccontextmanager
+async def lifespan(app: FastAPI) -> AsyncIterator[None]:
+    """At startup, work left unfinished in the store by a stopped service is adopted (its
+    engine starts in the background, so the service answers at once); at shutdown the engine
+    gives its lease up and closes its cluster."""
+    threading.Thread(target=_adopt_unfinished, args=(app,), name="zeromode-adopt", daemon=True).start()
+    yield
+    jobs, app.state.jobs = app.state.jobs, None  # a later start opens them again
+    if jobs is not None:
+        jobs.close()
+
+
+def _adopt_unfinished(app: FastAPI) -> None:
+    settings = app.state.settings
+    if settings.database_url.startswith("sqlite:///") and not os.path.exists(settings.database_url[len("sqlite:///"):]):
+        return  # no store yet: nothing was ever submitted here
+    try:
+        jobs = jobs_of_app(app.state)
+        if jobs.has_orphans():
+            jobs.engine.start()
+    except Exception:
+        log.exception("unfinished jobs could not be adopted at startup")
+
+
 def create_app(settings: Settings | None = None) -> FastAPI:
     """The service for ``settings`` (default: read from the ZEROMODE_* environment). Every
     limit of a request is taken from these settings while it is served."""
     settings = Settings() if settings is None else settings
     app = FastAPI(
         title="zeromode",
+        lifespan=lifespan,
         # No slash redirects: starlette builds their URL from the Host header (an open redirect).
         redirect_slashes=False,
         version=__version__,
@@ -121,8 +152,9 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         ),
     )
     install_error_handlers(app)
-    app.state.settings = settings  # the job store reads its directory, limits and settings here
-    for module in (health, analyze, certify, design, examples, lattice, plot, export, motion, jobs, viewer):
+    app.state.settings = settings  # the job store reads its database, limits and settings here
+    app.state.jobs = None
+    for module in (health, analyze, certify, design, examples, lattice, plot, export, motion, jobs, sweeps, viewer):
         app.include_router(module.router)
 
     app.add_middleware(LimitsAndAuth, settings=settings)

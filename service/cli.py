@@ -212,6 +212,72 @@ def _http_json(method: str, url: str, api_key: str | None, body: dict | None = N
         raise DomainError("connection_error", f"cannot reach {url}: {exc.reason}.") from exc
 
 
+FINISHED = ("done", "failed", "cancelled", "interrupted")
+
+
+def _progress_bar(fraction: float, message: str, width: int = 30) -> None:
+    done = round(width * fraction)
+    bar = f"[{'#' * done}{'.' * (width - done)}] {100 * fraction:3.0f}%"
+    print(f"\r{bar}  {message[:40]:40s}", end="", file=sys.stderr, flush=True)
+
+
+def cmd_sweep(args) -> int:
+    """A sweep here (on an embedded LocalCluster, or --scheduler's cluster) or on a service
+    (--url): a progress bar, the points as NDJSON, optionally the table as CSV or Parquet."""
+    import time
+
+    spec = _load_json(args.grid)
+    endpoint = "/v1/" + str(spec.get("endpoint", "")).strip("/").removeprefix("v1/")
+    records: list[dict] = []
+    if args.url:
+        base = args.url.rstrip("/")
+        body = {"endpoint": endpoint, **{k: spec[k] for k in ("template", "grid", "requests") if k in spec}}
+        sweep = _http_json("POST", f"{base}/v1/sweeps", args.api_key, body)
+        after = 0
+        while True:
+            status = _http_json("GET", f"{base}/v1/sweeps/{sweep['id']}?after={after}&limit=1000", args.api_key)
+            records += [{k: r[k] for k in ("point", "params", "status", "result", "error") if r.get(k) is not None}
+                        for r in status["results"]]
+            after = status["next"]
+            _progress_bar(status["progress"], f"{status['done']} done, {status['failed']} failed of {status['total']}")
+            if status["status"] != "running" and len(status["results"]) < 1000:
+                break
+            time.sleep(args.poll)
+    else:
+        from zeromode.service.sweeps import run_sweep
+
+        def progress(done: int, failed: int, total: int) -> None:
+            _progress_bar((done + failed) / total, f"{done} done, {failed} failed of {total}")
+
+        records = list(run_sweep(endpoint, spec.get("template"), spec.get("grid"), spec.get("requests"),
+                                 scheduler=args.scheduler, on_progress=progress))
+    print(file=sys.stderr)
+    return _write_sweep(sorted(records, key=lambda r: r["point"]), args.output, args.table)
+
+
+def _write_sweep(records: list[dict], output: str, table: str | None) -> int:
+    """The points as NDJSON (``output``, - for stdout) and the table (``table``: .csv or
+    .parquet); exit status 0 when every point is done, 1 otherwise."""
+    from pathlib import Path
+
+    from zeromode.service.sweeps import csv_text, ndjson_line, parquet_bytes, row
+
+    lines = b"".join(ndjson_line(r) for r in records)
+    if output == "-":
+        sys.stdout.buffer.write(lines)
+    else:
+        Path(output).write_bytes(lines)
+    if table:
+        rows = [row(r) for r in records]
+        if table.endswith(".parquet"):
+            Path(table).write_bytes(parquet_bytes(rows))
+        else:
+            Path(table).write_text(csv_text(rows))
+    failed = sum(r["status"] != "done" for r in records)
+    print(f"{len(records)} points: {len(records) - failed} done, {failed} not", file=sys.stderr)
+    return 0 if failed == 0 else 1
+
+
 def cmd_job(args) -> int:
     import time
 
@@ -221,17 +287,14 @@ def cmd_job(args) -> int:
     base = args.url.rstrip("/")
     submission = {"endpoint": endpoint, "request": _load_json(args.request)}
     job = _http_json("POST", f"{base}/v1/jobs", args.api_key, submission)
-    width = 30
     while True:
         status = _http_json("GET", f"{base}/v1/jobs/{job['id']}", args.api_key)
-        done = round(width * status["progress"])
-        bar = f"[{'#' * done}{'.' * (width - done)}] {100 * status['progress']:3.0f}%"
-        print(f"\r{bar}  {status['message'][:40]:40s}", end="", file=sys.stderr, flush=True)
-        if status["status"] in ("done", "failed"):
+        _progress_bar(status["progress"], status["message"])
+        if status["status"] in FINISHED:
             print(file=sys.stderr)
             break
         time.sleep(args.poll)
-    if status["status"] == "failed":
+    if status["status"] != "done":
         raise DomainError(status["error"]["code"], status["error"]["message"])
     json.dump(status["result"], sys.stdout)
     print()
@@ -278,6 +341,19 @@ def build_parser() -> argparse.ArgumentParser:
     )
     jb.add_argument("--poll", type=float, default=0.5, help="seconds between status requests")
     jb.set_defaults(func=cmd_job)
+    sw = sub.add_parser(
+        "sweep", help="run a sweep (a JSON file: endpoint, template and grid or requests) here on Dask, "
+        "or on a service with --url; write its points as NDJSON"
+    )
+    sw.add_argument("grid", help="JSON file (or - for stdin): {endpoint, template, grid | requests}")
+    sw.add_argument("-o", "--output", default="-", help="the points as NDJSON (default: stdout)")
+    sw.add_argument("--table", default=None, help="also the table of scalar fields: out.csv or out.parquet")
+    sw.add_argument("--scheduler", default=None, help="a Dask scheduler (tcp://host:8786); default: "
+                    "$ZEROMODE_DASK_SCHEDULER, else an embedded LocalCluster")
+    sw.add_argument("--url", default=None, help="run on this service instead (e.g. http://127.0.0.1:8000)")
+    sw.add_argument("--api-key", default=os.environ.get("ZEROMODE_API_KEY"), help="default: $ZEROMODE_API_KEY")
+    sw.add_argument("--poll", type=float, default=0.5, help="seconds between status requests (--url)")
+    sw.set_defaults(func=cmd_sweep)
     de = sub.add_parser(
         "design", help="run a /v1/design, /v1/design/auxetic or /v1/design/allosteric request here (no "
         "service needed) and print its response"

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import fields
+from datetime import UTC, datetime
 
 import numpy as np
 
@@ -143,7 +144,7 @@ def two_configuration_body(result, timings_ms: dict) -> dict:
 
 
 def strain_range_body(usable) -> dict:
-    end = lambda e: {"strain": e.strain, "reason": e.reason, "detail": e.detail}  # noqa: E731
+    end = lambda e: {"strain": e.strain, "reason": e.reason, "detail": e.detail}
     return {
         "lower": end(usable.lower),
         "upper": end(usable.upper),
@@ -468,3 +469,58 @@ def tolerance_body(report: ToleranceReport) -> dict:
         "disagreements": [b["statement"] for b in estimates if b["agrees"] is False],
         "estimates": estimates,
     })
+
+
+def _iso(t: float | None) -> str | None:
+    return None if t is None else datetime.fromtimestamp(t, UTC).isoformat(timespec="milliseconds")
+
+
+def job_body(record: dict) -> dict:
+    """GET /v1/jobs/{id}: a job record of the store (service/store.py) on the wire."""
+    return {
+        "id": record["id"],
+        "endpoint": record["endpoint"],
+        "status": record["status"],
+        "progress": record["progress"],
+        "message": record["message"],
+        "result": record.get("result") if record["status"] == "done" else None,
+        "error": record.get("error"),
+        "created": _iso(record["created"]),
+        "started": _iso(record["started"]),
+        "finished": _iso(record["finished"]),
+        "attempts": record["attempts"],
+    }
+
+
+def sweep_point_body(record: dict) -> dict:
+    return {
+        "point": record["point"],
+        "params": record.get("params") or {},
+        "status": record["status"],
+        "seq": record["seq"],
+        "result": record.get("result") if record["status"] == "done" else None,
+        "error": record.get("error"),
+    }
+
+
+def sweep_body(sweep: dict, finished_points: list[dict], after: int) -> dict:
+    """GET /v1/sweeps/{id}: counts by state, and the finished points after the cursor."""
+    counts = sweep["counts"]
+    n = {state: counts.get(state, 0) for state in ("done", "failed", "running", "queued", "cancelled", "interrupted")}
+    ended = n["done"] + n["failed"] + n["cancelled"] + n["interrupted"]
+    if ended >= sweep["total"]:
+        status = "cancelled" if sweep["cancelled"] else "done"
+    else:
+        status = "running"
+    return {
+        "id": sweep["id"],
+        "endpoint": sweep["endpoint"],
+        "status": status,
+        "total": sweep["total"],
+        **n,
+        "progress": ended / sweep["total"],
+        "created": _iso(sweep["created"]),
+        "finished": _iso(sweep["finished"]),
+        "results": [sweep_point_body(p) for p in finished_points],
+        "next": finished_points[-1]["seq"] if finished_points else after,
+    }

@@ -13,7 +13,6 @@ requests, documents given to ``zeromode plot``), where the environment's setting
 from __future__ import annotations
 
 import os
-import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
@@ -46,21 +45,43 @@ class Settings(BaseSettings):
     )
     time_budget_s: float = Field(default=60.0, gt=0, description="Wall time of one request.")
     job_time_budget_s: float = Field(default=900.0, ge=0, description="Wall time of one job.")
-    job_dir: str = Field(
-        default_factory=lambda: os.path.join(tempfile.gettempdir(), "zeromode-jobs"),
-        description="Directory of the job store (shared by the workers).",
+    database_url: str = Field(
+        default_factory=lambda: default_database_url(),
+        description="Job and sweep records (SQLAlchemy URL): a SQLite file of this user by default; "
+        "postgresql+psycopg://user@host/db for several replicas.",
     )
-    job_threads: int = Field(default=1, ge=1)
-    max_pending_jobs: int = Field(default=8, ge=0)
-    max_stored_jobs: int = Field(default=1000, ge=0)
+    dask_scheduler: str | None = Field(
+        default=None,
+        description="Address of an existing Dask scheduler (tcp://host:8786) that runs jobs and "
+        "sweeps; unset: an embedded LocalCluster of worker processes.",
+    )
+    dask_workers: int = Field(
+        default=0, ge=0, description="Worker processes of the embedded cluster (0: one per core)."
+    )
+    dask_worker_memory_bytes: int = Field(
+        default=0, ge=0, description="Memory of one embedded worker (0: the machine's divided by the workers)."
+    )
+    job_max_attempts: int = Field(
+        default=2, ge=1, description="Runs of a job whose service stopped before it finished; then interrupted."
+    )
+    job_lease_s: float = Field(
+        default=20.0, gt=0,
+        description="A service silent this long is taken for dead: its unfinished jobs are adopted.",
+    )
+    max_pending_jobs: int = Field(default=8, ge=0, description="Queued or running single jobs.")
+    max_stored_jobs: int = Field(default=100_000, ge=0, description="Job records kept (sweep points included).")
+    max_sweep_points: int = Field(default=10_000, gt=0, description="Points of one sweep.")
+    max_sweeps_per_client: int = Field(
+        default=2, ge=1, description="Unfinished sweeps of one client (API key or address)."
+    )
     max_jobs_per_client: int = Field(
-        default=4, ge=1, description="Queued or running jobs of one client (API key or address) per worker."
+        default=4, ge=1, description="Queued or running single jobs of one client (API key or address)."
     )
     max_job_result_bytes: int = Field(
         default=20_000_000, gt=0, description="Largest stored job result; a larger one fails the job."
     )
     max_job_store_bytes: int = Field(
-        default=2_000_000_000, gt=0, description="Disk the job directory may use in all."
+        default=2_000_000_000, gt=0, description="Bytes of stored job results in all."
     )
     job_ttl_s: float = Field(default=86_400.0, ge=0)
     max_connections: int = Field(
@@ -115,6 +136,13 @@ def current_settings() -> Settings:
     validating a document), the environment's, read once."""
     settings = _CURRENT.get()
     return _environment_settings() if settings is None else settings
+
+
+def default_database_url() -> str:
+    """A SQLite file of this user: under $XDG_STATE_HOME (default ~/.local/state), where it
+    survives a reboot, and never shared with another user's service."""
+    state = os.environ.get("XDG_STATE_HOME") or os.path.join(os.path.expanduser("~"), ".local", "state")
+    return "sqlite:///" + os.path.join(state, "zeromode", "jobs.sqlite3")
 
 
 @cache

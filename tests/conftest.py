@@ -9,6 +9,13 @@ import os
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
+import tempfile  # noqa: E402
+
+# Apps built with default settings keep their job records in this session's own SQLite file,
+# not in the user's state directory.
+_STATE = tempfile.mkdtemp(prefix="zeromode-tests-")
+os.environ.setdefault("ZEROMODE_DATABASE_URL", f"sqlite:///{_STATE}/jobs.sqlite3")
+
 
 import pytest  # noqa: E402
 from fastapi.testclient import TestClient  # noqa: E402
@@ -20,3 +27,17 @@ def client() -> TestClient:
     from zeromode.service.app import create_app
 
     return TestClient(create_app(), raise_server_exceptions=False)
+
+
+@pytest.fixture(scope="session")
+def dask_scheduler():
+    """One real Dask cluster of two worker processes on loopback for the session; apps under
+    test point ZEROMODE_DASK_SCHEDULER at it instead of each starting their own."""
+    from zeromode.service.engine import local_cluster
+    from zeromode.service.settings import Settings
+
+    cluster = local_cluster(Settings(dask_workers=2))
+    try:
+        yield cluster.scheduler_address
+    finally:
+        cluster.close()

@@ -134,8 +134,8 @@ def test_settings_come_from_the_environment(monkeypatch):
     assert settings.max_nodes == 7
     assert settings.cors_origins == ("https://a.example", "https://b.example")
     assert settings.api_key is None
-    monkeypatch.setenv("ZEROMODE_JOB_DIR", "")  # empty is unset: the default, not the current directory
-    assert Settings().job_dir == Settings.model_fields["job_dir"].default_factory()
+    monkeypatch.setenv("ZEROMODE_DASK_SCHEDULER", "")  # empty is unset: the embedded cluster
+    assert Settings().dask_scheduler is None
     assert_refused(
         TestClient(create_app(), raise_server_exceptions=False).post(
             "/v1/analyze", json={"frame": {"dim": 2, "positions": [[float(i), 0.0] for i in range(8)]}}

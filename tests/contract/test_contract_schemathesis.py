@@ -12,12 +12,9 @@ test below, which fails (XPASS) once the bug is fixed: then delete both.
 
 from __future__ import annotations
 
-import json
 import math
-import os
 import shutil
 import tempfile
-import time
 from pathlib import Path
 
 import pytest
@@ -31,10 +28,11 @@ from zeromode.service.app import create_app
 from zeromode.service.settings import Settings
 
 MAX_EXAMPLES = 30
-# Made by the first job a generated request submits (not at import), removed after the tests.
-JOB_DIR = Path(tempfile.gettempdir()) / f"zeromode-schemathesis-{os.getpid()}"
+# The jobs' records: made by the first job a generated request submits, removed after the tests.
+STATE_DIR = Path(tempfile.mkdtemp(prefix="zeromode-schemathesis-"))
 # Short budgets keep the heaviest generated requests (and the jobs they start) bounded.
-APP = create_app(Settings(job_dir=str(JOB_DIR), time_budget_s=5.0, job_time_budget_s=5.0))
+APP = create_app(Settings(database_url=f"sqlite:///{STATE_DIR}/jobs.sqlite3", time_budget_s=5.0,
+                          job_time_budget_s=5.0, dask_workers=1))
 schema = schemathesis.openapi.from_asgi("/openapi.json", APP)
 
 
@@ -43,21 +41,12 @@ KNOWN_BUGS: dict = {}
 
 
 @pytest.fixture(scope="module", autouse=True)
-def job_dir():
-    """Remove the jobs' directory once the jobs that generated requests started have ended."""
-    yield JOB_DIR
-    deadline = time.monotonic() + 30
-    while time.monotonic() < deadline:
-        states = []
-        for path in JOB_DIR.glob("*.json"):
-            try:
-                states.append(json.loads(path.read_text()).get("status"))
-            except (OSError, ValueError):
-                continue
-        if not {"queued", "running"} & set(states):
-            break
-        time.sleep(0.1)
-    shutil.rmtree(JOB_DIR, ignore_errors=True)
+def job_store():
+    """Close the engine the generated jobs started (its Dask cluster) and remove the records."""
+    yield STATE_DIR
+    if APP.state.jobs is not None:
+        APP.state.jobs.close()
+    shutil.rmtree(STATE_DIR, ignore_errors=True)
 
 
 @schema.parametrize()

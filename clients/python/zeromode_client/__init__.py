@@ -23,6 +23,8 @@ from zeromode_client._models import (
     RankGap,
     Result,
     SolutionSpace,
+    SweepPoint,
+    SweepStatus,
 )
 
 __all__ = [
@@ -38,6 +40,8 @@ __all__ = [
     "RankGap",
     "Result",
     "SolutionSpace",
+    "SweepPoint",
+    "SweepStatus",
     "ZeromodeConnectionError",
     "ZeromodeError",
     "ZeromodeTimeoutError",

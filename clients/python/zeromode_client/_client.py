@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import time
-from collections.abc import Mapping
+from collections.abc import AsyncIterator, Callable, Iterator, Mapping
 from types import TracebackType
 from typing import Any, Literal, Self, TypeVar
 
@@ -23,9 +23,13 @@ from zeromode_client._models import (
     JobStatus,
     Result,
     SolutionSpace,
+    SweepPoint,
+    SweepStatus,
 )
 
 T = TypeVar("T")
+# Finished points fetched per poll of a sweep; a full page is followed at once by the next.
+SWEEP_PAGE = 500
 FrameLike = Frame | Mapping[str, Any]
 TimeoutLike = float | httpx.Timeout | None
 
@@ -218,7 +222,66 @@ class Client(_BaseClient):
             status = self.job(job_id)
             if status.finished_running:
                 return _job_result(status)
-            time.sleep(_poll_delay(job_id, poll, deadline, timeout))
+            time.sleep(_poll_delay(f"job {job_id}", poll, deadline, timeout))
+
+
+    def cancel_job(self, job_id: str) -> JobStatus:
+        """DELETE /v1/jobs/{id}: cancel the job if it has not started; its status after."""
+        return self._send(ep.cancel_job(job_id))
+
+    def submit_sweep(
+        self,
+        endpoint: str,
+        template: Mapping[str, Any] | None = None,
+        grid: Mapping[str, Any] | None = None,
+        requests: list[Mapping[str, Any]] | None = None,
+    ) -> str:
+        """POST /v1/sweeps: every combination of ``grid`` (dotted paths of ``template`` and their
+        values, e.g. ``{"poisson_ratio": [-0.3, -0.5], "options.seed": [0, 1]}``), or one point
+        per request of ``requests``; all are validated first (a bad point is a ZeromodeError
+        ``invalid_point`` naming it). Returns the sweep id."""
+        return self._send(ep.submit_sweep(endpoint, template, grid, requests))
+
+    def sweep_status(self, sweep_id: str, after: int = 0, limit: int = 100) -> SweepStatus:
+        """GET /v1/sweeps/{id}: counts by state and the points finished after cursor ``after``."""
+        return self._send(ep.sweep_status(sweep_id, after, limit))
+
+    def cancel_sweep(self, sweep_id: str) -> SweepStatus:
+        """DELETE /v1/sweeps/{id}: cancel the points that have not run."""
+        return self._send(ep.cancel_sweep(sweep_id))
+
+    def sweep_results(self, sweep_id: str, format: str = "ndjson") -> bytes:
+        """The finished points as a file: ``"ndjson"`` (whole answers), ``"csv"`` or
+        ``"parquet"`` (a table of the answers' scalar fields)."""
+        return self._send(ep.sweep_results(sweep_id, format))
+
+    def sweep(
+        self,
+        endpoint: str,
+        template: Mapping[str, Any] | None = None,
+        grid: Mapping[str, Any] | None = None,
+        requests: list[Mapping[str, Any]] | None = None,
+        *,
+        on_progress: Callable[[SweepStatus], None] | None = None,
+        poll: float = 0.5,
+        timeout: float | None = None,
+    ) -> Iterator[SweepPoint]:
+        """Submit a sweep (as ``submit_sweep``) and yield its points as they finish;
+        ``on_progress(status)`` after every poll (``status.done``, ``.failed``, ``.running``,
+        ``.total``). Past ``timeout`` s raises ZeromodeTimeoutError (the sweep keeps running)."""
+        sweep_id = self.submit_sweep(endpoint, template, grid, requests)
+        deadline = None if timeout is None else time.monotonic() + timeout
+        after = 0
+        while True:
+            status = self.sweep_status(sweep_id, after, SWEEP_PAGE)
+            if on_progress is not None:
+                on_progress(status)
+            yield from status.results
+            after = status.next
+            if len(status.results) < SWEEP_PAGE:  # every finished point is read
+                if status.finished_running:
+                    return
+                time.sleep(_poll_delay(f"sweep {sweep_id}", poll, deadline, timeout))
 
 
 class AsyncClient(_BaseClient):
@@ -339,7 +402,55 @@ class AsyncClient(_BaseClient):
             status = await self.job(job_id)
             if status.finished_running:
                 return _job_result(status)
-            await asyncio.sleep(_poll_delay(job_id, poll, deadline, timeout))
+            await asyncio.sleep(_poll_delay(f"job {job_id}", poll, deadline, timeout))
+
+
+    async def cancel_job(self, job_id: str) -> JobStatus:
+        return await self._send(ep.cancel_job(job_id))
+
+    async def submit_sweep(
+        self,
+        endpoint: str,
+        template: Mapping[str, Any] | None = None,
+        grid: Mapping[str, Any] | None = None,
+        requests: list[Mapping[str, Any]] | None = None,
+    ) -> str:
+        return await self._send(ep.submit_sweep(endpoint, template, grid, requests))
+
+    async def sweep_status(self, sweep_id: str, after: int = 0, limit: int = 100) -> SweepStatus:
+        return await self._send(ep.sweep_status(sweep_id, after, limit))
+
+    async def cancel_sweep(self, sweep_id: str) -> SweepStatus:
+        return await self._send(ep.cancel_sweep(sweep_id))
+
+    async def sweep_results(self, sweep_id: str, format: str = "ndjson") -> bytes:
+        return await self._send(ep.sweep_results(sweep_id, format))
+
+    async def sweep(
+        self,
+        endpoint: str,
+        template: Mapping[str, Any] | None = None,
+        grid: Mapping[str, Any] | None = None,
+        requests: list[Mapping[str, Any]] | None = None,
+        *,
+        on_progress: Callable[[SweepStatus], None] | None = None,
+        poll: float = 0.5,
+        timeout: float | None = None,
+    ) -> AsyncIterator[SweepPoint]:
+        sweep_id = await self.submit_sweep(endpoint, template, grid, requests)
+        deadline = None if timeout is None else time.monotonic() + timeout
+        after = 0
+        while True:
+            status = await self.sweep_status(sweep_id, after, SWEEP_PAGE)
+            if on_progress is not None:
+                on_progress(status)
+            for point in status.results:
+                yield point
+            after = status.next
+            if len(status.results) < SWEEP_PAGE:  # every finished point is read
+                if status.finished_running:
+                    return
+                await asyncio.sleep(_poll_delay(f"sweep {sweep_id}", poll, deadline, timeout))
 
 
 def _given(**options: Any) -> dict[str, Any]:
@@ -356,11 +467,11 @@ def _job_result(status: JobStatus) -> Result:
     raise ZeromodeError(message, code=code, detail=error)
 
 
-def _poll_delay(job_id: str, poll: float, deadline: float | None, timeout: float | None) -> float:
+def _poll_delay(what: str, poll: float, deadline: float | None, timeout: float | None) -> float:
     """Seconds to sleep before the next poll; raises ZeromodeTimeoutError past the deadline."""
     if deadline is None:
         return poll
     left = deadline - time.monotonic()
     if left <= 0:
-        raise ZeromodeTimeoutError(f"job {job_id} did not finish within {timeout:g} s.")
+        raise ZeromodeTimeoutError(f"{what} did not finish within {timeout:g} s.")
     return min(poll, left)

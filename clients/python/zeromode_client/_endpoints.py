@@ -19,6 +19,7 @@ from zeromode_client._models import (
     JobStatus,
     Result,
     SolutionSpace,
+    SweepStatus,
 )
 
 
@@ -127,3 +128,42 @@ def submit_job(endpoint: str, request: Mapping[str, Any]) -> Call[str]:
 
 def job(job_id: str) -> Call[JobStatus]:
     return Call("GET", f"/v1/jobs/{quote(job_id, safe='')}", None, JobStatus.from_json)
+
+
+def cancel_job(job_id: str) -> Call[JobStatus]:
+    return Call("DELETE", f"/v1/jobs/{quote(job_id, safe='')}", None, JobStatus.from_json)
+
+
+def submit_sweep(
+    endpoint: str,
+    template: Mapping[str, Any] | None,
+    grid: Mapping[str, Any] | None,
+    requests: list[Mapping[str, Any]] | None,
+) -> Call[str]:
+    """POST /v1/sweeps: a template with a grid of dotted paths (or a list of requests); the id."""
+    body: dict[str, Any] = {"endpoint": endpoint, "template": jsonable(template or {})}
+    if grid is not None:
+        body["grid"] = jsonable(grid)
+    if requests is not None:
+        body["requests"] = jsonable(list(requests))
+    return Call("POST", "/v1/sweeps", body, lambda data: str(data["id"]))
+
+
+def sweep_status(sweep_id: str, after: int = 0, limit: int = 100) -> Call[SweepStatus]:
+    path = f"/v1/sweeps/{quote(sweep_id, safe='')}?after={int(after)}&limit={int(limit)}"
+    return Call("GET", path, None, SweepStatus.from_json)
+
+
+def cancel_sweep(sweep_id: str) -> Call[SweepStatus]:
+    return Call("DELETE", f"/v1/sweeps/{quote(sweep_id, safe='')}", None, SweepStatus.from_json)
+
+
+SWEEP_FORMATS = ("ndjson", "csv", "parquet")
+
+
+def sweep_results(sweep_id: str, fmt: str) -> Call[bytes]:
+    """GET /v1/sweeps/{id}/results.{ndjson|csv|parquet}: the file's bytes."""
+    if fmt not in SWEEP_FORMATS:
+        raise ValueError(f"format must be one of {', '.join(SWEEP_FORMATS)}, got {fmt!r}.")
+    return Call("GET", f"/v1/sweeps/{quote(sweep_id, safe='')}/results.{fmt}", None,
+                lambda response: response.content, raw=True)

@@ -256,7 +256,8 @@ class JobStatus:
 
     @property
     def finished_running(self) -> bool:
-        return self.status in ("done", "failed")
+        """Done, failed, cancelled before it ran, or interrupted (its service stopped too often)."""
+        return self.status in ("done", "failed", "cancelled", "interrupted")
 
     @classmethod
     def from_json(cls, data: dict[str, Any]) -> JobStatus:
@@ -273,4 +274,67 @@ class JobStatus:
             created=str(data["created"]),
             finished=data.get("finished"),
             raw=data,
+        )
+
+
+@dataclass(frozen=True, eq=False)
+class SweepPoint:
+    """One finished point of a sweep: its index and parameters, its status, and ``result`` (the
+    endpoint's answer) when ``status`` is ``"done"``, else ``error`` (``{"code", "message"}``)."""
+
+    point: int
+    params: dict[str, Any]
+    status: str
+    result: Result | None
+    error: dict[str, Any] | None
+
+    @classmethod
+    def from_json(cls, endpoint: str, data: dict[str, Any]) -> SweepPoint:
+        result = data.get("result")
+        return cls(
+            point=int(data["point"]),
+            params=dict(data.get("params") or {}),
+            status=str(data["status"]),
+            result=Result(endpoint, result) if result is not None else None,
+            error=data.get("error"),
+        )
+
+
+@dataclass(frozen=True, eq=False)
+class SweepStatus:
+    """GET /v1/sweeps/{id}: counts of points by state, and a page of finished points
+    (``results``; pass ``next`` as ``after`` for the following page)."""
+
+    id: str
+    endpoint: str
+    status: str
+    total: int
+    done: int
+    failed: int
+    running: int
+    queued: int
+    cancelled: int
+    interrupted: int
+    progress: float
+    results: list[SweepPoint]
+    next: int
+    raw: dict[str, Any] = field(repr=False)
+
+    @property
+    def finished_running(self) -> bool:
+        return self.status in ("done", "cancelled")
+
+    @classmethod
+    def from_json(cls, data: dict[str, Any]) -> SweepStatus:
+        endpoint = str(data["endpoint"])
+        counts = {k: int(data[k]) for k in ("total", "done", "failed", "running", "queued", "cancelled", "interrupted")}
+        return cls(
+            id=str(data["id"]),
+            endpoint=endpoint,
+            status=str(data["status"]),
+            progress=float(data["progress"]),
+            results=[SweepPoint.from_json(endpoint, r) for r in data.get("results", [])],
+            next=int(data["next"]),
+            raw=data,
+            **counts,
         )

@@ -1,0 +1,182 @@
+"""The work of one job, as it runs on a Dask worker: an endpoint's request in, its answer out.
+
+``RUNNABLE`` maps each job endpoint to its route function and models, so a job answers exactly
+what the endpoint would. ``execute`` is the task Dask runs: it parses the request, runs the
+endpoint under the job time budget and the service's settings, reports progress as Dask worker
+events (topic ``PROGRESS_TOPIC``, read by the service's engine) and returns the encoded answer
+or the error body; it never raises for a failure of the request, so a Dask-level error means
+the worker itself was lost.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from functools import lru_cache
+from typing import Any, get_args
+
+from fastapi import HTTPException
+from fastapi.responses import Response
+from pydantic import BaseModel, ValidationError
+
+from zeromode.service.prechecks import precheck
+from zeromode.service.routes import analyze, certify, design, lattice, motion
+from zeromode.service.schemas.jobs import JobEndpoint
+from zeromode.service.settings import Settings, settings_scope
+from zeromode.solver.budget import time_budget
+from zeromode.solver.errors import DomainError
+from zeromode.solver.progress import progress_scope
+
+log = logging.getLogger("zeromode")
+
+PROGRESS_TOPIC = "zeromode-progress"
+# A task sends a progress event when it moved by this fraction or this many seconds passed:
+# enough for "every second or every 5 %", few enough not to load the scheduler.
+PROGRESS_STEP = 0.01
+PROGRESS_INTERVAL_S = 0.5
+
+
+@dataclass(frozen=True)
+class Runnable:
+    """An endpoint that can run as a job: its route function, request and response models."""
+
+    run: Callable[[BaseModel], Any]
+    request_model: type[BaseModel]
+    response_model: type[BaseModel]
+
+
+def _runnable(run: Callable[[BaseModel], Any]) -> Runnable:
+    """The route function with the models its own signature and route declare."""
+    route = next(
+        r for module in (analyze, certify, design, lattice, motion) for r in module.router.routes
+        if getattr(r, "endpoint", None) is run
+    )
+    (param,) = route.dependant.body_params
+    return Runnable(run, param.field_info.annotation, route.response_model)
+
+
+# The job endpoints, declared once. JobEndpoint (the schema's enum) must name the same paths.
+RUNNABLE: dict[str, Runnable] = {
+    "/v1/analyze": _runnable(analyze.post_analyze),
+    "/v1/design": _runnable(design.post_design),
+    "/v1/design/auxetic": _runnable(lattice.post_auxetic),
+    "/v1/design/allosteric": _runnable(lattice.post_allosteric),
+    "/v1/motion": _runnable(motion.post_motion),
+    "/v1/refine": _runnable(motion.post_refine),
+    "/v1/certify": _runnable(certify.post_certify),
+}
+assert set(RUNNABLE) == set(get_args(JobEndpoint)), "RUNNABLE and schemas.jobs.JobEndpoint disagree"
+
+
+class RequestRefused(Exception):
+    """A job's request that its endpoint would refuse up front: ``detail`` is the error body's
+    {"code", "message", ...}; ``errors`` the schema errors when the schema refused it."""
+
+    def __init__(self, detail: dict[str, Any], errors: list[dict[str, Any]] | None = None):
+        super().__init__(detail.get("message", ""))
+        self.detail, self.errors = detail, errors
+
+
+def validated(endpoint: str, request: dict[str, Any]) -> BaseModel:
+    """The request parsed by the endpoint's model and passed through the endpoint's up-front
+    checks (service/prechecks.py): what the endpoint would refuse at once raises RequestRefused
+    with the endpoint's own error."""
+    runnable = RUNNABLE[endpoint]
+    try:
+        body = runnable.request_model.model_validate(request)
+        precheck(endpoint, body)
+    except ValidationError as exc:
+        errors = exc.errors(include_url=False, include_context=False)
+        first = errors[0]
+        where = ".".join(str(p) for p in first["loc"]) or "request"
+        raise RequestRefused(
+            {"code": "invalid_request", "message": f"{where}: {first['msg']}."},
+            [{"loc": [str(p) for p in e["loc"]], "msg": e["msg"]} for e in errors[:20]],
+        ) from exc
+    except (DomainError, HTTPException) as exc:
+        raise RequestRefused(error_detail(exc)) from exc
+    return body
+
+
+def error_detail(exc: Exception) -> dict[str, Any]:
+    """The {"code", "message", ...} an endpoint answers for ``exc``."""
+    if isinstance(exc, RequestRefused):
+        return exc.detail
+    if isinstance(exc, DomainError):
+        return {"code": exc.code, "message": exc.message}
+    detail = getattr(exc, "detail", None)
+    if isinstance(exc, HTTPException) and isinstance(detail, dict) and "code" in detail:
+        return detail
+    log.error("a job failed with an unexpected error", exc_info=exc)
+    return {"code": "internal_error", "message": "an unexpected error occurred."}
+
+
+def answer(endpoint: str, body: BaseModel) -> dict[str, Any]:
+    """Run the endpoint's function: the JSON body it would have answered (an error body raises
+    RequestRefused with its detail)."""
+    runnable = RUNNABLE[endpoint]
+    out = runnable.run(body)
+    if isinstance(out, Response):  # endpoints answer some domain failures with a JSONResponse
+        data = json.loads(out.body)
+        if out.status_code >= 400:
+            raise RequestRefused(data.get("detail", {}))
+        return data
+    return runnable.response_model.model_validate(out).model_dump(mode="json")
+
+
+@lru_cache(maxsize=8)
+def _settings(doc: str) -> Settings:
+    return Settings.model_validate_json(doc)
+
+
+def _event_sender(job_id: str) -> Callable[[float, str], None] | None:
+    """Progress as Dask worker events, throttled; None outside a Dask worker (the library's
+    inline runs)."""
+    try:
+        from distributed import get_worker
+
+        worker = get_worker()
+    except (ImportError, ValueError):
+        return None
+    last = [-1.0, 0.0]
+
+    def send(fraction: float, message: str) -> None:
+        now = time.monotonic()
+        if fraction - last[0] >= PROGRESS_STEP or now - last[1] >= PROGRESS_INTERVAL_S:
+            last[0], last[1] = fraction, now
+            worker.log_event(PROGRESS_TOPIC, {"id": job_id, "progress": fraction, "message": message[:200]})
+
+    return send
+
+
+def execute(job_id: str, endpoint: str, request: dict[str, Any], settings_json: str) -> tuple[str, Any]:
+    """The Dask task of one job: ``("done", answer as JSON bytes)`` or ``("failed", error
+    detail)``. Runs under the settings' job time budget; a result over
+    ``max_job_result_bytes`` fails with ``result_too_large`` here, before it is shipped."""
+    settings = _settings(settings_json)
+    send = _event_sender(job_id)
+    if send is not None:
+        send(0.0, "running")
+    try:
+        with settings_scope(settings), time_budget(settings.job_time_budget_s), progress_scope(send):
+            data = json.dumps(answer(endpoint, validated(endpoint, request)), allow_nan=False,
+                              separators=(",", ":")).encode()
+    except Exception as exc:  # noqa: BLE001 — every failure of the request is the job's answer
+        return "failed", error_detail(exc)
+    limit = settings.max_job_result_bytes
+    if len(data) > limit:
+        return "failed", {
+            "code": "result_too_large",
+            "message": f"the result has {len(data)} bytes; a stored job result may have {limit} "
+            "(ask for less, e.g. options.bases false, or run the request directly).",
+        }
+    return "done", data
+
+
+def execute_chunk(jobs: list[tuple[str, str, dict[str, Any]]], settings_json: str) -> list[tuple[str, str, Any]]:
+    """The Dask task of a chunk of jobs, (id, endpoint, request) each, run one after the other:
+    (id, status, payload) of each, as ``execute`` returns them."""
+    return [(job_id, *execute(job_id, endpoint, request, settings_json)) for job_id, endpoint, request in jobs]
