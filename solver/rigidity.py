@@ -65,12 +65,10 @@ def compatibility_matrix(positions: np.ndarray, edges: np.ndarray, dense: bool =
     i, j = edges[:, 0], edges[:, 1]
     # Each row lists the lower-numbered node first, so the CSR arrays are built directly
     # (2d sorted entries per row) without a sort: x_first − x_second there, its negative after.
-    first, second = np.minimum(i, j), np.maximum(i, j)
-    diff = positions[first] - positions[second]  # (N_B, d)
-    cols = np.concatenate(
-        [(d * first)[:, None] + np.arange(d), (d * second)[:, None] + np.arange(d)], axis=1
-    ).ravel()
-    vals = np.concatenate([diff, -diff], axis=1).ravel()
+    ends = np.stack([np.minimum(i, j), np.maximum(i, j)], axis=1)  # (N_B, 2)
+    diff = positions[ends[:, 0]] - positions[ends[:, 1]]  # (N_B, d)
+    cols = (d * ends[:, :, None] + np.arange(d)).ravel()
+    vals = np.stack([diff, -diff], axis=1).ravel()
     if dense:
         c = np.zeros((nb, n * d))
         c[np.repeat(np.arange(nb), 2 * d), cols] = vals  # (row, col) pairs are distinct
@@ -188,7 +186,7 @@ def analyze(
         method = "dense" if size <= limit else "sparse"
     c = compatibility_matrix(x, frame.edges, dense=method == "dense")
     if method == "dense":
-        modes, stresses, rank, gap = _dense_null_spaces(c, rigid, rtol)
+        modes, stresses, rank, gap = _dense_null_spaces(c, rigid, rtol, bases)
     elif method == "sparse":
         modes, stresses, rank, gap = _sparse_null_spaces(c, x, frame.edges, rigid, rtol, bases, basis_limit)
     else:
@@ -222,11 +220,15 @@ def _bases_fit(modes: int, stresses: int, shape: tuple[int, int], limit: int) ->
     return max(modes, 0) * ndof + max(stresses, 0) * nb <= limit
 
 
-def _dense_null_spaces(c: np.ndarray, rigid: np.ndarray, rtol: float):
-    """Full SVD of C: (nontrivial modes dN × m, ⟂ rigid; stresses N_B × s; rank; gap)."""
+def _dense_null_spaces(c: np.ndarray, rigid: np.ndarray, rtol: float, want_bases: bool):
+    """Full SVD of C: (nontrivial modes dN × m, ⟂ rigid; stresses N_B × s; rank; gap); the
+    singular values alone (bases None) unless ``want_bases``."""
     nb, ndof = c.shape
     if nb == 0:
         return complement_within(np.eye(ndof), rigid), np.zeros((0, 0)), 0, RankGap(0.0, 0.0)
+    if not want_bases:
+        rank, gap = decide_rank(np.linalg.svd(c, compute_uv=False), rtol)
+        return None, None, rank, gap
     u, s, vt = np.linalg.svd(c, full_matrices=True)
     rank, gap = decide_rank(s, rtol)
     return complement_within(vt[rank:].T, rigid), u[:, rank:], rank, gap
@@ -251,13 +253,15 @@ ROUNDOFF = 1e-13
 CHOLQR_MAX_RATIO = 1e6
 # Above this many independent null vectors on the side counted, the block is too wide.
 MAX_NULL_VECTORS = 20_000
-# The Gram matrix is ordered by geometric nested dissection in 3D from this many nodes, by
-# CHOLMOD's approximate minimum degree below it and in 2D. Measured (ordering + factorisation
-# + 3 block solves, docs/benchmarks/analysis.md): in 2D the minimum degree order costs less at
-# every size from 10³ to 10⁵ nodes (kagome CCᵀ 10⁵: 0.74 s against 1.17 s; triangulated CᵀC
-# 1.37 s against 1.47 s); in 3D dissection wins from about 500 nodes (cubic 10³: 21 ms
-# against 26 ms; 10⁴: 0.6–0.8 s against 2.4 s) and loses below (cubic 343: 7.6 ms against 5.1).
-NESTED_DISSECTION_MIN_NODES = 500
+# Geometric nested dissection orders the Gram matrix from this many nodes, CHOLMOD's
+# approximate minimum degree below (and always for CCᵀ in 2D). Measured (ordering +
+# factorisation + 3 block solves, one core): in 3D dissection wins from about 500 nodes (cubic
+# 10³: 21 ms against 26 ms; 10⁴: 0.6–0.8 s against 2.4 s) and loses below (cubic 343: 7.6 ms
+# against 5.1 ms); for CᵀC in 2D the two orders tie at 10⁵ nodes (triangulated 1.8 s against
+# 1.9 s) and dissection wins above (3·10⁵: 6.0 s against 7.4 s), minimum degree below (10⁴:
+# 93 ms against 100 ms); for CCᵀ in 2D minimum degree wins at every size (kagome 10⁵: 0.74 s
+# against 1.17 s; 3·10⁵: 3.3 s against 5.5 s).
+NESTED_DISSECTION_MIN_NODES = {(3, True): 500, (3, False): 500, (2, True): 100_000, (2, False): None}
 
 
 @dataclass(frozen=True, eq=False)
@@ -326,7 +330,9 @@ def _sparse_null_spaces(c: sp.csr_matrix, x: np.ndarray, edges: np.ndarray, rigi
     counted, bound = (modes, floor - rho) if count_modes else (stresses, floor - surplus)
     found, kept, dropped = _null_by_subspace_iteration(counted, tol, bound, rng)
     if rho:  # the rigid motions are zeros of C too: the largest of them may top the found ones
-        dropped = max(dropped, float(np.linalg.norm(c @ rigid, 2)))
+        # ‖C R‖₂ from the ρ × ρ Gram matrix of C R (its entries are round-off, ≈ 1e-16 σ_max)
+        moved = c @ rigid
+        dropped = max(dropped, float(np.sqrt(max(np.linalg.eigvalsh(moved.T @ moved)[-1], 0.0))))
     rank = ndof - rho - found.shape[1] if count_modes else nb - found.shape[1]
     gap = RankGap(kept, dropped)
     n_modes, n_stresses = ndof - rho - rank, nb - rank
@@ -342,9 +348,9 @@ def _sparse_null_spaces(c: sp.csr_matrix, x: np.ndarray, edges: np.ndarray, rigi
 
 
 def _elimination_order(x: np.ndarray, edges: np.ndarray, count_modes: bool) -> np.ndarray | None:
-    """The order in which the Gram matrix's unknowns are eliminated: None (CHOLMOD's own
-    approximate minimum degree) for 2D frames and 3D frames below NESTED_DISSECTION_MIN_NODES,
-    geometric nested dissection of the nodes above.
+    """The order in which the Gram matrix's unknowns (CᵀC if ``count_modes``, else CCᵀ) are
+    eliminated: geometric nested dissection of the nodes from NESTED_DISSECTION_MIN_NODES on,
+    None (CHOLMOD's own approximate minimum degree) below.
 
     Both Gram matrices follow the bar graph: (CᵀC)_ij ≠ 0 for the d × d blocks of joined
     nodes, (CCᵀ)_ef ≠ 0 for bars sharing a node. One dissection of the nodes orders both:
@@ -352,7 +358,8 @@ def _elimination_order(x: np.ndarray, edges: np.ndarray, count_modes: bool) -> n
     half never share a node with bars inside the other, so the halves stay separated).
     """
     n, d = x.shape
-    if d == 2 or n < NESTED_DISSECTION_MIN_NODES:
+    threshold = NESTED_DISSECTION_MIN_NODES[d, count_modes]
+    if threshold is None or n < threshold:
         return None
     node_order = nested_dissection(x, edges)
     if count_modes:
