@@ -687,7 +687,7 @@ def motion_at_scale() -> dict:
 
     def periodic():
         cell = PeriodicCell.from_frame(sheet.frame, tiling, [[2.0, 0.0], [0.0, 2.0]])
-        return tiled_motion(sheet.frame, tiling, cell, trace_periodic_motion(cell, amplitude=0.3, direction="forward"))
+        return tiled_motion(sheet.frame, tiling, cell, trace_periodic_motion(cell, tiling, amplitude=0.3, direction="forward"))
 
     def end_strain(p):
         moved = p.positions[p.singularities[-1].step] if p.singularities else p.positions[-1]

@@ -7,9 +7,12 @@ on the shared 2-core machine) and its accuracy measured from positions here:
   design      lattice.auxetic_sheet — module, tiling, rank analysis of the full sheet, usable
               strain range (strain_range.module_range) and the two finite states;
               accuracy: the mode's residual and the states' bar-length error;
-  motion      finite_motion.trace_motion on the full sheet, both ways, stopped at the ends of
-              the usable range; accuracy: bar-length error along the path and the drift of the
-              secant ν over the range (max |ν_secant − ν|, the two-node module's own curvature);
+  motion      periodic.trace_motion_through_cell (what /v1/motion runs for a lattice): above 400
+              degrees of freedom one cell traced and tiled, every configuration checked on the
+              full sheet (route "periodic"), else the sheet's own continuation; both ways,
+              stopped at the ends of the usable range; accuracy: bar-length error along the path
+              (recomputed here) and the drift of the secant ν over the range (max |ν_secant − ν|,
+              the two-node module's own curvature);
   certify     certificates.certify with the uniform margin and prestress (stiffness = false);
               accuracy: the uniform margin's value (the optimal-stiffness bracket is
               bench_certificates.py's);
@@ -35,13 +38,14 @@ import matplotlib
 import matplotlib.ticker
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from zeromode.solver.certificates import certify  # noqa: E402
-from zeromode.solver.finite_motion import bar_lengths, trace_motion  # noqa: E402
-from zeromode.solver.finite_strain import finite_strain_sheet  # noqa: E402
-from zeromode.solver.lattice import auxetic_chain_3d, auxetic_sheet, boundary_strains, path_strains  # noqa: E402
+from zeromode.solver.certificates import certify
+from zeromode.solver.finite_motion import bar_lengths
+from zeromode.solver.finite_strain import finite_strain_sheet
+from zeromode.solver.lattice import auxetic_chain_3d, auxetic_sheet, boundary_strains, path_strains
+from zeromode.solver.periodic import trace_motion_through_cell
 
 NU = -0.5
 
@@ -62,7 +66,7 @@ def motion_to_range(lat, max_step: float):
         ex, _ = boundary_strains(x0, x - x0, sets)
         return ex >= hi or ex <= lo
 
-    path = trace_motion(lat.frame, lat.mode, amplitude=5.0, max_step=max_step, stop=stop, max_steps=20000)
+    path = trace_motion_through_cell(lat.frame, lat.mode, amplitude=5.0, max_step=max_step, stop=stop, max_steps=20000)
     strains, nu = path_strains(x0, path.positions, lat.boundary)
     inside = (strains[:, 0] >= lo) & (strains[:, 0] <= hi) & (np.abs(strains[:, 0]) > 1e-6)
     lengths = bar_lengths(x0, lat.frame.edges)
@@ -80,22 +84,22 @@ def main() -> None:
     rows = []
     for n in sizes:
         t_design, lat = timed(lambda n=n: auxetic_sheet(n, n, poisson=NU))
-        t_motion, (path, nu_drift, motion_error) = timed(lambda: motion_to_range(lat, 0.02))
-        t_cert, cert = timed(lambda: certify(lat.frame, [lat.mode], stiffness=False, analysis=lat.analysis))
+        t_motion, (path, nu_drift, motion_error) = timed(lambda lat=lat: motion_to_range(lat, 0.02))
+        t_cert, cert = timed(lambda lat=lat: certify(lat.frame, [lat.mode], stiffness=False, analysis=lat.analysis))
         t_fs, held = timed(lambda n=n: finite_strain_sheet(n, n, NU, (-0.1, 0.1), 0.02))
         margin = cert.rigidity_margin
-        row = dict(
-            n=n, nodes=lat.frame.n_nodes, dof=2 * lat.frame.n_nodes,
-            range=(lat.strain_range.lower.strain, lat.strain_range.upper.strain),
-            t_design=t_design, t_motion=t_motion, t_cert=t_cert, t_fs=t_fs,
-            mode_residual=lat.mode_residual, state_error=lat.max_relative_bar_error,
-            motion_error=motion_error, steps=len(path.parameter) - 1, method=path.method, nu_drift=nu_drift,
-            uniform=getattr(margin, "uniform", float("nan")), fs_dev=held.max_deviation, fs_error=held.max_relative_bar_error,
-        )
+        row = {
+            "n": n, "nodes": lat.frame.n_nodes, "dof": 2 * lat.frame.n_nodes,
+            "range": (lat.strain_range.lower.strain, lat.strain_range.upper.strain),
+            "t_design": t_design, "t_motion": t_motion, "t_cert": t_cert, "t_fs": t_fs,
+            "mode_residual": lat.mode_residual, "state_error": lat.max_relative_bar_error,
+            "motion_error": motion_error, "steps": len(path.parameter) - 1, "method": path.method, "nu_drift": nu_drift,
+            "uniform": getattr(margin, "uniform", float("nan")), "fs_dev": held.max_deviation, "fs_error": held.max_relative_bar_error,
+        }
         rows.append(row)
         print(row, flush=True)
     t_chain, chain = timed(lambda: auxetic_chain_3d(64, poisson=NU))
-    t_chain_motion, (chain_path, chain_drift, chain_error) = timed(lambda: motion_to_range(chain, 0.01))
+    t_chain_motion, (_chain_path, _chain_drift, chain_error) = timed(lambda: motion_to_range(chain, 0.01))
     t_chain_cert, _ = timed(lambda: certify(chain.frame, [chain.mode], stiffness=False, analysis=chain.analysis))
     print("chain", t_chain, t_chain_motion, t_chain_cert, flush=True)
 
@@ -122,9 +126,9 @@ def main() -> None:
         "",
         "| nodes | usable range ε_x (reasons) | design + range s | motion to the range's ends s | certificate (uniform + prestress) s | bar error (motion) |",
         "|---|---|---|---|---|---|",
-        f"| {chain.frame.n_nodes} | [{chain.strain_range.lower.strain:+.4f}, {chain.strain_range.upper.strain:+.6f}] "
+        (f"| {chain.frame.n_nodes} | [{chain.strain_range.lower.strain:+.4f}, {chain.strain_range.upper.strain:+.6f}] "
         f"({chain.strain_range.lower.reason}, {chain.strain_range.upper.reason}) | {t_chain:.2f} | {t_chain_motion:.2f} | "
-        f"{t_chain_cert:.2f} | {chain_error:.1e} |",
+        f"{t_chain_cert:.2f} | {chain_error:.1e} |"),
         "",
         "The two-node module's secant ν drifts over its range (its curvature is fixed by the linear ratio); the",
         "finite-strain option chooses a trammel module instead, whose secant ν stays within the tolerance over the",

@@ -209,13 +209,17 @@ class BarConstraints:
     The continuation (``follow``) sees a constraint system only through this interface: the
     configuration x is an (n, d) array, ``rigid(x)`` the trivial motions, ``count`` and
     ``null_space`` the rank decisions. periodic.py subclasses it for one cell of a periodic
-    frame, whose rows are its nodes and its lattice vectors.
+    frame, whose rows are its nodes and its lattice vectors.  ``measured_nodes`` is the number
+    of nodes N whose RMS displacement the path parameter measures: a step of pseudo-arclength h
+    moves x by h·√N along the unit tangent (N = n here; the cell's rows stand for the nodes of
+    its whole patch).
     """
 
     def __init__(self, edges: np.ndarray, reference: np.ndarray, method: str):
         self.edges = edges
         self.lengths = bar_lengths(reference, edges)
         self.n, self.d = reference.shape
+        self.measured_nodes = self.n
         self.method = method
         self.sigma_max = self.largest_singular_value(self.jacobian(reference))
 
@@ -376,14 +380,17 @@ def _correct(cons, point: _Point, pred, start=None, tight=False):
     return None
 
 
-def _trace_one_way(cons, start: _Point, amplitude, max_step, max_steps, stop=None, share=(0.0, 1.0)):
+def _trace_one_way(
+    cons, start: _Point, amplitude, max_step, max_steps, stop=None, share=(0.0, 1.0), stop_bisections=0
+):
     """Continue from ``start`` to parameter ``amplitude``, or until ``stop(y)`` is true for a
-    new configuration y (normalised; it is kept as the last one).
+    new configuration y (normalised; it is kept as the last one, its step first shortened
+    towards where ``stop`` turns true by ``stop_bisections`` bisections: _shortened).
 
     Returns (configurations after the start, their parameters, singularity or None) with the
     singularity's ``step`` counted from the start (1 = first new point).  Progress is reported
     as τ/amplitude mapped onto the ``share`` (first, last) of the caller's work."""
-    sqrt_n = np.sqrt(cons.n)
+    sqrt_n = np.sqrt(cons.measured_nodes)
     point, tau, h = start, 0.0, min(max_step, amplitude)
     xs, taus = [], []
     for _ in range(max_steps):
@@ -421,13 +428,16 @@ def _trace_one_way(cons, start: _Point, amplitude, max_step, max_steps, stop=Non
             if w is None:
                 h *= 0.5
                 continue
+        if stop is not None and stop(y):
+            y, h = _shortened(cons, point, h, y, stop, stop_bisections)
+            xs.append(y)
+            taus.append(tau + h)
+            return xs, taus, None
         point = _Point(y, w, c_y)
         tau += h
         xs.append(y)
         taus.append(tau)
         report_progress(share[0] + (share[1] - share[0]) * tau / amplitude, "continuation")
-        if stop is not None and stop(y):
-            return xs, taus, None
         if iters <= EASY_ITERATIONS:
             h = min(1.5 * h, max_step)
     raise DomainError(
@@ -435,6 +445,24 @@ def _trace_one_way(cons, start: _Point, amplitude, max_step, max_steps, stop=Non
         f"the continuation used its {max_steps} steps and reached parameter {tau:.6g} of {amplitude:.6g}; "
         "raise max_steps or max_step.",
     )
+
+
+def _shortened(cons, point: _Point, h: float, y: np.ndarray, stop, bisections: int):
+    """The step of length h from ``point`` to y, where ``stop`` is true (and false at the
+    point), shortened by bisection on its length to the shortest one found at whose end
+    ``stop`` is still true: (that end, its length)."""
+    sqrt_n = np.sqrt(cons.measured_nodes)
+    lo, hi = 0.0, h
+    for _ in range(bisections):
+        mid = 0.5 * (lo + hi)
+        got = _correct(cons, point, point.x + mid * sqrt_n * point.t.reshape(point.x.shape))
+        if got is None:
+            break
+        if stop(got[0]):
+            hi, y = mid, got[0]
+        else:
+            lo = mid
+    return y, hi
 
 
 def _extra_zero_modes(cons, x: np.ndarray, zero_modes: int) -> tuple[int, float]:
@@ -512,7 +540,7 @@ def _locate(cons, point: _Point, h: float, y_end: np.ndarray, f_end, c_end):
     the corrector is ill-conditioned (two branches lie within O(|s − s*|) of each other), so
     the bracket may wobble by ~√ε; the point with the smallest vanishing singular value of C
     seen is the one confirmed and reported."""
-    sqrt_n = np.sqrt(cons.n)
+    sqrt_n = np.sqrt(cons.measured_nodes)
     along = point.t.reshape(point.x.shape)
     reference = cons.galerkin(point, point.x, point.c).logabsdet
 
@@ -547,7 +575,7 @@ def curve_chart(cons: BarConstraints, x: np.ndarray, direction: np.ndarray):
     predictor)."""
     _, f, _, _ = cons.count(x, RTOL)
     point = _Point(x, _tangent_frame(cons, x, cons.null_space(x, f), direction), cons.jacobian(x))
-    sqrt_n = np.sqrt(cons.n)
+    sqrt_n = np.sqrt(cons.measured_nodes)
 
     def at(s: float, start=None):
         got = _correct(cons, point, x + s * sqrt_n * point.t.reshape(x.shape), start=start, tight=True)
@@ -614,11 +642,14 @@ def start_direction(cons: BarConstraints, x: np.ndarray, mode):
     return t / np.linalg.norm(t), null
 
 
-def follow(cons: BarConstraints, x0, t0, null, amplitude, max_step, direction, max_steps, stop=None):
+def follow(
+    cons: BarConstraints, x0, t0, null, amplitude, max_step, direction, max_steps, stop=None, stop_bisections=0
+):
     """Continuation of the constraint system ``cons`` from x0 (normalised) along ±t0, with
     ``null`` an orthonormal basis of N(C(x0)): (configurations (normalised, ordered by
     parameter), parameters, index of x0, singular points (path indices)).  ``stop(y, sign)``,
-    if given, ends a direction at the first new configuration y where it is true."""
+    if given, ends a direction at the first new configuration y where it is true, its step
+    shortened by ``stop_bisections`` bisections towards where it turns true."""
     c0 = cons.jacobian(x0)
     branches = {}
     ways = [(s, n) for s, n in ((1.0, "forward"), (-1.0, "backward")) if direction in (n, "both")]
@@ -626,7 +657,7 @@ def follow(cons: BarConstraints, x0, t0, null, amplitude, max_step, direction, m
         start = _Point(x0, _tangent_frame(cons, x0, null, sign * t0), c0)
         until = None if stop is None else (lambda y, sign=sign: stop(y, sign))
         share = (k / len(ways), (k + 1) / len(ways))
-        branches[name] = _trace_one_way(cons, start, amplitude, max_step, max_steps, until, share)
+        branches[name] = _trace_one_way(cons, start, amplitude, max_step, max_steps, until, share, stop_bisections)
     back_x, back_tau, back_sing = branches.get("backward", ([], [], None))
     fwd_x, fwd_tau, fwd_sing = branches.get("forward", ([], [], None))
     ref = len(back_x)
@@ -645,6 +676,23 @@ def follow(cons: BarConstraints, x0, t0, null, amplitude, max_step, direction, m
     configs = back_x[::-1] + [x0] + fwd_x
     params = np.asarray([-p for p in back_tau[::-1]] + [0.0] + fwd_tau)
     return configs, params, ref, tuple(singularities)
+
+
+def check_trace_arguments(frame: Frame, amplitude: float, max_step: float, direction: str) -> None:
+    """trace_motion's refusals before any work: InvalidInput ``invalid_direction`` or
+    ``invalid_amplitude``, DomainError ``too_expensive`` above MAX_DOF degrees of freedom."""
+    if direction not in ("both", "forward", "backward"):
+        raise InvalidInput(
+            "invalid_direction", "direction must be 'both', 'forward' or 'backward'."
+        )
+    if not (np.isfinite(amplitude) and amplitude > 0 and np.isfinite(max_step) and max_step > 0):
+        raise InvalidInput("invalid_amplitude", "amplitude and max_step must be positive numbers.")
+    ndof = frame.dim * frame.n_nodes
+    if ndof > MAX_DOF:
+        raise DomainError(
+            "too_expensive",
+            f"finite motion is traced for frames of up to {MAX_DOF} degrees of freedom (d·N); this one has {ndof}.",
+        )
 
 
 def trace_motion(
@@ -671,18 +719,8 @@ def trace_motion(
     first where it is true, that configuration kept.
     Frames above MAX_DOF degrees of freedom are refused (``too_expensive``) before any work.
     """
-    if direction not in ("both", "forward", "backward"):
-        raise InvalidInput(
-            "invalid_direction", "direction must be 'both', 'forward' or 'backward'."
-        )
-    if not (np.isfinite(amplitude) and amplitude > 0 and np.isfinite(max_step) and max_step > 0):
-        raise InvalidInput("invalid_amplitude", "amplitude and max_step must be positive numbers.")
+    check_trace_arguments(frame, amplitude, max_step, direction)
     ndof = frame.dim * frame.n_nodes
-    if ndof > MAX_DOF:
-        raise DomainError(
-            "too_expensive",
-            f"finite motion is traced for frames of up to {MAX_DOF} degrees of freedom (d·N); this one has {ndof}.",
-        )
     if method == "auto":
         method = "dense" if ndof <= DENSE_MAX_DOF else "sparse"
     if method not in ("dense", "sparse"):
@@ -792,7 +830,7 @@ def _polish(path: MotionPath, k: int, distance):
     if w is None:
         return None
     point = _Point(xs[k], w, cons.jacobian(xs[k]))
-    sqrt_n = np.sqrt(cons.n)
+    sqrt_n = np.sqrt(cons.measured_nodes)
     # Pseudo-arclength offsets of the neighbours along t (the path parameter's own units).
     bounds = [float(point.t @ (xs[j] - xs[k]).ravel()) / sqrt_n for j in (lo, hi)]
     fallback = distance(path.positions[k])

@@ -12,7 +12,9 @@ p_i, +b_e at p_j and m_{e,a} b_e at L_a (the compatibility matrix of the periodi
 flexible lattice, Borcea & Streinu); its trivial motions are the translations of the nodes (L
 fixed) and the rotations of everything, ρ = d(d+1)/2.  The cell is followed by the
 continuation of finite_motion (the same predictor–corrector, determinant test and located,
-confirmed singular points) on a system of (n_c + k)·d unknowns, whatever the number of cells.
+confirmed singular points) on a system of (n_c + k)·d unknowns, whatever the number of cells,
+in coordinates where distances are the patch's (PeriodicConstraints): the path parameter,
+``amplitude`` and ``max_step`` mean what they mean for the patch's own continuation.
 
 A patch tiled from the cell (``tiling``: node ↦ (cell node i, cell c)) moves with the cell: every
 bar of the patch is a translate of a cell bar, so each tiled configuration keeps every bar
@@ -22,6 +24,10 @@ reference, the tiled cell tangent in N(C) of the patch at every configuration, a
 det [[C_kᵀC(X_{k+1}), W_k], [W_kᵀ, 0]] between consecutive configurations with W_k = the tiled
 tangent ⊕ rigid motions (finite_motion's singular-point test, on the whole patch: a non-periodic
 branch point between two configurations changes it).
+
+A frame given without its tiling (/v1/motion's lattices) is recognised by find_tiling (periods
+from its geometry and bars) and followed by trace_motion_through_cell: the cell's motion,
+checked as above, or — wherever the guess or a check fails — the frame's own continuation.
 """
 
 from __future__ import annotations
@@ -29,6 +35,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
 
 from zeromode.solver.bordered import BorderedFactor
 from zeromode.solver.errors import DomainError, InvalidInput
@@ -40,22 +50,44 @@ from zeromode.solver.finite_motion import (
     align_to,
     bar_lengths,
     bracket_sign_change,
+    check_trace_arguments,
     curve_chart,
     follow,
     located_sigma,
     relative_bar_error,
     signed_determinant,
     start_direction,
+    trace_motion,
 )
-from zeromode.solver.frame import Frame
-from zeromode.solver.normalisation import Normalisation
+from zeromode.solver.frame import Frame, check_positions
+from zeromode.solver.normalisation import Normalisation, rms_radius
+from zeromode.solver.progress import report_progress
 from zeromode.solver.rank import RTOL, complement_within, decide_rank, nullspace, orthonormal_range
 from zeromode.solver.rigidity import DENSE_MAX_DOF, rigid_motions
-from zeromode.solver.tolerances import DESIGN_MODE_RTOL
+from zeromode.solver.tolerances import DESIGN_MODE_RTOL, GIVEN_MODE_RTOL
 
 # A tiled configuration whose bars are off by more than this (relative) is not a translate of
-# the cell's: the frame is not the tiling it was said to be.
+# the cell's: the frame is not the tiling it was said to be.  Also the tolerance (relative to
+# the frame's size) within which find_tiling matches a translated node to a node.
 TILING_RTOL = 1e-9
+# find_tiling tries the vectors to this many nodes of the central node's degree as periods (a
+# 2D sheet has about 25 such nodes within two periods of any node).
+CANDIDATE_PERIODS = 32
+# ... ranked by how many of the LOCAL_NODES nodes nearest the central node they map onto nodes
+# (all of them for a period of a patch several periods wide, over half for a patch two periods
+# wide), then by length; below MIN_LOCAL_SHARE of them a candidate is no period worth a cell.
+LOCAL_NODES = 256
+MIN_LOCAL_SHARE = 0.5
+# Periods are independent when the smallest singular value of their rows is above this
+# fraction of the largest.
+INDEPENDENT_RTOL = 1e-6
+# The cell's continuation is cheap: where ``stop`` turns true, its last step is shortened by
+# this many bisections (to 2⁻³⁰ of a step), so the patch's path ends where the predicate does
+# (e.g. at the end of a strain range) rather than up to a step past it.
+STOP_BISECTIONS = 30
+# Codes by which the periodic route says the frame is not (verifiably) tiled: the frame's own
+# continuation answers instead.
+NOT_TILED = frozenset({"not_periodic", "invalid_tiling", "invalid_cell"})
 
 
 @dataclass(frozen=True, eq=False)
@@ -115,72 +147,113 @@ def _lexicographic_less(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 class PeriodicConstraints(BarConstraints):
-    """The cell's bar constraints on y = [p; L] ((n_c + k) × d, normalised), dense."""
+    """The cell's bar constraints in the patch's metric, dense.
 
-    def __init__(self, cell: PeriodicCell, reference: np.ndarray):
+    With T (N × m, m = n_c + k) the tiling matrix of the patch (row n: 1 at its cell node i(n),
+    c_n at the lattice columns), the patch is X = T y for the cell's y = [p; L] (m × d).  With
+    T = QR (thin QR; R regular when every cell node occurs and the cells span k directions),
+
+        z = R (y − [X̄; 0]) / r,        X̄ the patch's centroid, r its RMS radius,
+
+    ‖δz‖_F = ‖T δy‖_F / r: distances in z are the patch's normalised distances.  Continuation in z
+    is therefore the patch's own continuation restricted to periodic motions: the same
+    pseudo-arclength (``measured_nodes`` = N) and the same gauge (the tiled translations and
+    rotations are the patch's).  Bars: b_e = B z with B = D R⁻¹ (D: −1 at i_e, +1 at j_e, m_e at the
+    lattice columns), so row e of the Jacobian holds B_e ⊗ b_e."""
+
+    def __init__(self, cell: PeriodicCell, tiling: np.ndarray):
         self.cell = cell
-        self.n_cell = len(cell.positions)
+        self.n_cell, k = len(cell.positions), len(cell.lattice)
+        tiling = np.asarray(tiling, dtype=int)
+        m = self.n_cell + k
+        t = np.zeros((len(tiling), m))
+        t[np.arange(len(tiling)), tiling[:, 0]] = 1.0
+        t[:, self.n_cell :] = tiling[:, 1:]
+        self.r_factor = np.linalg.qr(t, mode="r")
+        diag = np.abs(np.diag(self.r_factor))
+        if not diag.min() > RTOL * diag.max():
+            raise DomainError("not_periodic", "the tiling does not determine the cell (its tiling matrix is singular).")
+        y = np.vstack([cell.positions, cell.lattice])
+        patch = t @ y
+        self.shift = np.zeros_like(y)
+        self.shift[: self.n_cell] = patch.mean(axis=0)
+        self.scale = rms_radius(patch) or 1.0
+        d_matrix = np.zeros((len(cell.edges), m))
+        rows = np.arange(len(cell.edges))
+        np.add.at(d_matrix, (rows, cell.edges[:, 0]), -1.0)
+        np.add.at(d_matrix, (rows, cell.edges[:, 1]), 1.0)
+        d_matrix[:, self.n_cell :] += cell.offsets
+        self.bar_map = sla.solve_triangular(self.r_factor, d_matrix.T, trans="T").T  # D R⁻¹
+        self.reference = self.z_of(cell.positions, cell.lattice)
         self.edges = cell.edges
-        self.lengths = np.linalg.norm(self._bars(reference), axis=1)
+        self.lengths = np.linalg.norm(self.bar_map @ self.reference, axis=1)
         if not np.all(self.lengths > 0):
             raise InvalidInput("invalid_cell", "a cell bar has zero length.")
-        self.n, self.d = reference.shape
+        self.n, self.d = self.reference.shape
+        self.measured_nodes = len(tiling)
         self.method = "dense"
-        self.sigma_max = self.largest_singular_value(self.jacobian(reference))
+        self.sigma_max = self.largest_singular_value(self.jacobian(self.reference))
 
-    def _bars(self, y: np.ndarray) -> np.ndarray:
-        p, lat = y[: self.n_cell], y[self.n_cell :]
-        return p[self.edges[:, 1]] + self.cell.offsets @ lat - p[self.edges[:, 0]]
+    def z_of(self, positions: np.ndarray, lattice: np.ndarray) -> np.ndarray:
+        """z (m, d) of the cell configuration (positions (n_c, d), lattice (k, d))."""
+        return self.r_factor @ (np.vstack([positions, lattice]) - self.shift) / self.scale
 
-    def residual(self, y: np.ndarray) -> np.ndarray:
-        b = self._bars(y)
+    def cell_of(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(positions (n_c, d), lattice (k, d)) of z."""
+        y = sla.solve_triangular(self.r_factor, z * self.scale) + self.shift
+        return y[: self.n_cell], y[self.n_cell :]
+
+    def rates_of(self, dz: np.ndarray) -> np.ndarray:
+        """Cell rates δy = R⁻¹ δz (m × d) of a motion δz, up to the scale r."""
+        return sla.solve_triangular(self.r_factor, dz)
+
+    def residual(self, z: np.ndarray) -> np.ndarray:
+        b = self.bar_map @ z
         return 0.5 * (np.sum(b * b, axis=1) - self.lengths**2)
 
-    def error(self, y: np.ndarray) -> float:
-        return float(np.max(np.abs(np.linalg.norm(self._bars(y), axis=1) - self.lengths) / self.lengths))
+    def error(self, z: np.ndarray) -> float:
+        return float(np.max(np.abs(np.linalg.norm(self.bar_map @ z, axis=1) - self.lengths) / self.lengths))
 
-    def jacobian(self, y: np.ndarray) -> np.ndarray:
-        b = self._bars(y)
-        m = len(b)
-        jac = np.zeros((m, self.n, self.d))
-        rows = np.arange(m)
-        np.add.at(jac, (rows, self.edges[:, 0]), -b)
-        np.add.at(jac, (rows, self.edges[:, 1]), b)
-        jac[:, self.n_cell :, :] += self.cell.offsets[:, :, None] * b[:, None, :]
-        return jac.reshape(m, -1)
+    def jacobian(self, z: np.ndarray) -> np.ndarray:
+        b = self.bar_map @ z
+        return (self.bar_map[:, :, None] * b[:, None, :]).reshape(len(b), -1)
 
-    def rigid(self, y: np.ndarray) -> np.ndarray:
-        """Translations of the nodes (lattice fixed) and rotations of nodes and lattice."""
+    def rigid(self, z: np.ndarray) -> np.ndarray:
+        """The patch's translations (nodes moved, lattice fixed) and rotations (of everything)."""
+        translation = self.r_factor[:, : self.n_cell].sum(axis=1)
         generators = []
         for a in range(self.d):
             t = np.zeros((self.n, self.d))
-            t[: self.n_cell, a] = 1.0
+            t[:, a] = translation
             generators.append(t.ravel())
         for a in range(self.d):
             for b in range(a + 1, self.d):
                 r = np.zeros((self.n, self.d))
-                r[:, a], r[:, b] = -y[:, b], y[:, a]
+                r[:, a], r[:, b] = -z[:, b], z[:, a]
                 generators.append(r.ravel())
         return orthonormal_range(np.column_stack(generators), RTOL)
 
-    def count(self, y: np.ndarray, rtol: float) -> tuple[int, int, float, float]:
-        jac = self.jacobian(y)
-        s = np.linalg.svd(jac, compute_uv=False)
+    def count(self, z: np.ndarray, rtol: float) -> tuple[int, int, float, float]:
+        s = np.linalg.svd(self.jacobian(z), compute_uv=False)
         rank, gap = decide_rank(s, rtol)
         zero = self.n * self.d - rank
         scale = float(s[0]) if s.size and s[0] > 0 else 1.0
-        return zero, zero - self.rigid(y).shape[1], gap.last_nonzero / scale, gap.first_zero / scale
+        return zero, zero - self.rigid(z).shape[1], gap.last_nonzero / scale, gap.first_zero / scale
 
-    def null_space(self, y: np.ndarray, nontrivial: int) -> np.ndarray:
-        return nullspace(self.jacobian(y), RTOL)[0]
+    def null_space(self, z: np.ndarray, nontrivial: int) -> np.ndarray:
+        return nullspace(self.jacobian(z), RTOL)[0]
+
+    def modes(self, z: np.ndarray) -> np.ndarray:
+        """Orthonormal nontrivial zero modes (m·d × f) at z."""
+        return complement_within(self.null_space(z, 0), self.rigid(z))
 
 
 @dataclass(frozen=True, eq=False)
 class PeriodicPath:
-    """The cell's finite motion: positions (P, n_c, d) and lattice (P, k, d) in the cell's
-    coordinates, ``parameter`` (P,) the pseudo-arclength of the cell's rows (nodes and lattice
-    vectors) in units of their RMS displacement over the cell's RMS radius, 0 at index
-    ``reference_index``; singular points of the cell's configuration space as in MotionPath."""
+    """The cell's finite motion: positions (P, n_c, d) and lattice (P, k, d) in the frame's
+    coordinates, ``parameter`` (P,) the pseudo-arclength of the tiled patch (trace_motion's
+    units: RMS node displacement over the patch's RMS radius), 0 at index ``reference_index``;
+    singular points of the cell's configuration space as in MotionPath."""
 
     positions: np.ndarray
     lattice: np.ndarray
@@ -192,42 +265,39 @@ class PeriodicPath:
 
 def trace_periodic_motion(
     cell: PeriodicCell,
+    tiling,
     mode=None,
     amplitude: float = 0.2,
     max_step: float = 0.02,
     direction: str = "both",
     max_steps: int = 5000,
+    stop=None,
 ) -> PeriodicPath:
-    """Follow the periodic finite motion of ``cell`` (see the module docstring).
+    """Follow the periodic finite motion of ``cell`` tiled by ``tiling`` (see the module
+    docstring and PeriodicConstraints: the parameter is the patch's).
 
     mode: ((n_c + k), d) rates of the nodes and lattice vectors, or None (the cell's single
-    nontrivial mode, largest entry positive). Other arguments as finite_motion.trace_motion.
+    nontrivial mode, largest entry positive). stop(patch positions (N, d), sign): as
+    finite_motion.trace_motion's, on the tiled patch, the last step shortened towards where it
+    turns true (STOP_BISECTIONS). Other arguments as trace_motion.
     """
-    n_c = len(cell.positions)
-    norm = Normalisation.of(cell.positions)
-    y0 = np.vstack([norm.positions_in(cell.positions), cell.lattice / norm.length])
-    cons = PeriodicConstraints(cell, y0)
-    t0, null = start_direction(cons, y0, None if mode is None else np.asarray(mode, float))
+    tiling = np.asarray(tiling, dtype=int)
+    cons = PeriodicConstraints(cell, tiling)
+    z0 = cons.reference
+    t0, null = start_direction(cons, z0, None if mode is None else cons.r_factor @ np.asarray(mode, float))
+    until = None if stop is None else (lambda z, sign: stop(cell.tile(*cons.cell_of(z), tiling), sign))
     configs, params, ref, singularities = follow(
-        cons, y0, t0, null, amplitude, max_step, direction, max_steps
+        cons, z0, t0, null, amplitude, max_step, direction, max_steps, until, STOP_BISECTIONS
     )
-    ys = np.stack(configs)
+    cells = [cons.cell_of(z) for z in configs]
     return PeriodicPath(
-        positions=norm.positions_out(ys[:, :n_c]),
-        lattice=ys[:, n_c:] * norm.length,
+        positions=np.stack([p for p, _ in cells]),
+        lattice=np.stack([lat for _, lat in cells]),
         parameter=params,
         reference_index=ref,
         singularities=singularities,
-        max_relative_bar_error=max(cons.error(y) for y in ys),
+        max_relative_bar_error=max(cons.error(z) for z in configs),
     )
-
-
-def cell_modes(cell: PeriodicCell, positions: np.ndarray, lattice: np.ndarray) -> np.ndarray:
-    """Orthonormal nontrivial zero modes ((n_c + k)·d × f) of the cell at a configuration."""
-    norm = Normalisation.of(positions)
-    y = np.vstack([norm.positions_in(positions), lattice / norm.length])
-    cons = PeriodicConstraints(PeriodicCell(positions, lattice, cell.edges, cell.offsets), y)
-    return complement_within(cons.null_space(y, 0), cons.rigid(y))
 
 
 def tiled_motion(frame: Frame, tiling, cell: PeriodicCell, path: PeriodicPath) -> MotionPath:
@@ -252,7 +322,7 @@ def tiled_motion(frame: Frame, tiling, cell: PeriodicCell, path: PeriodicPath) -
     check = _PatchCheck(frame, tiling, cell)
     ref = path.reference_index
     cell_singular = {s.step: s for s in path.singularities}
-    sides = {}
+    sides, done = {}, 0
     for sign in (-1, 1):
         out, end = [], None  # out: (parameter, configuration) moving away from the reference
         previous = check.frame_at(path, ref, configs[ref])
@@ -276,6 +346,8 @@ def tiled_motion(frame: Frame, tiling, cell: PeriodicCell, path: PeriodicPath) -
                     break
             out.append((path.parameter[k], configs[k]))
             previous = current
+            done += 1
+            report_progress(done / len(configs), "checking the tiled motion on the frame")
         sides[sign] = (out, end)
     (back, back_end), (fwd, fwd_end) = sides[-1], sides[1]
     entries = back[::-1] + [(path.parameter[ref], frame.positions)] + fwd
@@ -314,23 +386,19 @@ class _PatchCheck:
                 "motion only when it has one.",
             )
         self.zero_modes = zero
-        self.cell_norm = Normalisation.of(cell.positions)
-        self.cell_cons = PeriodicConstraints(cell, self.cell_y(cell.positions, cell.lattice))
-
-    def cell_y(self, positions, lattice) -> np.ndarray:
-        return np.vstack([self.cell_norm.positions_in(positions), lattice / self.cell_norm.length])
+        self.cell_cons = PeriodicConstraints(cell, tiling)
 
     def frame_at(self, path: PeriodicPath, k: int, x: np.ndarray):
         """(C(x), W) of the patch at its k-th configuration x: W = [tiled cell tangent, rigid
         motions] orthonormal, after checking that the tiled tangent is a zero mode there."""
-        p, lat = path.positions[k], path.lattice[k]
-        modes = cell_modes(self.cell, p, lat)
+        modes = self.cell_cons.modes(self.cell_cons.z_of(path.positions[k], path.lattice[k]))
         if modes.shape[1] != 1:
             raise DomainError(
                 "not_periodic", f"the cell has {modes.shape[1]} nontrivial zero modes on the path, not 1."
             )
-        rates = modes[:, 0].reshape(-1, p.shape[1])
-        u = self.cell.tile(rates[: len(p)], rates[len(p) :], self.tiling).ravel()
+        rates = self.cell_cons.rates_of(modes[:, 0].reshape(-1, self.frame.dim))
+        n_c = len(self.cell.positions)
+        u = self.cell.tile(rates[:n_c], rates[n_c:], self.tiling).ravel()
         xn = self.norm.positions_in(x)
         c = self.patch.jacobian(xn)
         residual = np.linalg.norm(c @ u) / (_frobenius(c) * np.linalg.norm(u))
@@ -358,26 +426,24 @@ class _PatchCheck:
         c_k, w_k = start
         sign = _regular_sign(w_k)
         reference = BorderedFactor(c_k.T @ c_k, w_k).logabsdet
-        y0 = self.cell_y(path.positions[k0], path.lattice[k0])
-        y1 = self.cell_y(path.positions[k1], path.lattice[k1])
-        chart = curve_chart(self.cell_cons, y0, (y1 - y0).ravel())
+        cons = self.cell_cons
+        z0 = cons.z_of(path.positions[k0], path.lattice[k0])
+        z1 = cons.z_of(path.positions[k1], path.lattice[k1])
+        chart = curve_chart(cons, z0, (z1 - z0).ravel())
         h = abs(float(path.parameter[k1] - path.parameter[k0]))
-        n_c = len(self.cell.positions)
 
         def evaluate(s, lo, state_lo):
-            y = chart(s, None if state_lo is None else state_lo[0])
-            if y is None:
+            z = chart(s, None if state_lo is None else state_lo[0])
+            if z is None:
                 return None
-            x = self.cell.tile(
-                self.cell_norm.positions_out(y[:n_c]), y[n_c:] * self.cell_norm.length, self.tiling
-            )
+            x = self.cell.tile(*cons.cell_of(z), self.tiling)
             xn = self.norm.positions_in(x)
             c = self.patch.jacobian(xn)
             try:
                 factor = BorderedFactor(c_k.T @ c, w_k)
             except np.linalg.LinAlgError:  # exactly on it
-                return None, (y, x, xn, c, None)
-            return signed_determinant(factor, sign, reference), (y, x, xn, c, factor)
+                return None, (z, x, xn, c, None)
+            return signed_determinant(factor, sign, reference), (z, x, xn, c, factor)
 
         def measure(state) -> float:
             _, _, xn, c, factor = state
@@ -404,3 +470,140 @@ def _regular_sign(w: np.ndarray) -> int:
 
 def _frobenius(c) -> float:
     return float(np.sqrt(c.multiply(c).sum())) if hasattr(c, "multiply") else float(np.linalg.norm(c))
+
+
+# ----------------------------------------------------------------------------------------------
+# Recognising a tiled frame, and the motion of a frame through its cell
+
+
+def find_tiling(frame: Frame) -> tuple[np.ndarray, np.ndarray] | None:
+    """A guess at how ``frame`` is tiled by translations: (tiling (N, 1 + k), lattice (k, d)) for
+    PeriodicCell.from_frame, or None.
+
+    Candidate periods are the vectors t from the node nearest the centroid to the
+    CANDIDATE_PERIODS nearest nodes of its degree, ranked by how many of its LOCAL_NODES nearest
+    nodes have a translate x + t among the nodes (within TILING_RTOL of the frame's size; at
+    least MIN_LOCAL_SHARE of them), then by length.  In that order, a candidate independent of
+    the periods taken is a period when every bar whose two ends have translates maps onto a bar
+    (checked on the whole frame), up to d periods.  The nodes then fall into
+    orbits (connected by the periods): each orbit is one node of the cell, and c_n, the integer
+    coordinates of x_n − x_root in the lattice, places node n.  Only a guess: from_frame checks
+    the positions, tiled_motion the motion on the whole frame."""
+    x, n = frame.positions, frame.n_nodes
+    if n < 2 or len(frame.edges) == 0:
+        return None
+    tol = TILING_RTOL * float(np.max(np.abs(x)))
+    tree = cKDTree(x)
+    edges = np.sort(frame.edges, axis=1)
+    keys = np.unique(edges[:, 0] * n + edges[:, 1])
+    degree = np.bincount(frame.edges.ravel(), minlength=n)
+    anchor = int(np.argmin(np.sum((x - x.mean(axis=0)) ** 2, axis=1)))
+    same = np.flatnonzero((degree == degree[anchor]) & (np.arange(n) != anchor))
+    if same.size == 0:
+        return None
+    near = same[cKDTree(x[same]).query(x[anchor], k=min(CANDIDATE_PERIODS, same.size))[1]]
+    local = tree.query(x[anchor], k=min(LOCAL_NODES, n))[1]
+    candidates = []  # (−share of the anchor's neighbourhood mapped, length, t)
+    for j in np.atleast_1d(near):
+        t = x[j] - x[anchor]
+        hits = np.count_nonzero(np.isfinite(tree.query(x[local] + t, distance_upper_bound=tol)[0]))
+        if hits >= MIN_LOCAL_SHARE * len(local):
+            candidates.append((-hits, float(np.linalg.norm(t)), t))
+    candidates.sort(key=lambda c: c[:2])
+    lattice, images = [], []
+    for _, _, t in candidates:
+        if lattice and not _independent(np.array(lattice + [t])):
+            continue
+        dist, image = tree.query(x + t, distance_upper_bound=tol)
+        image = np.where(np.isfinite(dist), image, -1)
+        both = (image[edges[:, 0]] >= 0) & (image[edges[:, 1]] >= 0)
+        mapped = np.sort(image[edges[both]], axis=1)
+        if np.isin(mapped[:, 0] * n + mapped[:, 1], keys).all():
+            lattice.append(t)
+            images.append(image)
+        if len(lattice) == frame.dim:
+            break
+    if not lattice:
+        return None
+    lattice = np.array(lattice)
+    source = np.concatenate([np.flatnonzero(image >= 0) for image in images])
+    target = np.concatenate([image[image >= 0] for image in images])
+    graph = sp.coo_matrix((np.ones(source.size), (source, target)), shape=(n, n))
+    n_cell, orbit = connected_components(graph, directed=False)
+    root = np.full(n_cell, n)
+    np.minimum.at(root, orbit, np.arange(n))
+    cells = np.linalg.lstsq(lattice.T, (x - x[root[orbit]]).T, rcond=None)[0].T
+    return np.column_stack([orbit, np.rint(cells).astype(int)]), lattice
+
+
+def _independent(rows: np.ndarray) -> bool:
+    """Whether the rows are linearly independent (smallest singular value above
+    INDEPENDENT_RTOL of the largest)."""
+    s = np.linalg.svd(rows, compute_uv=False)
+    return bool(s[-1] > INDEPENDENT_RTOL * s[0])
+
+
+def trace_motion_through_cell(
+    frame: Frame,
+    mode=None,
+    amplitude: float = 0.2,
+    max_step: float = 0.02,
+    direction: str = "both",
+    max_steps: int = 5000,
+    stop=None,
+) -> MotionPath:
+    """finite_motion.trace_motion (same arguments, same MotionPath), through one cell when
+    ``frame`` is tiled: find_tiling's guess, the cell's motion traced (trace_periodic_motion,
+    the patch's parameter) and checked on the whole frame (tiled_motion: every bar at every
+    configuration within TILING_RTOL, the tiled tangent in N(C), the determinant test), method
+    "periodic".  Wherever the frame is not recognised, or a check fails, the frame's own
+    continuation answers instead.
+
+    A given ``mode`` must lie in span(rigid motions, tiled cell tangent) to within
+    GIVEN_MODE_RTOL (then it is a zero mode, and its sign picks the direction); any other mode
+    goes to trace_motion, which decides it."""
+    check_trace_arguments(frame, amplitude, max_step, direction)
+    full = {
+        "mode": mode, "amplitude": amplitude, "max_step": max_step,
+        "direction": direction, "max_steps": max_steps, "stop": stop,
+    }
+    guess = None if frame.dim * frame.n_nodes <= DENSE_MAX_DOF else find_tiling(frame)
+    if guess is None:
+        return trace_motion(frame, **full)
+    tiling, lattice = guess
+    try:
+        cell = PeriodicCell.from_frame(frame, tiling, lattice)
+        cell_mode = None if mode is None else _cell_mode(frame, tiling, cell, mode)
+        path = trace_periodic_motion(
+            cell, tiling, cell_mode, amplitude, max_step, direction, max_steps, stop
+        )
+        return tiled_motion(frame, tiling, cell, path)
+    except (DomainError, InvalidInput) as exc:
+        if exc.code not in NOT_TILED:
+            raise
+    return trace_motion(frame, **full)
+
+
+def _cell_mode(frame: Frame, tiling: np.ndarray, cell: PeriodicCell, mode) -> np.ndarray:
+    """The cell's rates ((n_c + k), d) of its nontrivial mode, signed like the frame's ``mode``
+    (N, d); DomainError ``not_periodic`` when ``mode`` is not in span(rigid motions, tiled
+    mode) to within GIVEN_MODE_RTOL, or has no part along the tiled mode."""
+    cons = PeriodicConstraints(cell, tiling)
+    modes = cons.modes(cons.reference)
+    if modes.shape[1] != 1:
+        raise DomainError("not_periodic", f"the cell has {modes.shape[1]} nontrivial zero modes, not 1.")
+    rates = cons.rates_of(modes[:, 0].reshape(-1, frame.dim))
+    n_c = len(cell.positions)
+    u = cell.tile(rates[:n_c], rates[n_c:], tiling).ravel()
+    m = check_positions(mode, frame.dim, name="mode")
+    if m.shape != frame.positions.shape:
+        raise DomainError("not_periodic", "the given mode has not one row per node.")
+    m = m.ravel()
+    rigid = rigid_motions(Normalisation.of(frame.positions).positions_in(frame.positions), RTOL)
+    span = np.linalg.qr(np.column_stack([u, rigid]))[0]
+    norm = np.linalg.norm(m)
+    along = float(u @ (m - rigid @ (rigid.T @ m))) / np.linalg.norm(u)
+    leak = np.linalg.norm(m - span @ (span.T @ m))
+    if not (leak <= GIVEN_MODE_RTOL * norm and abs(along) > GIVEN_MODE_RTOL * norm):
+        raise DomainError("not_periodic", "the given mode is not the tiled cell's mode.")
+    return rates * np.sign(along)

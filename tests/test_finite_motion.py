@@ -320,7 +320,7 @@ def test_periodic_cell_motion_tiled_on_a_sheet_matches_the_sheet_continuation():
     frame, tiling = lattice.frame, sheet_tiling(4, 4)
     cell = PeriodicCell.from_frame(frame, tiling, [[2.0, 0.0], [0.0, 2.0]])
     assert (len(cell.positions), len(cell.edges)) == (3, 8)
-    path = tiled_motion(frame, tiling, cell, trace_periodic_motion(cell, amplitude=0.4))
+    path = tiled_motion(frame, tiling, cell, trace_periodic_motion(cell, tiling, amplitude=0.4))
     assert path.method == "periodic"
     assert relative_bar_error(path.positions, frame.edges, frame.positions) <= 1e-9
     # The sheet's motion ends where nodes of neighbouring modules collide: a singular point of

@@ -18,9 +18,10 @@ from zeromode.service.schemas.motion import (
     RefineRequest,
     RefineResponse,
 )
-from zeromode.solver.frame import check_extent
 from zeromode.solver.finite_motion import SingularPath, trace_motion
+from zeromode.solver.frame import check_extent
 from zeromode.solver.lattice import path_strains
+from zeromode.solver.periodic import trace_motion_through_cell
 from zeromode.solver.refine import RefinementFailed, refine
 
 router = APIRouter(prefix="/v1", tags=["finite motion"])
@@ -47,14 +48,17 @@ def post_motion(request: MotionRequest):
     422 `singular_path` with the path up to them. Sparse linear algebra above 400 degrees of
     freedom; frames beyond the continuation's limit (finite_motion.MAX_DOF) answer 422
     `too_expensive` before any work. With a lattice's `boundary`, every configuration's strain
-    and secant Poisson ratio are reported.
+    and secant Poisson ratio are reported, and a frame tiled by translations (recognised from its
+    geometry) is followed through one cell and checked on the whole frame (method `periodic`: bar
+    lengths at every configuration, the tiled tangent a zero mode, singular points of the frame
+    located); where that check fails, the frame's own continuation answers.
     """
     t0 = time.perf_counter()
     frame = frame_from_model(request.frame)
     check_extent(frame.positions)
-    path = trace_motion(
-        frame, **request.model_dump(include={"mode", "amplitude", "max_step", "direction", "max_steps"})
-    )
+    # A lattice (its boundary given) is followed through one cell when it is tiled, checked on the frame.
+    trace = trace_motion if request.boundary is None else trace_motion_through_cell
+    path = trace(frame, **request.model_dump(include={"mode", "amplitude", "max_step", "direction", "max_steps"}))
     strains = None if request.boundary is None else path_strains(frame.positions, path.positions, request.boundary)
     body = motion_body(path, {"total": 1e3 * (time.perf_counter() - t0)}, strains)
     if path.singularities and request.on_singularity == "error":
