@@ -120,6 +120,9 @@ MEASURED_WIDTH = 1e-5
 # Inverse iterations for the smallest singular value of C(Y) on W^⊥ (evidence, not a decision:
 # the count at a located point is always taken by rigidity.analyze).
 INVERSE_ITERATIONS = 3
+# Share of a motion's progress for the zero modes at the reference (an analysis and a null
+# space: about a step's cost); the continuation reports the rest.
+REFERENCE_SHARE = 0.05
 # Relative accuracy of σ_max(C), the scale of the reported singular values, and of the
 # vanishing singular value measured while locating a singular point (evidence, not decisions:
 # a node collision makes dozens of singular values vanish together, and resolving that
@@ -389,10 +392,19 @@ def _trace_one_way(
 
     Returns (configurations after the start, their parameters, singularity or None) with the
     singularity's ``step`` counted from the start (1 = first new point).  Progress is reported
-    as τ/amplitude mapped onto the ``share`` (first, last) of the caller's work."""
+    as τ/amplitude after every step, and while a singular point is located as the share of its
+    bisection steps taken towards the end of the direction, mapped onto the ``share`` (first,
+    last) of the caller's work, never decreasing."""
     sqrt_n = np.sqrt(cons.measured_nodes)
     point, tau, h = start, 0.0, min(max_step, amplitude)
     xs, taus = [], []
+    done = 0.0
+
+    def progress(fraction: float, message: str) -> None:
+        nonlocal done
+        done = max(done, fraction)
+        report_progress(share[0] + (share[1] - share[0]) * done, message)
+
     for _ in range(max_steps):
         check_budget()
         if tau >= amplitude * (1 - 1e-12):
@@ -419,7 +431,10 @@ def _trace_one_way(
             or _soft_on_complement(cons, f_y, c_y) <= RTOL  # landed on the singular point itself
         )
         if crossed:
-            found = _locate(cons, point, h, y, f_y, c_y)
+            f0 = tau / amplitude
+            found = _locate(
+                cons, point, h, y, f_y, c_y, lambda q, f0=f0: progress(f0 + (1 - f0) * q, "locating a singular point")
+            )
             if found is not None:
                 y_star, s_star, extra, sigma = found
                 xs.append(y_star)
@@ -437,7 +452,7 @@ def _trace_one_way(
         tau += h
         xs.append(y)
         taus.append(tau)
-        report_progress(share[0] + (share[1] - share[0]) * tau / amplitude, "continuation")
+        progress(tau / amplitude, "continuation")
         if iters <= EASY_ITERATIONS:
             h = min(1.5 * h, max_step)
     raise DomainError(
@@ -479,7 +494,7 @@ def signed_determinant(factor: BorderedFactor, sign: int, reference: float) -> f
     return factor.sign * sign * float(np.exp(min(factor.logabsdet - reference, 700.0)))
 
 
-def bracket_sign_change(evaluate, measure, h: float, d_end: float, state_end):
+def bracket_sign_change(evaluate, measure, h: float, d_end: float, state_end, report=None):
     """The point of smallest vanishing σ seen while bracketing the sign change of a continuous
     d(s) on (0, h], d(0) = 1 > 0 > d(h) = ``d_end``: the Illinois variant of regula falsi,
     with a bisection step whenever two steps did not halve the bracket (a node collision makes
@@ -490,12 +505,13 @@ def bracket_sign_change(evaluate, measure, h: float, d_end: float, state_end):
     (None at s = 0), for warm starts on the caller's own branch. measure(state) → σ, called
     only once the bracket is within MEASURED_WIDTH of h (σ costs an eigen-solve on a large
     frame, the sign a factorisation). Stops once σ ≤ LOCATED_RTOL or the bracket is at
-    round-off. Returns (σ, s, state)."""
+    round-off. Returns (σ, s, state). ``report(q)``, if given, is called after every step with q
+    the share of BISECTION_STEPS taken (a step costs a corrector solve: progress for a caller)."""
     lo, hi, state_lo, state_hi, d_lo, d_hi = 0.0, h, None, state_end, 1.0, d_end
     stale = None  # the end kept twice in a row (Illinois: halve its value)
     widths = [h, h]  # the bracket two steps ago must have been at least twice as wide
     best = None
-    for _ in range(BISECTION_STEPS if d_hi < 0 else 0):
+    for step in range(BISECTION_STEPS if d_hi < 0 else 0):
         if hi - lo <= 1e-15 * max(h, 1.0) or best is not None and best[0] <= LOCATED_RTOL:
             break
         check_budget()
@@ -504,6 +520,8 @@ def bracket_sign_change(evaluate, measure, h: float, d_end: float, state_end):
             mid = 0.5 * (lo + hi)
         widths = [widths[1], hi - lo]
         got = evaluate(mid, lo, state_lo)
+        if report is not None:
+            report((step + 1) / BISECTION_STEPS)
         if got is None:
             break
         d, state = got
@@ -531,9 +549,10 @@ def located_sigma(cons: BarConstraints, x: np.ndarray, c, factor, zero_modes: in
     return cons.vanishing_sigma(x, c, zero_modes) if soft <= SINGULAR_RTOL else soft
 
 
-def _locate(cons, point: _Point, h: float, y_end: np.ndarray, f_end, c_end):
+def _locate(cons, point: _Point, h: float, y_end: np.ndarray, f_end, c_end, report=None):
     """Locate the root s* ∈ (0, h] of det M_k(Y(s)) along the step and confirm a rank drop of C
-    there.  Returns (Y*, s*, extra zero modes, σ/σ_max) or None.
+    there.  Returns (Y*, s*, extra zero modes, σ/σ_max) or None.  ``report``: as
+    bracket_sign_change's.
 
     det M_k(Y(s)) is smooth in s with a simple root at a simple singular point, so regula falsi
     brackets it in a handful of corrector solves (bracket_sign_change). Next to a branch point
@@ -561,7 +580,7 @@ def _locate(cons, point: _Point, h: float, y_end: np.ndarray, f_end, c_end):
         s_star, y_star = h, y_end
     else:
         d_end = signed_determinant(f_end, point.regular_sign, reference)
-        _, s_star, (y_star, _, _) = bracket_sign_change(evaluate, measure, h, d_end, (y_end, f_end, c_end))
+        _, s_star, (y_star, _, _) = bracket_sign_change(evaluate, measure, h, d_end, (y_end, f_end, c_end), report)
     extra, sigma_star = _extra_zero_modes(cons, y_star, point.zero_modes)
     if extra <= 0:
         return None
@@ -643,21 +662,33 @@ def start_direction(cons: BarConstraints, x: np.ndarray, mode):
 
 
 def follow(
-    cons: BarConstraints, x0, t0, null, amplitude, max_step, direction, max_steps, stop=None, stop_bisections=0
+    cons: BarConstraints,
+    x0,
+    t0,
+    null,
+    amplitude,
+    max_step,
+    direction,
+    max_steps,
+    stop=None,
+    stop_bisections=0,
+    share=(0.0, 1.0),
 ):
     """Continuation of the constraint system ``cons`` from x0 (normalised) along ±t0, with
     ``null`` an orthonormal basis of N(C(x0)): (configurations (normalised, ordered by
     parameter), parameters, index of x0, singular points (path indices)).  ``stop(y, sign)``,
     if given, ends a direction at the first new configuration y where it is true, its step
-    shortened by ``stop_bisections`` bisections towards where it turns true."""
+    shortened by ``stop_bisections`` bisections towards where it turns true.  Progress is
+    reported on the ``share`` (first, last) of the caller's work, half of it per direction."""
     c0 = cons.jacobian(x0)
     branches = {}
     ways = [(s, n) for s, n in ((1.0, "forward"), (-1.0, "backward")) if direction in (n, "both")]
     for k, (sign, name) in enumerate(ways):
         start = _Point(x0, _tangent_frame(cons, x0, null, sign * t0), c0)
         until = None if stop is None else (lambda y, sign=sign: stop(y, sign))
-        share = (k / len(ways), (k + 1) / len(ways))
-        branches[name] = _trace_one_way(cons, start, amplitude, max_step, max_steps, until, share, stop_bisections)
+        part = [share[0] + (share[1] - share[0]) * (k + e) / len(ways) for e in (0, 1)]
+        branches[name] = _trace_one_way(cons, start, amplitude, max_step, max_steps, until, part, stop_bisections)
+        report_progress(part[1], f"continuation {name} done")
     back_x, back_tau, back_sing = branches.get("backward", ([], [], None))
     fwd_x, fwd_tau, fwd_sing = branches.get("forward", ([], [], None))
     ref = len(back_x)
@@ -729,9 +760,10 @@ def trace_motion(
     x0 = norm.positions_in(frame.positions)
     cons = BarConstraints(frame.edges, x0, method)
     t0, null = start_direction(cons, x0, mode)
+    report_progress(REFERENCE_SHARE, "zero modes at the reference")
     until = None if stop is None else (lambda y, sign: stop(norm.positions_out(y), sign))
     configs, params, ref, singularities = follow(
-        cons, x0, t0, null, amplitude, max_step, direction, max_steps, until
+        cons, x0, t0, null, amplitude, max_step, direction, max_steps, until, share=(REFERENCE_SHARE, 1.0)
     )
     positions = np.stack(
         [

@@ -85,6 +85,10 @@ INDEPENDENT_RTOL = 1e-6
 # this many bisections (to 2⁻³⁰ of a step), so the patch's path ends where the predicate does
 # (e.g. at the end of a strain range) rather than up to a step past it.
 STOP_BISECTIONS = 30
+# Progress of trace_motion_through_cell: the frame's zero modes at the reference up to
+# CHECK_SHARE, the cell's continuation up to CELL_SHARE, then the check of every configuration.
+CHECK_SHARE = 0.1
+CELL_SHARE = 0.15
 # Codes by which the periodic route says the frame is not (verifiably) tiled: the frame's own
 # continuation answers instead.
 NOT_TILED = frozenset({"not_periodic", "invalid_tiling", "invalid_cell"})
@@ -272,9 +276,11 @@ def trace_periodic_motion(
     direction: str = "both",
     max_steps: int = 5000,
     stop=None,
+    share=(0.0, 1.0),
 ) -> PeriodicPath:
     """Follow the periodic finite motion of ``cell`` tiled by ``tiling`` (see the module
-    docstring and PeriodicConstraints: the parameter is the patch's).
+    docstring and PeriodicConstraints: the parameter is the patch's), progress reported on
+    the ``share`` (first, last) of the caller's work.
 
     mode: ((n_c + k), d) rates of the nodes and lattice vectors, or None (the cell's single
     nontrivial mode, largest entry positive). stop(patch positions (N, d), sign): as
@@ -287,7 +293,7 @@ def trace_periodic_motion(
     t0, null = start_direction(cons, z0, None if mode is None else cons.r_factor @ np.asarray(mode, float))
     until = None if stop is None else (lambda z, sign: stop(cell.tile(*cons.cell_of(z), tiling), sign))
     configs, params, ref, singularities = follow(
-        cons, z0, t0, null, amplitude, max_step, direction, max_steps, until, STOP_BISECTIONS
+        cons, z0, t0, null, amplitude, max_step, direction, max_steps, until, STOP_BISECTIONS, share
     )
     cells = [cons.cell_of(z) for z in configs]
     return PeriodicPath(
@@ -300,7 +306,14 @@ def trace_periodic_motion(
     )
 
 
-def tiled_motion(frame: Frame, tiling, cell: PeriodicCell, path: PeriodicPath) -> MotionPath:
+def tiled_motion(
+    frame: Frame,
+    tiling,
+    cell: PeriodicCell,
+    path: PeriodicPath,
+    check: _PatchCheck | None = None,
+    share=(0.0, 1.0),
+) -> MotionPath:
     """The patch ``frame`` (tiled from ``cell`` by ``tiling``) along the cell's ``path``, checked
     on the patch (module docstring), as a MotionPath with method "periodic": configurations
     aligned to the reference, singular points counted on the patch.
@@ -309,7 +322,10 @@ def tiled_motion(frame: Frame, tiling, cell: PeriodicCell, path: PeriodicPath) -
     nodes of neighbouring cells that collide), the sign test between two configurations fails;
     the point is then located along the cell's curve by finite_motion's regula falsi on the
     patch's determinant, confirmed by counting the patch's zero modes, and ends the path in
-    that direction. DomainError ``not_periodic`` when the patch does not move with its cell."""
+    that direction. DomainError ``not_periodic`` when the patch does not move with its cell.
+    ``check``: the patch's _PatchCheck, when the caller has built it already.  Progress: the
+    share of configurations checked (and of the bisection steps while locating), mapped onto
+    ``share`` (first, last) of the caller's work."""
     tiling = np.asarray(tiling, dtype=int)
     lengths = bar_lengths(frame.positions, frame.edges)
     configs = [cell.tile(p, lat, tiling) for p, lat in zip(path.positions, path.lattice)]
@@ -319,13 +335,17 @@ def tiled_motion(frame: Frame, tiling, cell: PeriodicCell, path: PeriodicPath) -
             "not_periodic",
             f"the tiled configurations leave the frame's bars by {error:.2e}: the frame is not tiled from the cell.",
         )
-    check = _PatchCheck(frame, tiling, cell)
+    check = _PatchCheck(frame, tiling, cell) if check is None else check
     ref = path.reference_index
     cell_singular = {s.step: s for s in path.singularities}
-    sides, done = {}, 0
+    sides, done, at_reference = {}, 0, check.frame_at(path, ref, configs[ref])
+
+    def progress(count: float, message: str) -> None:
+        report_progress(share[0] + (share[1] - share[0]) * count / max(len(configs) - 1, 1), message)
+
     for sign in (-1, 1):
         out, end = [], None  # out: (parameter, configuration) moving away from the reference
-        previous = check.frame_at(path, ref, configs[ref])
+        previous = at_reference
         for k in range(ref + sign, -1 if sign < 0 else len(configs), sign):
             if k in cell_singular:
                 extra, sigma = check.extra_zero_modes(configs[k])
@@ -338,7 +358,9 @@ def tiled_motion(frame: Frame, tiling, cell: PeriodicCell, path: PeriodicPath) -
                 break
             current = check.frame_at(path, k, configs[k])
             if not check.regular_between(previous, current):
-                found = check.locate(previous, path, k - sign, k)
+                found = check.locate(
+                    previous, path, k - sign, k, lambda q, done=done: progress(done + q, "locating a singular point")
+                )
                 if found is not None:
                     parameter, x, extra, sigma = found
                     out.append((parameter, x))
@@ -347,7 +369,7 @@ def tiled_motion(frame: Frame, tiling, cell: PeriodicCell, path: PeriodicPath) -
             out.append((path.parameter[k], configs[k]))
             previous = current
             done += 1
-            report_progress(done / len(configs), "checking the tiled motion on the frame")
+            progress(done, "checking the tiled motion on the frame")
         sides[sign] = (out, end)
     (back, back_end), (fwd, fwd_end) = sides[-1], sides[1]
     entries = back[::-1] + [(path.parameter[ref], frame.positions)] + fwd
@@ -388,17 +410,41 @@ class _PatchCheck:
         self.zero_modes = zero
         self.cell_cons = PeriodicConstraints(cell, tiling)
 
-    def frame_at(self, path: PeriodicPath, k: int, x: np.ndarray):
-        """(C(x), W) of the patch at its k-th configuration x: W = [tiled cell tangent, rigid
-        motions] orthonormal, after checking that the tiled tangent is a zero mode there."""
-        modes = self.cell_cons.modes(self.cell_cons.z_of(path.positions[k], path.lattice[k]))
+    def tiled_mode(self, z: np.ndarray) -> np.ndarray:
+        """The tiled cell mode (dN) and its cell rates ((n_c + k), d) at the cell's z; DomainError
+        ``not_periodic`` unless the cell has exactly one nontrivial mode there."""
+        modes = self.cell_cons.modes(z)
         if modes.shape[1] != 1:
             raise DomainError(
                 "not_periodic", f"the cell has {modes.shape[1]} nontrivial zero modes on the path, not 1."
             )
         rates = self.cell_cons.rates_of(modes[:, 0].reshape(-1, self.frame.dim))
         n_c = len(self.cell.positions)
-        u = self.cell.tile(rates[:n_c], rates[n_c:], self.tiling).ravel()
+        return self.cell.tile(rates[:n_c], rates[n_c:], self.tiling).ravel(), rates
+
+    def cell_rates(self, mode) -> np.ndarray:
+        """The cell's rates ((n_c + k), d) of its mode, signed like the frame's ``mode`` (N, d);
+        DomainError ``not_periodic`` unless ``mode`` lies in span(rigid motions, tiled mode) to
+        within GIVEN_MODE_RTOL (then it is a zero mode: the frame has one nontrivial mode) with
+        a part along the tiled mode."""
+        u, rates = self.tiled_mode(self.cell_cons.reference)
+        m = check_positions(mode, self.frame.dim, name="mode")
+        if m.shape != self.frame.positions.shape:
+            raise DomainError("not_periodic", "the given mode has not one row per node.")
+        m = m.ravel()
+        rigid = rigid_motions(self.norm.positions_in(self.frame.positions), RTOL)
+        span = np.linalg.qr(np.column_stack([u, rigid]))[0]
+        norm = np.linalg.norm(m)
+        along = float(u @ (m - rigid @ (rigid.T @ m))) / np.linalg.norm(u)
+        leak = np.linalg.norm(m - span @ (span.T @ m))
+        if not (leak <= GIVEN_MODE_RTOL * norm and abs(along) > GIVEN_MODE_RTOL * norm):
+            raise DomainError("not_periodic", "the given mode is not the tiled cell's mode.")
+        return rates * np.sign(along)
+
+    def frame_at(self, path: PeriodicPath, k: int, x: np.ndarray):
+        """(C(x), W) of the patch at its k-th configuration x: W = [tiled cell tangent, rigid
+        motions] orthonormal, after checking that the tiled tangent is a zero mode there."""
+        u, _ = self.tiled_mode(self.cell_cons.z_of(path.positions[k], path.lattice[k]))
         xn = self.norm.positions_in(x)
         c = self.patch.jacobian(xn)
         residual = np.linalg.norm(c @ u) / (_frobenius(c) * np.linalg.norm(u))
@@ -420,9 +466,10 @@ class _PatchCheck:
         extra = count - self.zero_modes
         return extra, first_zero if extra > 0 else last_nonzero
 
-    def locate(self, start, path: PeriodicPath, k0: int, k1: int):
+    def locate(self, start, path: PeriodicPath, k0: int, k1: int, report=None):
         """The patch's singular point between samples k0 and k1 of the cell's path, along the
-        cell's curve: (parameter, configuration, extra zero modes, σ) or None (not confirmed)."""
+        cell's curve: (parameter, configuration, extra zero modes, σ) or None (not confirmed);
+        ``report`` as bracket_sign_change's."""
         c_k, w_k = start
         sign = _regular_sign(w_k)
         reference = BorderedFactor(c_k.T @ c_k, w_k).logabsdet
@@ -455,7 +502,7 @@ class _PatchCheck:
         if end[0] is None:
             s_star, x_star = h, end[1][1]
         else:
-            _, s_star, (_, x_star, _, _, _) = bracket_sign_change(evaluate, measure, h, end[0], end[1])
+            _, s_star, (_, x_star, _, _, _) = bracket_sign_change(evaluate, measure, h, end[0], end[1], report)
         extra, sigma = self.extra_zero_modes(x_star)
         if extra <= 0:
             return None
@@ -573,37 +620,14 @@ def trace_motion_through_cell(
     tiling, lattice = guess
     try:
         cell = PeriodicCell.from_frame(frame, tiling, lattice)
-        cell_mode = None if mode is None else _cell_mode(frame, tiling, cell, mode)
+        check = _PatchCheck(frame, tiling, cell)
+        cell_mode = None if mode is None else check.cell_rates(mode)
+        report_progress(CHECK_SHARE, "the frame has one nontrivial mode, its cell's")
         path = trace_periodic_motion(
-            cell, tiling, cell_mode, amplitude, max_step, direction, max_steps, stop
+            cell, tiling, cell_mode, amplitude, max_step, direction, max_steps, stop, (CHECK_SHARE, CELL_SHARE)
         )
-        return tiled_motion(frame, tiling, cell, path)
+        return tiled_motion(frame, tiling, cell, path, check, (CELL_SHARE, 1.0))
     except (DomainError, InvalidInput) as exc:
         if exc.code not in NOT_TILED:
             raise
     return trace_motion(frame, **full)
-
-
-def _cell_mode(frame: Frame, tiling: np.ndarray, cell: PeriodicCell, mode) -> np.ndarray:
-    """The cell's rates ((n_c + k), d) of its nontrivial mode, signed like the frame's ``mode``
-    (N, d); DomainError ``not_periodic`` when ``mode`` is not in span(rigid motions, tiled
-    mode) to within GIVEN_MODE_RTOL, or has no part along the tiled mode."""
-    cons = PeriodicConstraints(cell, tiling)
-    modes = cons.modes(cons.reference)
-    if modes.shape[1] != 1:
-        raise DomainError("not_periodic", f"the cell has {modes.shape[1]} nontrivial zero modes, not 1.")
-    rates = cons.rates_of(modes[:, 0].reshape(-1, frame.dim))
-    n_c = len(cell.positions)
-    u = cell.tile(rates[:n_c], rates[n_c:], tiling).ravel()
-    m = check_positions(mode, frame.dim, name="mode")
-    if m.shape != frame.positions.shape:
-        raise DomainError("not_periodic", "the given mode has not one row per node.")
-    m = m.ravel()
-    rigid = rigid_motions(Normalisation.of(frame.positions).positions_in(frame.positions), RTOL)
-    span = np.linalg.qr(np.column_stack([u, rigid]))[0]
-    norm = np.linalg.norm(m)
-    along = float(u @ (m - rigid @ (rigid.T @ m))) / np.linalg.norm(u)
-    leak = np.linalg.norm(m - span @ (span.T @ m))
-    if not (leak <= GIVEN_MODE_RTOL * norm and abs(along) > GIVEN_MODE_RTOL * norm):
-        raise DomainError("not_periodic", "the given mode is not the tiled cell's mode.")
-    return rates * np.sign(along)

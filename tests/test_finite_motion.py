@@ -356,3 +356,18 @@ def test_stop_ends_each_direction_at_the_first_configuration_it_accepts():
     assert seen[1] == 3 and path.reference_index == len(path.parameter) - 4
     assert path.parameter[-1] < 0.1 and path.parameter[0] == pytest.approx(-0.5)
     assert not path.singularities
+
+
+def test_progress_of_a_motion_rises_to_one_through_a_located_singular_point():
+    """Reports never go back, also while a singular point is located, and end at 1."""
+    from zeromode.solver.lattice import auxetic_sheet
+    from zeromode.solver.progress import progress_scope
+
+    sheet = auxetic_sheet(4, 4, poisson=-0.5)
+    reports = []
+    with progress_scope(lambda fraction, message: reports.append((fraction, message))):
+        path = trace_motion(sheet.frame, mode=sheet.mode, amplitude=0.4)
+    assert len(path.singularities) == 1  # the collision near parameter 0.079
+    fractions = [f for f, _ in reports]
+    assert fractions == sorted(fractions) and fractions[-1] == 1.0
+    assert any(m == "locating a singular point" for _, m in reports)
