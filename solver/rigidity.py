@@ -251,6 +251,11 @@ ROUNDOFF = 1e-13
 # Cholesky QR is used for blocks whose Cholesky factor's diagonal spans at most this ratio
 # (cond ≲ 1e6, well inside its stable range cond ≲ 1/√ε ≈ 1e8).
 CHOLQR_MAX_RATIO = 1e6
+# … and only for blocks wider than this: thin blocks take Householder QR, whose two LAPACK calls
+# cost less than Cholesky QR's eight steps (measured, one core: n × 3 blocks 6 µs against 37 µs
+# at n = 200, 0.19 ms against 0.99 ms at n = 20 000; even at 10 columns, 2 000 rows; Cholesky
+# QR ahead from about 30 columns, 4× at 900).
+HOUSEHOLDER_MAX_COLUMNS = 16
 # Above this many independent null vectors on the side counted, the block is too wide.
 MAX_NULL_VECTORS = 20_000
 # Geometric nested dissection orders the Gram matrix from this many nodes, CHOLMOD's
@@ -480,8 +485,11 @@ def _orthonormal(y: np.ndarray) -> np.ndarray:
     with BLAS-3 kernels each, where Householder QR makes about 2k passes; stable while
     cond(y) ≲ 1/√ε. A block just out of a shift-invert step can be far worse conditioned (its
     null components grew by 1/δ), so when the Cholesky factor's diagonal spans more than
-    CHOLQR_MAX_RATIO, or the factorisation fails, Householder QR is used instead.
+    CHOLQR_MAX_RATIO, or the factorisation fails, Householder QR is used instead, as it is
+    for blocks of at most HOUSEHOLDER_MAX_COLUMNS columns.
     """
+    if y.shape[1] <= HOUSEHOLDER_MAX_COLUMNS:
+        return _householder_q(y)
     q = y
     for _ in range(2):
         r, info = lapack.dpotrf(q.T @ q)  # upper R, RᵀR = qᵀq; info > 0: not positive definite
