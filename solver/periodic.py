@@ -422,6 +422,14 @@ class _PatchCheck:
         n_c = len(self.cell.positions)
         return self.cell.tile(rates[:n_c], rates[n_c:], self.tiling).ravel(), rates
 
+    def default_mode(self) -> np.ndarray:
+        """The frame's nontrivial mode (N, d) as trace_motion picks it without one: the tiled
+        cell mode ⟂ the rigid motions, its largest entry positive (ties: the first)."""
+        u, _ = self.tiled_mode(self.cell_cons.reference)
+        rigid = rigid_motions(self.norm.positions_in(self.frame.positions), RTOL)
+        u = u - rigid @ (rigid.T @ u)
+        return (u * (1.0 if u[np.argmax(np.abs(u))] > 0 else -1.0)).reshape(self.frame.positions.shape)
+
     def cell_rates(self, mode) -> np.ndarray:
         """The cell's rates ((n_c + k), d) of its mode, signed like the frame's ``mode`` (N, d);
         DomainError ``not_periodic`` unless ``mode`` lies in span(rigid motions, tiled mode) to
@@ -621,7 +629,7 @@ def trace_motion_through_cell(
     try:
         cell = PeriodicCell.from_frame(frame, tiling, lattice)
         check = _PatchCheck(frame, tiling, cell)
-        cell_mode = None if mode is None else check.cell_rates(mode)
+        cell_mode = check.cell_rates(check.default_mode() if mode is None else mode)
         report_progress(CHECK_SHARE, "the frame has one nontrivial mode, its cell's")
         path = trace_periodic_motion(
             cell, tiling, cell_mode, amplitude, max_step, direction, max_steps, stop, (CHECK_SHARE, CELL_SHARE)

@@ -101,6 +101,11 @@ def test_through_cell_follows_a_large_sheet_like_its_own_continuation(sheet10):
     for k in (0, -1):
         assert periodic.parameter[k] == pytest.approx(full.parameter[k], abs=1e-12)
         assert np.abs(periodic.positions[k] - full.positions[k]).max() <= 1e-8 * np.ptp(frame.positions)
+    # Without a mode both take the frame's mode with its largest entry positive.
+    default = trace_motion_through_cell(frame, amplitude=0.02, direction="forward")
+    assert default.method == "periodic"
+    expected = trace_motion(frame, amplitude=0.02, direction="forward")
+    assert np.abs(default.positions[-1] - expected.positions[-1]).max() <= 1e-8 * np.ptp(frame.positions)
     # The opposite mode follows the same curve the other way.
     flipped = trace_motion_through_cell(frame, mode=-sheet10.mode, amplitude=0.05, direction="forward")
     assert flipped.method == "periodic"
