@@ -70,7 +70,9 @@ class MotionRequest(RequestModel):
         default=None,
         description=(
             "Node sets of a lattice (as /v1/design/auxetic's report.boundary): when given, the response "
-            "reports the strain (ε_x, ε_y) and the secant Poisson ratio of every configuration."
+            "reports the strain (ε_x, ε_y) and the secant Poisson ratio of every configuration, and a "
+            "frame tiled by translations is followed through one cell and checked on the whole frame "
+            "(method 'periodic'; the frame's own continuation where the check fails)."
         ),
     )
 
