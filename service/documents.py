@@ -18,7 +18,13 @@ from zeromode.service.schemas.design import DesignRequest
 from zeromode.service.schemas.lattice import AuxeticRequest, LatticeState
 from zeromode.solver.allostery import AllostericDesign, design_allosteric
 from zeromode.solver.errors import InvalidInput
-from zeromode.solver.pipeline import AuxeticResult, RefineStage, ToleranceStage, auxetic_pipeline, design_pipeline
+from zeromode.solver.pipeline import (
+    AuxeticResult,
+    RefineStage,
+    ToleranceStage,
+    auxetic_pipeline,
+    design_pipeline,
+)
 from zeromode.solver.tolerance import ToleranceReport, tolerance_report
 
 # What a document is, by its fields (``kind``).
@@ -94,13 +100,7 @@ def respond(doc: dict) -> tuple[dict, BaseModel]:
         return auxetic_body(result, {}), r
     if "positions" in doc and "motions" in doc:
         r = validated(doc, DesignRequest)
-        o = r.options
-        result = design_pipeline(
-            r.positions, r.motions, dim=r.dim, seed=o.seed, n_unspecified=o.n_unspecified,
-            refine_stage=None if o.refine is None else RefineStage(**o.refine.model_dump()),
-            certify_stage=o.certify,
-            tolerance_stage=None if o.tolerance is None else ToleranceStage(**o.tolerance.model_dump()),
-        )
+        result = design_pipeline(**design_arguments(r))
         return design_body(result, result.timings_ms), r
     raise InvalidInput(
         "invalid_document",
@@ -109,33 +109,60 @@ def respond(doc: dict) -> tuple[dict, BaseModel]:
     )
 
 
+def design_arguments(r: DesignRequest) -> dict:
+    """design_pipeline's arguments for a /v1/design request (its route, ``respond`` and the
+    prechecks' check_design_request take them)."""
+    o = r.options
+    return {
+        "positions": r.positions, "motions": r.motions, "dim": r.dim, "seed": o.seed,
+        "n_unspecified": o.n_unspecified,
+        "refine_stage": None if o.refine is None else RefineStage(**o.refine.model_dump()),
+        "certify_stage": o.certify,
+        "tolerance_stage": None if o.tolerance is None else ToleranceStage(**o.tolerance.model_dump()),
+    }
+
+
+def allosteric_arguments(r: AllostericRequest) -> dict:
+    """design_allosteric's arguments for a /v1/design/allosteric request (allostery.allosteric_inputs
+    takes the same)."""
+    return {
+        "source_positions": r.source.positions, "source_motion": r.source.motion,
+        "target_positions": r.target.positions, "target_motion": r.target.motion,
+        "dim": r.dim, "seed": r.options.seed, "relay_spacing": r.options.relay_spacing,
+        "relay_growth": r.options.relay_growth,
+    }
+
+
 def allosteric(r: AllostericRequest) -> AllostericDesign:
     """The allosteric design of a /v1/design/allosteric request (its route calls this too)."""
-    return design_allosteric(
-        r.source.positions, r.source.motion, r.target.positions, r.target.motion,
-        dim=r.dim, seed=r.options.seed, relay_spacing=r.options.relay_spacing,
-        relay_growth=r.options.relay_growth,
-    )
+    return design_allosteric(**allosteric_arguments(r))
 
 
-def auxetic(r: AuxeticRequest) -> AuxeticResult:
-    """The auxetic pipeline of a /v1/design/auxetic request (its route calls this too): a 2D
-    sheet (cells [n_x, n_y], cell [w, h]) or a 3D chain (cells [n], block [w, h, l]), with the
-    refine, certify and tolerance stages it asks for."""
+def auxetic_arguments(r: AuxeticRequest) -> dict:
+    """auxetic_pipeline's arguments for a /v1/design/auxetic request — a 2D sheet (cells
+    [n_x, n_y], cell [w, h]) or a 3D chain (cells [n], block [w, h, l]) with the refine, certify
+    and tolerance stages it asks for — once its counts of cells and half-sizes fit its dim
+    (InvalidInput ``invalid_size`` / ``invalid_cell``); check_auxetic_request takes the same."""
     cells, sizes = (2, 2) if r.dim == 2 else (1, 3)
     if len(r.cells) != cells:
         raise InvalidInput("invalid_size", f"a {r.dim}D lattice needs {cells} cell count(s).")
     if r.cell is not None and len(r.cell) != sizes:
         raise InvalidInput("invalid_cell", f"a {r.dim}D module has {sizes} half-sizes.")
-    return auxetic_pipeline(
-        r.dim, r.cells, poisson=r.poisson_ratio, cell=r.cell, strain=r.strain, seed=r.seed,
-        refine_stage=None if r.refine is None else RefineStage(**r.refine.model_dump()),
-        certify_stage=r.certify,
-        tolerance_stage=None if r.tolerance is None else ToleranceStage(**r.tolerance.model_dump()),
-        finite_strain=None
+    return {
+        "dim": r.dim, "cells": r.cells, "poisson": r.poisson_ratio, "cell": r.cell, "strain": r.strain,
+        "seed": r.seed,
+        "refine_stage": None if r.refine is None else RefineStage(**r.refine.model_dump()),
+        "certify_stage": r.certify,
+        "tolerance_stage": None if r.tolerance is None else ToleranceStage(**r.tolerance.model_dump()),
+        "finite_strain": None
         if r.finite_strain is None
         else (*r.finite_strain.strain_range, r.finite_strain.tolerance),
-    )
+    }
+
+
+def auxetic(r: AuxeticRequest) -> AuxeticResult:
+    """The auxetic pipeline of a /v1/design/auxetic request (its route calls this too)."""
+    return auxetic_pipeline(**auxetic_arguments(r))
 
 
 def validated(body: dict, model: type[BaseModel]):

@@ -621,7 +621,7 @@ def _site_checks(x_src, u_src, x_tgt, u_tgt) -> None:
             ) from None
 
 
-def design_allosteric(
+def allosteric_inputs(
     source_positions,
     source_motion,
     target_positions,
@@ -630,16 +630,12 @@ def design_allosteric(
     seed: int = 0,
     relay_spacing: float | None = None,
     relay_growth: float | None = None,
-) -> AllostericDesign:
-    """A frame whose only nontrivial zero mode drives the target with u_tgt when the source moves
-    with u_src, meeting TARGET_ERROR_MAX and GAP_FLOOR (see the module docstring).
-
-    relay_spacing: size of the first ports next to the sites, in the caller's units (default
-    DEFAULT_PORT site sizes); relay_growth: g ≥ 1 (1: equal relays). Raises InvalidInput for
-    bad shapes or options; DomainError ``overlapping_sites``, ``degenerate_specified``,
-    ``rigid_source``, ``rigid_target``, ``underdetermined_source``, ``too_expensive`` (more than MAX_MODULES modules,
-    refused before any work), or InaccurateDesign (``inaccurate_design``, with the best figures).
-    """
+):
+    """design_allosteric's refusals before any chain is built (O(k²) work): the sites
+    ((x_src, u_src), (x_tgt, u_tgt)), their canonical similarity and the chain options fixed by
+    the request (seed, port, growth).  Raises InvalidInput for shapes and options, DomainError
+    for the sites (_site_checks) and ``too_expensive`` when the relays need more than
+    MAX_MODULES modules (estimated_modules)."""
     x_src = check_positions(source_positions, dim, "source_positions")
     d = x_src.shape[1]
     u_src = check_positions(source_motion, d, "source_motion")
@@ -666,6 +662,32 @@ def design_allosteric(
             f"relays of {first.port * sim.length:.3g} growing by {first.growth:g} need about {needed} "
             f"modules across this distance; the limit is {MAX_MODULES} (use larger relays or growth).",
         )
+    return (x_src, u_src), (x_tgt, u_tgt), sim, fixed
+
+
+def design_allosteric(
+    source_positions,
+    source_motion,
+    target_positions,
+    target_motion,
+    dim: int | None = None,
+    seed: int = 0,
+    relay_spacing: float | None = None,
+    relay_growth: float | None = None,
+) -> AllostericDesign:
+    """A frame whose only nontrivial zero mode drives the target with u_tgt when the source moves
+    with u_src, meeting TARGET_ERROR_MAX and GAP_FLOOR (see the module docstring).
+
+    relay_spacing: size of the first ports next to the sites, in the caller's units (default
+    DEFAULT_PORT site sizes); relay_growth: g ≥ 1 (1: equal relays). Raises InvalidInput for
+    bad shapes or options; DomainError ``overlapping_sites``, ``degenerate_specified``,
+    ``rigid_source``, ``rigid_target``, ``underdetermined_source``, ``too_expensive`` (more than MAX_MODULES modules,
+    refused before any work), or InaccurateDesign (``inaccurate_design``, with the best figures).
+    """
+    (x_src, u_src), (x_tgt, u_tgt), sim, fixed = allosteric_inputs(
+        source_positions, source_motion, target_positions, target_motion, dim, seed, relay_spacing, relay_growth
+    )
+    first = replace(ChainOptions(), **fixed)
     distance = float(np.linalg.norm(x_tgt.mean(axis=0) - x_src.mean(axis=0)))
     best: AllostericDesign | None = None
     failures = []

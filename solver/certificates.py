@@ -70,6 +70,7 @@ from zeromode.solver.rigidity import (
     Analysis,
     analyze,
     compatibility_matrix,
+    rigid_motions,
     zero_mode_residual,
 )
 from zeromode.solver.stiffness import optimal_stiffness
@@ -554,6 +555,18 @@ def check_size(frame: Frame, n_modes: int, stiffness: bool) -> None:
         )
 
 
+def check_certify_request(frame: Frame, modes, solver: str, stiffness: bool) -> None:
+    """certify's refusals that need no analysis: InvalidInput ``invalid_solver``, DomainError
+    ``too_expensive`` (check_size), InvalidInput ``invalid_modes`` (designed_mode_basis against
+    the rigid motions of the frame's normalised positions, the analysis's rigid basis)."""
+    if solver not in SOLVERS:
+        raise InvalidInput(
+            "invalid_solver", f"solver must be one of {', '.join(SOLVERS)}, got {solver!r}."
+        )
+    check_size(frame, len(modes), stiffness)
+    designed_mode_basis(frame, rigid_motions(frame.normalised_positions(), RTOL), modes)
+
+
 def certify(
     frame: Frame,
     modes=None,
@@ -573,12 +586,8 @@ def certify(
     passes the design's), so it is not recomputed.
     Raises InvalidInput (bad modes/solver), DomainError ``too_expensive`` / ``certificate_failed``.
     """
-    if solver not in SOLVERS:
-        raise InvalidInput(
-            "invalid_solver", f"solver must be one of {', '.join(SOLVERS)}, got {solver!r}."
-        )
     t0 = time.perf_counter()
-    check_size(frame, len(modes or ()), stiffness)
+    check_certify_request(frame, modes or (), solver, stiffness)
     if analysis is None:
         analysis = analyze(frame)
     c = compatibility_matrix(frame.normalised_positions(), frame.edges)

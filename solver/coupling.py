@@ -56,6 +56,21 @@ def moves_rigidly(positions: np.ndarray, motion: np.ndarray, rtol: float = RIGID
     return bool(np.linalg.norm(flat - rigid @ (rigid.T @ flat)) <= rtol * norm)
 
 
+def check_transmission(parts: list[tuple[np.ndarray, np.ndarray]], merges) -> None:
+    """DomainError ``coupling_failed`` when the merged nodes of a part — (positions (n, d),
+    mode (n, d)) of each module, the merges as in couple — move as a rigid unit under its mode:
+    the coupling would not transmit the motion.  Needs only the merged nodes' positions and
+    motions, so a chain of designed modules can be checked from their targets before any design."""
+    for m_index, (positions, mode) in enumerate(parts):
+        ports = sorted({i for pair in merges for (m, i) in pair if m == m_index})
+        if len(ports) >= 2 and moves_rigidly(positions[ports], mode[ports]):
+            raise DomainError(
+                "coupling_failed",
+                f"the merged nodes of module {m_index} move as a rigid unit under its mode, so "
+                "the coupling would not transmit the motion.",
+            )
+
+
 def couple(
     modules: list[Module],
     merges: list[tuple[tuple[int, int], tuple[int, int]]],
@@ -86,14 +101,7 @@ def couple(
         if np.linalg.norm(positions[a] - positions[b]) > DISTINCT_RTOL * scale:
             raise DomainError("coupling_failed", f"merged nodes {ma}:{ia} and {mb}:{ib} do not coincide.")
         parent[root(b)] = root(a)
-    for m_index, module in enumerate(modules):
-        ports = sorted({i for pair in merges for (m, i) in pair if m == m_index})
-        if len(ports) >= 2 and moves_rigidly(module.frame.positions[ports], module.mode[ports]):
-            raise DomainError(
-                "coupling_failed",
-                f"the merged nodes of module {m_index} move as a rigid unit under its mode, so "
-                "the coupling would not transmit the motion.",
-            )
+    check_transmission([(m.frame.positions, m.mode) for m in modules], merges)
     roots = np.array([root(i) for i in range(offsets[-1])])
     unique, new_index = np.unique(roots, return_inverse=True)
     edges = np.vstack(

@@ -122,6 +122,31 @@ def _pool(
     return CandidatePool(positions, motions[:, None, :], subset) if len(positions) else None
 
 
+def design_targets(
+    positions, motions, dim: int | None = None, n_unspecified: int | None = None, hierarchical_allowed: bool = True
+) -> tuple[np.ndarray, np.ndarray, bool]:
+    """design's refusals before any placement (O(k²·M) work): x_S (k, d), the motions (M, k, d)
+    and whether past M = d hierarchical groups take over (when ``hierarchical_allowed``: no
+    custom levels).  Raises InvalidInput for shapes and options, DomainError
+    ``degenerate_specified``, ``rigid_target``, ``too_many_motions``."""
+    x = check_positions(positions, dim, "positions")
+    if isinstance(motions, np.ndarray) and motions.ndim == 2:
+        motions = [motions]  # one k×d motion
+    if len(motions) == 0:
+        raise InvalidInput("invalid_shape", "motions must hold at least one motion.")
+    u_all = np.stack([check_targets(x, u)[1] for u in motions])
+    check_specified_distinct(x)
+    check_motions_nonrigid(x, u_all)
+    if n_unspecified is not None and n_unspecified < 0:
+        raise InvalidInput("invalid_options", "n_unspecified must be non-negative.")
+    hierarchical = len(u_all) > x.shape[1] and hierarchical_allowed  # past M = d (hierarchical_modes)
+    if hierarchical:
+        check_motion_count(x.shape[1], len(u_all))
+        if n_unspecified is not None:
+            raise InvalidInput("invalid_options", "n_unspecified is available for up to d motions.")
+    return x, u_all, hierarchical
+
+
 def design(
     positions,
     motions,
@@ -139,21 +164,7 @@ def design(
     Raises DomainError: ``rigid_target``, ``degenerate_specified``, ``no_solution``,
     ``too_many_motions``.
     """
-    x = check_positions(positions, dim, "positions")
-    if isinstance(motions, np.ndarray) and motions.ndim == 2:
-        motions = [motions]  # one k×d motion
-    if len(motions) == 0:
-        raise InvalidInput("invalid_shape", "motions must hold at least one motion.")
-    u_all = np.stack([check_targets(x, u)[1] for u in motions])
-    check_specified_distinct(x)
-    check_motions_nonrigid(x, u_all)
-    if n_unspecified is not None and n_unspecified < 0:
-        raise InvalidInput("invalid_options", "n_unspecified must be non-negative.")
-    hierarchical = len(u_all) > x.shape[1] and levels is None  # past M = d (hierarchical_modes)
-    if hierarchical:
-        check_motion_count(x.shape[1], len(u_all))
-        if n_unspecified is not None:
-            raise InvalidInput("invalid_options", "n_unspecified is available for up to d motions.")
+    x, u_all, hierarchical = design_targets(positions, motions, dim, n_unspecified, levels is None)
     norm = Normalisation.of(x, u_all[0])
     x_n = norm.positions_in(x)
     u_n = np.stack([norm.motions_in(u) for u in u_all])

@@ -126,6 +126,21 @@ def _deviation(module: SymmetricModule, nu: float, lo: float, hi: float) -> floa
     return worst
 
 
+def check_finite_strain_request(nx: int, ny: int, strain_range, tolerance: float, cell: tuple[float, float]) -> None:
+    """finite_strain_sheet's refusals before any work: InvalidInput ``invalid_size``,
+    ``invalid_strain_range`` (not lo < 0 < hi), ``invalid_tolerance``, ``invalid_cell``."""
+    if nx < 1 or ny < 1 or nx * ny > MAX_SHEET_CELLS:
+        raise InvalidInput("invalid_size", f"cells must be between 1 and {MAX_SHEET_CELLS} in all.")
+    lo, hi = (float(v) for v in strain_range)
+    if not (lo < 0 < hi):
+        raise InvalidInput("invalid_strain_range", "strain_range must be [lo, hi] with lo < 0 < hi.")
+    if not tolerance > 0:
+        raise InvalidInput("invalid_tolerance", "tolerance must be positive.")
+    w, h = cell
+    if not (w > 0 and h > 0):
+        raise InvalidInput("invalid_cell", "cell half-width and half-height must be positive.")
+
+
 def finite_strain_sheet(
     nx: int,
     ny: int,
@@ -137,16 +152,9 @@ def finite_strain_sheet(
     """An n_x × n_y sheet whose secant Poisson ratio stays within ``tolerance`` of ``poisson``
     for ε_x over ``strain_range`` (lo < 0 < hi), see the module docstring.  Raises
     FiniteStrainUnreachable (422 with the best figures) when no member of the family does."""
-    if nx < 1 or ny < 1 or nx * ny > MAX_SHEET_CELLS:
-        raise InvalidInput("invalid_size", f"cells must be between 1 and {MAX_SHEET_CELLS} in all.")
+    check_finite_strain_request(nx, ny, strain_range, tolerance, cell)
     lo, hi = (float(v) for v in strain_range)
-    if not (lo < 0 < hi):
-        raise InvalidInput("invalid_strain_range", "strain_range must be [lo, hi] with lo < 0 < hi.")
-    if not tolerance > 0:
-        raise InvalidInput("invalid_tolerance", "tolerance must be positive.")
     w, h = cell
-    if not (w > 0 and h > 0):
-        raise InvalidInput("invalid_cell", "cell half-width and half-height must be positive.")
     beta = -poisson
 
     # Copies farther than MAX_REACH cells are not watched by the scans (the cost stays that of

@@ -32,15 +32,26 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from zeromode.solver.coupling import Module, couple
+from zeromode.solver.coupling import Module, check_transmission, couple
 from zeromode.solver.design import design
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame
 from zeromode.solver.multimode import spatial_quadric
 from zeromode.solver.rigidity import Analysis, analyze, zero_mode_residual
-from zeromode.solver.sheet_module import sheet_edges, sheet_positions, two_node_module
+from zeromode.solver.sheet_module import (
+    SymmetricModule,
+    sheet_edges,
+    sheet_positions,
+    two_node_module,
+)
 from zeromode.solver.solution_space import solution_space
-from zeromode.solver.strain_range import StrainRange, chain_range, module_range
+from zeromode.solver.strain_range import (
+    PROXIMITY_FRACTION,
+    StrainRange,
+    chain_range,
+    module_range,
+    needed_reach,
+)
 from zeromode.solver.tolerances import ROOT_IMAG_RTOL
 
 MAX_SHEET_CELLS = 2500
@@ -111,18 +122,24 @@ def boundary_strains(positions: np.ndarray, motion: np.ndarray, boundary: dict) 
     return eps[0], eps[1]
 
 
-def path_strains(positions: np.ndarray, path: np.ndarray, boundary: dict) -> tuple[np.ndarray, np.ndarray]:
-    """Strains (P, 2) = (ε_x, ε_y) and secant Poisson ratios (P,) (−ε_y/ε_x, NaN where ε_x = 0)
-    of aligned configurations ``path`` (P, N, d) relative to ``positions`` (N, d); boundary: the
-    node sets "left", "right", "bottom", "top" (InvalidInput ``invalid_boundary`` if one is
-    missing, empty or names no node of the frame)."""
-    n = len(positions)
+def boundary_sets(boundary: dict, n: int) -> dict[str, np.ndarray]:
+    """The node sets "left", "right", "bottom", "top" of ``boundary`` as index arrays
+    (InvalidInput ``invalid_boundary`` if one is missing, empty or names no node of 0..n − 1)."""
     sets = {}
     for key in ("left", "right", "bottom", "top"):
         nodes = np.asarray(boundary.get(key, []), dtype=int)
         if nodes.size == 0 or nodes.min() < 0 or nodes.max() >= n:
             raise InvalidInput("invalid_boundary", f"boundary '{key}' must list node indices in [0, {n}).")
         sets[key] = nodes
+    return sets
+
+
+def path_strains(positions: np.ndarray, path: np.ndarray, boundary: dict) -> tuple[np.ndarray, np.ndarray]:
+    """Strains (P, 2) = (ε_x, ε_y) and secant Poisson ratios (P,) (−ε_y/ε_x, NaN where ε_x = 0)
+    of aligned configurations ``path`` (P, N, d) relative to ``positions`` (N, d); boundary: the
+    node sets "left", "right", "bottom", "top" (InvalidInput ``invalid_boundary`` if one is
+    missing, empty or names no node of the frame)."""
+    sets = boundary_sets(boundary, len(positions))
     strains = np.array([boundary_strains(positions, x - positions, sets) for x in path])
     with np.errstate(divide="ignore", invalid="ignore"):
         nu = np.where(strains[:, 0] != 0, -strains[:, 1] / strains[:, 0], np.nan)
@@ -152,14 +169,10 @@ def auxetic_sheet(
     ``strain_out_of_range`` naming it otherwise); None: ±DEFAULT_STATE_STRAIN clipped to the
     range.  Each state is the module's Newton-exact configuration tiled (sheet_module).
     """
-    if nx < 1 or ny < 1 or nx * ny > MAX_SHEET_CELLS:
-        raise InvalidInput("invalid_size", f"cells must be between 1 and {MAX_SHEET_CELLS} in all.")
-    w, h = cell
-    if not (w > 0 and h > 0):
-        raise InvalidInput("invalid_cell", "cell half-width and half-height must be positive.")
+    module, node_motions = sheet_module_for(nx, ny, poisson, cell)
     beta = -poisson
-    _, _, nodes, node_motions = module_nodes(w, h, beta)
-    module = two_node_module(w, h, float(nodes[0, 0]))
+    motion = module_range(module, (nx, ny))
+    strains = state_strains(motion.range, strain)
     positions = sheet_positions(module, nx, ny, module.reference)
     n_corners = (nx + 1) * (ny + 1)
     frame = Frame.build(positions, sheet_edges(module, nx, ny))
@@ -175,12 +188,57 @@ def auxetic_sheet(
         )
     grid = np.arange(n_corners).reshape(ny + 1, nx + 1)
     boundary = {"left": grid[:, 0], "right": grid[:, -1], "bottom": grid[0], "top": grid[-1]}
-    motion = module_range(module, (nx, ny))
-    strains = state_strains(motion.range, strain)
     states = {
         name: sheet_positions(module, nx, ny, motion.at(eps)) for name, eps in strains.items()
     }
     return measured_lattice(frame, mode, analysis, boundary, states, motion.range, np.arange(n_corners))
+
+
+def sheet_module_for(nx: int, ny: int, poisson: float, cell: tuple[float, float]) -> tuple[SymmetricModule, np.ndarray]:
+    """The module of an n_x × n_y sheet and its unspecified nodes' motions (2, 2), with every
+    refusal of auxetic_sheet that needs neither the tiled sheet nor its analysis: InvalidInput
+    ``invalid_size`` / ``invalid_cell``, DomainError ``no_solution`` when the module's conic
+    misses its axis (module_nodes) or the reference sheet already has a collision
+    (check_reference_spacing).  Cost: one module's solution space and a patch of a few modules."""
+    if nx < 1 or ny < 1 or nx * ny > MAX_SHEET_CELLS:
+        raise InvalidInput("invalid_size", f"cells must be between 1 and {MAX_SHEET_CELLS} in all.")
+    w, h = cell
+    if not (w > 0 and h > 0):
+        raise InvalidInput("invalid_cell", "cell half-width and half-height must be positive.")
+    _, _, nodes, node_motions = module_nodes(w, h, -poisson)
+    module = two_node_module(w, h, float(nodes[0, 0]))
+    check_reference_spacing(module, (nx, ny), poisson)
+    return module, node_motions
+
+
+def check_reference_spacing(module: SymmetricModule, cells: tuple[int, int], poisson: float) -> None:
+    """DomainError ``no_solution`` when two nodes of the reference sheet that share no bar are
+    closer than PROXIMITY_FRACTION of the shortest bar: the usable range's node-proximity
+    condition (strain_range.py) already fails at ε = 0 (at ν = 0 a module's axis nodes coincide
+    with its neighbours'), so the sheet has no usable motion and, there, more than one mode.
+    Measured on the first k + 1 modules along each axis, k = needed_reach at the reference: every
+    pair of the sheet that can come that close is a translate of a pair among them."""
+    q0 = module.reference
+    shortest = float(np.sqrt(np.min(module.squared_lengths)))
+    reach = needed_reach(module, q0, shortest, cells)
+    patch = (reach[0] + 1, reach[1] + 1)
+    closest = closest_unjoined(sheet_positions(module, *patch, q0), sheet_edges(module, *patch)) / shortest
+    if closest < PROXIMITY_FRACTION:
+        raise DomainError(
+            "no_solution",
+            f"for Poisson ratio {poisson:g} two nodes of the sheet without a bar are {closest:.3g} of the "
+            f"shortest bar apart in the reference (at least {PROXIMITY_FRACTION:g} is usable): the sheet "
+            "collides at rest and has no usable motion.",
+        )
+
+
+def check_sheet_strain(module: SymmetricModule, cells: tuple[int, int], strain: float | None) -> None:
+    """auxetic_sheet's ``strain_out_of_range`` (state_strains) decided by scanning the module's
+    motion no further than ±strain (module_range's limits): the cost grows with |strain|, not
+    with the whole range, and the range named is the part scanned.  None: nothing to check (the
+    default states are clipped to the range)."""
+    if strain is not None:
+        state_strains(module_range(module, cells, limits=(-strain, strain)).range, strain)
 
 
 def state_strains(usable: StrainRange, strain: float | None) -> dict[str, float]:
@@ -240,12 +298,31 @@ def closest_unjoined(x: np.ndarray, edges: np.ndarray) -> float:
     return float(np.min(np.where(joined, np.inf, dist)))
 
 
-def _block_3d(w: float, h: float, l: float, beta: float, gamma: float, seed: int):
-    """A designed 3D block: ports (±w, ±h, 0), apexes (0, 0, ±l), motion diag(1, β, γ)·x."""
+def _block_targets(w: float, h: float, l: float, beta: float, gamma: float) -> tuple[np.ndarray, np.ndarray]:
+    """A 3D block's specified nodes x_S (6, 3) — ports (±w, ±h, 0), apexes (0, 0, ±l) — and
+    their motion diag(1, β, γ)·x_S."""
     x_s = np.array([[-w, h, 0], [-w, -h, 0], [w, h, 0], [w, -h, 0], [0, 0, l], [0, 0, -l]], dtype=float)
-    u_s = x_s * np.array([1.0, beta, gamma])
-    result = design(x_s, u_s, seed=seed)
+    return x_s, x_s * np.array([1.0, beta, gamma])
+
+
+def _block_3d(w: float, h: float, l: float, beta: float, gamma: float, seed: int):
+    """A designed 3D block (its specified nodes first, their motion exact: _block_targets)."""
+    result = design(*_block_targets(w, h, l, beta, gamma), seed=seed)
     return Module(result.frame, result.modes[0])
+
+
+def chain_couplings(n: int, poisson: float, block: tuple[float, float, float]):
+    """The couplings of an n-block chain (merges, bonds, as couple takes them), with every
+    refusal of auxetic_chain_3d that needs no design: InvalidInput ``invalid_size``, DomainError
+    ``coupling_failed`` when a block's merged ports move rigidly (coupling.check_transmission on
+    the blocks' targets, which the designed blocks keep exactly; at ν = 0 the ports only translate)."""
+    if not 1 <= n <= MAX_CHAIN_BLOCKS:
+        raise InvalidInput("invalid_size", f"a 3D chain has between 1 and {MAX_CHAIN_BLOCKS} blocks.")
+    merges = [((b - 1, 2), (b, 0)) for b in range(1, n)] + [((b - 1, 3), (b, 1)) for b in range(1, n)]
+    bonds = [((b - 1, 4), (b, 4)) for b in range(1, n)]
+    # Block b is block 0 translated, its motion plus a translation: whether ports move rigidly is the same.
+    check_transmission([_block_targets(*block, -poisson, -poisson)] * n, merges)
+    return merges, bonds
 
 
 def auxetic_chain_3d(
@@ -262,8 +339,7 @@ def auxetic_chain_3d(
     contracted states are the traced configurations whose ε_x is nearest ±``strain`` (as
     state_strains; their own ε_x is reported, within one continuation step of it).
     """
-    if not 1 <= n <= MAX_CHAIN_BLOCKS:
-        raise InvalidInput("invalid_size", f"a 3D chain has between 1 and {MAX_CHAIN_BLOCKS} blocks.")
+    merges, bonds = chain_couplings(n, poisson, block)
     w, h, l = block
     beta = gamma = -poisson
     base = _block_3d(w, h, l, beta, gamma, seed)
@@ -273,8 +349,6 @@ def auxetic_chain_3d(
         Module(Frame.build(base.frame.positions + b * shift, base.frame.edges), base.mode + b * shift * affine)
         for b in range(n)
     ]
-    merges = [((b - 1, 2), (b, 0)) for b in range(1, n)] + [((b - 1, 3), (b, 1)) for b in range(1, n)]
-    bonds = [((b - 1, 4), (b, 4)) for b in range(1, n)]
     composite = couple(modules, merges, bonds, specified=[(b, i) for b in range(n) for i in range(6)])
     m = composite.node_map
     boundary = {

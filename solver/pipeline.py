@@ -28,14 +28,27 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from zeromode.solver.certificates import SDP_MAX_DIM, Certificate, certify
-from zeromode.solver.design import Design, design
+from zeromode.solver.certificates import SDP_MAX_DIM, Certificate, certify, check_size
+from zeromode.solver.design import Design, design, design_targets
 from zeromode.solver.errors import InvalidInput
-from zeromode.solver.finite_strain import FiniteStrainSheet, finite_strain_sheet
+from zeromode.solver.finite_strain import (
+    FiniteStrainSheet,
+    check_finite_strain_request,
+    finite_strain_sheet,
+)
 from zeromode.solver.frame import Frame
-from zeromode.solver.lattice import Lattice, auxetic_chain_3d, auxetic_sheet, poisson_ratio
-from zeromode.solver.refine import Refinement, RefinementFailed, refine
-from zeromode.solver.tolerance import ToleranceReport, tolerance_report
+from zeromode.solver.lattice import (
+    Lattice,
+    auxetic_chain_3d,
+    auxetic_sheet,
+    chain_couplings,
+    check_sheet_strain,
+    poisson_ratio,
+    sheet_module_for,
+)
+from zeromode.solver.refine import Refinement, RefinementFailed, check_problem_size, refine
+from zeromode.solver.sheet_module import sheet_edges, sheet_positions
+from zeromode.solver.tolerance import ToleranceReport, check_tolerance_request, tolerance_report
 
 
 @dataclass(frozen=True)
@@ -85,6 +98,28 @@ def stiffness_sdp_fits(frame: Frame, zero_modes: int) -> bool:
     return frame.dim * frame.n_nodes - zero_modes <= SDP_MAX_DIM
 
 
+def check_design_request(
+    positions,
+    motions,
+    *,
+    dim: int | None = None,
+    seed: int = 0,
+    n_unspecified: int | None = None,
+    refine_stage: RefineStage | None = None,
+    certify_stage: bool = False,
+    tolerance_stage: ToleranceStage | None = None,
+) -> None:
+    """design_pipeline's refusals before any stage runs (design_pipeline's arguments): a
+    refinement of more than one motion (InvalidInput ``invalid_options``), then design's
+    (design_targets).  The refine, certify and tolerance stages' sizes depend on the designed
+    frame: they are decided when it exists."""
+    if refine_stage is not None and len(motions) != 1:
+        raise InvalidInput(
+            "invalid_options", "refinement follows one motion; give a single motion."
+        )
+    design_targets(positions, motions, dim, n_unspecified)
+
+
 def design_pipeline(
     positions,
     motions,
@@ -102,10 +137,7 @@ def design_pipeline(
     (M = 1). Raises the DomainErrors of the stages it runs (a failed refinement is not an
     error: its best result is returned with ``ok`` False).
     """
-    if refine_stage is not None and len(motions) != 1:
-        raise InvalidInput(
-            "invalid_options", "refinement follows one motion; give a single motion."
-        )
+    check_design_request(positions, motions, dim=dim, n_unspecified=n_unspecified, refine_stage=refine_stage)
     t0 = time.perf_counter()
     result = design(positions, motions, dim=dim, seed=seed, n_unspecified=n_unspecified)
     timings = {"design": 1e3 * (time.perf_counter() - t0)}
@@ -157,6 +189,52 @@ class AuxeticResult:
     finite_strain: FiniteStrainSheet | None = None
 
 
+def check_auxetic_request(
+    dim: int,
+    cells,
+    *,
+    poisson: float,
+    cell=None,
+    strain: float | None = None,
+    refine_stage: RefineStage | None = None,
+    certify_stage: bool = False,
+    tolerance_stage: ToleranceStage | None = None,
+    finite_strain: tuple[float, float, float] | None = None,
+    seed: int = 0,
+) -> None:
+    """auxetic_pipeline's refusals before the lattice is built (auxetic_pipeline's arguments),
+    in its order: finite_strain on a 3D chain, then the lattice's own (finite-strain sheet:
+    check_finite_strain_request; sheet: sheet_module_for, then check_sheet_strain, whose scan
+    grows with |strain|; chain: chain_couplings), then a sheet's stages from its reference
+    frame (sizes only: refine.check_problem_size, certificates.check_size,
+    tolerance.check_tolerance_request).  Not decided here: a chain's strain (its range is a
+    continuation of the whole chain), a chain's and a finite-strain sheet's stages (their frames
+    come from the design), and what only the design shows (the sheet's single mode)."""
+    if finite_strain is not None:
+        if dim != 2:
+            raise InvalidInput("invalid_options", "finite_strain holds the secant ratio of 2D sheets only.")
+        check_finite_strain_request(*cells, finite_strain[:2], finite_strain[2], tuple(cell or (1.0, 1.0)))
+        return
+    if dim != 2:
+        chain_couplings(cells[0], poisson, tuple(cell or (1.0, 1.0, 1.0)))
+        return
+    module, _ = sheet_module_for(*cells, poisson, tuple(cell or (1.0, 1.0)))
+    check_sheet_strain(module, tuple(cells), strain)
+    if refine_stage is None and not certify_stage and tolerance_stage is None:
+        return
+    # The sheet's nodes and bars at rest, its corner grid specified as the refinement drives it.
+    n_corners = (cells[0] + 1) * (cells[1] + 1)
+    frame = Frame.build(
+        sheet_positions(module, *cells, module.reference), sheet_edges(module, *cells), range(n_corners)
+    )
+    if refine_stage is not None:
+        check_problem_size(frame, refine_stage.K)
+    if certify_stage:
+        check_size(frame, 1, stiffness_sdp_fits(frame, frame.dim * (frame.dim + 1) // 2 + 1))
+    if tolerance_stage is not None:
+        check_tolerance_request(frame, tolerance_stage.budget, tolerance_stage.samples)
+
+
 def auxetic_pipeline(
     dim: int,
     cells,
@@ -178,11 +256,13 @@ def auxetic_pipeline(
     finite_strain (ε_lo, ε_hi, tolerance): a 2D sheet whose secant ν stays within the tolerance
     of ``poisson`` over [ε_lo, ε_hi] (finite_strain.finite_strain_sheet; its states at the ends,
     ``strain`` unused)."""
+    check_auxetic_request(
+        dim, cells, poisson=poisson, cell=cell, strain=strain, refine_stage=refine_stage,
+        certify_stage=certify_stage, tolerance_stage=tolerance_stage, finite_strain=finite_strain,
+    )
     t0 = time.perf_counter()
     held = None
     if finite_strain is not None:
-        if dim != 2:
-            raise InvalidInput("invalid_options", "finite_strain holds the secant ratio of 2D sheets only.")
         held = finite_strain_sheet(
             *cells, poisson=poisson, strain_range=finite_strain[:2], tolerance=finite_strain[2],
             cell=tuple(cell or (1.0, 1.0)),

@@ -173,6 +173,42 @@ def nlp_counts(n: int, d: int, n_unspecified: int, n_bars: int, K: int, stay: bo
     return equalities, unknowns
 
 
+def check_problem_size(frame: Frame, K: int, stay_on_solution_space: bool = False) -> None:
+    """refine's refusals from the frame's sizes alone (nlp_counts), before any analysis:
+    InvalidInput ``nothing_to_refine`` (no unspecified node) or ``invalid_option`` (K < 1),
+    DomainError ``too_expensive`` (more than MAX_UNKNOWNS unknowns) or ``too_few_unknowns``
+    (more bar equations than unknowns: IPOPT cannot start)."""
+    n_unspecified = frame.n_nodes - len(frame.specified)
+    if n_unspecified == 0:
+        raise InvalidInput("nothing_to_refine", "the frame has no unspecified node to move.")
+    if K < 1:
+        raise InvalidInput("invalid_option", "K must be at least 1.")
+    n_bars = frame.n_edges
+    equalities, unknowns = nlp_counts(frame.n_nodes, frame.dim, n_unspecified, n_bars, K, stay_on_solution_space)
+    if unknowns > MAX_UNKNOWNS:
+        raise DomainError(
+            "too_expensive",
+            f"the refinement would have {unknowns} unknowns (limit {MAX_UNKNOWNS}); lower K or use a smaller frame.",
+        )
+    if equalities > unknowns:
+        raise DomainError(
+            "too_few_unknowns",
+            f"the refinement would have {equalities} bar equations for {unknowns} unknowns (K = {K}): the "
+            f"frame has too few free coordinates for this target — its {n_bars} bars outnumber what its "
+            f"{n_unspecified} unspecified nodes can satisfy along a path (redundant bars, i.e. "
+            "self-stresses, count too); ask for a design with more unspecified nodes or fewer "
+            "redundant bars.",
+        )
+
+
+def refinement_target(frame: Frame, motion_s, amplitude, targets, K: int, stay_on_solution_space: bool):
+    """refine's refusals before any analysis: Δ_S and a (target_displacement), once the
+    problem's sizes are accepted (check_problem_size)."""
+    delta, a = target_displacement(frame, motion_s, amplitude, targets)
+    check_problem_size(frame, K, stay_on_solution_space)
+    return delta, a
+
+
 def _rigid_target(frame: Frame, delta: np.ndarray, a: float, analysis: Analysis | None, t_start: float) -> Refinement:
     """x_S + Δ_S is a rigid motion of x_S: the frame reaches it unchanged (ε = 0); the path is
     the reference and the whole frame moved by that rigid motion."""
@@ -220,32 +256,8 @@ def refine(
     with the best result) otherwise.
     """
     t_start = time.perf_counter()
-    delta, a = target_displacement(frame, motion_s, amplitude, targets)
+    delta, a = refinement_target(frame, motion_s, amplitude, targets, K, stay_on_solution_space)
     spec = np.asarray(frame.specified, dtype=int)
-    unspec = np.setdiff1d(np.arange(frame.n_nodes), spec)
-    n, d = frame.n_nodes, frame.dim
-    if len(unspec) == 0:
-        raise InvalidInput("nothing_to_refine", "the frame has no unspecified node to move.")
-    if K < 1:
-        raise InvalidInput("invalid_option", "K must be at least 1.")
-    _, unknowns = nlp_counts(n, d, len(unspec), frame.n_edges, K, stay_on_solution_space)
-    if unknowns > MAX_UNKNOWNS:
-        raise DomainError(
-            "too_expensive",
-            f"the refinement would have {unknowns} unknowns (limit {MAX_UNKNOWNS}); lower K or use a smaller frame.",
-        )
-    n_bars = frame.n_edges
-    equalities, free = nlp_counts(n, d, len(unspec), n_bars, K, stay_on_solution_space)
-    if equalities > free:
-        before_counts = analysis if analysis is not None else analyze(frame, bases=False)
-        raise DomainError(
-            "too_few_unknowns",
-            f"the refinement would have {equalities} bar equations for {free} unknowns (K = {K}): the "
-            f"frame has too few free coordinates for this target — its {n_bars} bars (with "
-            f"{before_counts.self_stresses} self-stress(es)) outnumber what its {len(unspec)} unspecified "
-            "nodes can satisfy along a path; ask for a design with more unspecified nodes or fewer "
-            "redundant bars.",
-        )
     if kabsch_distance(frame.positions[spec] + delta, frame.positions[spec]) <= REACHED_EPS * np.linalg.norm(delta):
         return _rigid_target(frame, delta, a, analysis, t_start)
     before = analysis if analysis is not None else analyze(frame)

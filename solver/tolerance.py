@@ -131,6 +131,21 @@ class ToleranceReport:
     estimates: tuple[ToleranceEstimate, ...]
 
 
+def check_tolerance_request(frame: Frame, budget: float, samples: int) -> None:
+    """tolerance_report's refusals before any work: InvalidInput ``invalid_options`` for the
+    budget or sample count, DomainError ``too_expensive`` past MAX_DOF degrees of freedom."""
+    if not 0 < budget < 1:
+        raise InvalidInput("invalid_options", f"the tolerance budget must be in (0, 1), got {budget}.")
+    if samples < 2:
+        raise InvalidInput("invalid_options", f"the Monte Carlo needs at least 2 samples, got {samples}.")
+    n_dof = frame.dim * frame.n_nodes
+    if n_dof > MAX_DOF:
+        raise DomainError(
+            "too_expensive",
+            f"tolerances are computed for frames of up to {MAX_DOF} degrees of freedom; this one has {n_dof}.",
+        )
+
+
 def tolerance_report(
     frame: Frame,
     modes,
@@ -148,16 +163,8 @@ def tolerance_report(
     target_response, driven by the first mode's source rows). Raises InvalidInput for a bad
     budget or sample count, DomainError ``too_expensive`` past MAX_DOF, ``no_motion`` when the
     modes are not zero modes of the frame or the frame has other zero modes."""
-    if not 0 < budget < 1:
-        raise InvalidInput("invalid_options", f"the tolerance budget must be in (0, 1), got {budget}.")
-    if samples < 2:
-        raise InvalidInput("invalid_options", f"the Monte Carlo needs at least 2 samples, got {samples}.")
+    check_tolerance_request(frame, budget, samples)
     n, d = frame.n_nodes, frame.dim
-    if d * n > MAX_DOF:
-        raise DomainError(
-            "too_expensive",
-            f"tolerances are computed for frames of up to {MAX_DOF} degrees of freedom; this one has {d * n}.",
-        )
     norm = Normalisation.of(frame.positions)
     design = _Design.at(norm.positions_in(frame.positions).ravel(), frame.edges, n, d, modes, norm.length)
     driven = list(source) + list(target) or list(frame.specified) or list(range(n))

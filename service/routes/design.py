@@ -7,6 +7,7 @@ import time
 
 from fastapi import APIRouter
 
+from zeromode.service.documents import design_arguments
 from zeromode.service.responses import design_body, solution_space_body, two_configuration_body
 from zeromode.service.schemas.common import ERROR_RESPONSES
 from zeromode.service.schemas.design import (
@@ -17,7 +18,7 @@ from zeromode.service.schemas.design import (
     TwoConfigurationRequest,
     TwoConfigurationResponse,
 )
-from zeromode.solver.pipeline import RefineStage, ToleranceStage, design_pipeline
+from zeromode.solver.pipeline import design_pipeline
 from zeromode.solver.solution_space import seeded_samples, solution_space
 from zeromode.solver.two_configuration import design_two_configurations
 
@@ -36,20 +37,7 @@ def post_design(request: DesignRequest) -> dict:
     """Inverse design by judicious constraint placement: the requested motions become the only
     non-rigid zero modes of the returned frame (verified before it is returned); optionally
     refined (report.refinement) and certified (report.certificate) in the same call."""
-    opts = request.options
-    r = opts.refine
-    result = design_pipeline(
-        request.positions,
-        request.motions,
-        dim=request.dim,
-        seed=opts.seed,
-        n_unspecified=opts.n_unspecified,
-        refine_stage=None
-        if r is None
-        else RefineStage(amplitude=r.amplitude, K=r.K, tol=r.tol, max_time_s=r.max_time_s),
-        certify_stage=opts.certify,
-        tolerance_stage=None if opts.tolerance is None else ToleranceStage(**opts.tolerance.model_dump()),
-    )
+    result = design_pipeline(**design_arguments(request))
     return design_body(result, result.timings_ms)
 
 

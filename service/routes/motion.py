@@ -9,6 +9,7 @@ from fastapi.responses import JSONResponse
 
 from zeromode.service.convert import frame_from_model
 from zeromode.service.errors import error_body
+from zeromode.service.prechecks import motion_frame
 from zeromode.service.responses import motion_body, refinement_body
 from zeromode.service.schemas.common import ERROR_RESPONSES
 from zeromode.service.schemas.motion import (
@@ -19,7 +20,6 @@ from zeromode.service.schemas.motion import (
     RefineResponse,
 )
 from zeromode.solver.finite_motion import SingularPath, trace_motion
-from zeromode.solver.frame import check_extent
 from zeromode.solver.lattice import path_strains
 from zeromode.solver.periodic import trace_motion_through_cell
 from zeromode.solver.refine import RefinementFailed, refine
@@ -54,8 +54,7 @@ def post_motion(request: MotionRequest):
     located); where that check fails, the frame's own continuation answers.
     """
     t0 = time.perf_counter()
-    frame = frame_from_model(request.frame)
-    check_extent(frame.positions)
+    frame = motion_frame(request)
     # A lattice (its boundary given) is followed through one cell when it is tiled, checked on the frame.
     trace = trace_motion if request.boundary is None else trace_motion_through_cell
     path = trace(frame, **request.model_dump(include={"mode", "amplitude", "max_step", "direction", "max_steps"}))
