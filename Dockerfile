@@ -24,6 +24,12 @@ COPY export ./export
 RUN pip install --no-cache-dir --no-deps --no-build-isolation . \
     && rm -rf build ./*.egg-info
 
+# Job and sweep records (SQLite): a directory the service's user owns; mount a volume here to
+# keep them across containers.
+RUN mkdir -p /var/lib/zeromode && chown 10001:10001 /var/lib/zeromode
+ENV ZEROMODE_DATABASE_URL=sqlite:////var/lib/zeromode/jobs.sqlite3
+VOLUME ["/var/lib/zeromode"]
+
 USER 10001:10001
 EXPOSE 8000
 

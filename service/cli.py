@@ -60,6 +60,9 @@ def cmd_serve(args) -> int:
 
     app = "zeromode.service.app:app"
     options = server_options(Settings())
+    # Each uvicorn worker that runs jobs starts its own embedded Dask cluster: together they use
+    # one worker process per core.
+    os.environ.setdefault("ZEROMODE_DASK_WORKERS", str(max((os.cpu_count() or 1) // max(args.workers, 1), 1)))
     if args.workers <= 1:
         uvicorn.run(app, host=args.host, port=args.port, log_level="info", **options)
         return 0

@@ -3,7 +3,7 @@
 One engine per service instance. It connects to the Dask cluster named by
 ``ZEROMODE_DASK_SCHEDULER`` (one started by hand, by dask-jobqueue or by the Dask Kubernetes
 operator), or starts an embedded ``LocalCluster`` of worker processes sized to the machine.
-Tasks run ``service.tasks.execute``; their progress arrives as worker events, their end through
+Tasks run ``service.tasks.execute_chunk``; their progress arrives as worker events, their end through
 their futures; one recorder thread writes both to the store in batches, so the service's own
 thread answers requests (``/health`` included) while the workers compute.
 
@@ -221,7 +221,8 @@ class Engine:
 
     def _on_progress(self, event) -> None:
         _, message = event
-        self._events.put(("progress", message["id"], message))
+        for job_id in message["ids"]:
+            self._events.put(("progress", job_id, message))
 
     def _on_done(self, future) -> None:
         self._events.put(("done", future.key, future))

@@ -289,11 +289,13 @@ class Store:
 
     # --- reading ---------------------------------------------------------------------------
 
-    def job(self, job_id: str, with_result: bool = True) -> dict[str, Any] | None:
+    def job(self, job_id: str, with_result: bool = True, raw_result: bool = False) -> dict[str, Any] | None:
+        """The job's record; its result decoded, or with ``raw_result`` the stored JSON text
+        (to be sent on as it is)."""
         columns = [c for c in jobs.c if with_result or c.name != "result"]
         with self.db.connect() as conn:
             row = conn.execute(sa.select(*columns).where(jobs.c.id == job_id)).first()
-        return None if row is None else _job_dict(row._mapping)
+        return None if row is None else _job_dict(row._mapping, raw_result)
 
     def active_jobs(self, client: str | None = None) -> int:
         """Queued or running single jobs (not sweep points), of ``client`` when given."""
@@ -362,12 +364,12 @@ class Store:
             ).scalars())
 
 
-def _job_dict(row) -> dict[str, Any]:
+def _job_dict(row, raw_result: bool = False) -> dict[str, Any]:
     record = dict(row)
     for key in ("request", "error", "params"):
         if key in record:
             record[key] = _decoded(record[key])
-    if "result" in record:
+    if "result" in record and not raw_result:
         record["result"] = _decoded(record["result"])
     return record
 

@@ -1,11 +1,11 @@
 """The work of one job, as it runs on a Dask worker: an endpoint's request in, its answer out.
 
 ``RUNNABLE`` maps each job endpoint to its route function and models, so a job answers exactly
-what the endpoint would. ``execute`` is the task Dask runs: it parses the request, runs the
-endpoint under the job time budget and the service's settings, reports progress as Dask worker
-events (topic ``PROGRESS_TOPIC``, read by the service's engine) and returns the encoded answer
-or the error body; it never raises for a failure of the request, so a Dask-level error means
-the worker itself was lost.
+what the endpoint would. ``execute_chunk`` is the task Dask runs: for each job it parses the
+request, runs the endpoint under the job time budget and the service's settings (``execute``),
+reports progress as Dask worker events (topic ``PROGRESS_TOPIC``, read by the service's engine)
+and returns the encoded answer or the error body; it never raises for a failure of a request,
+so a Dask-level error means the worker itself was lost.
 """
 
 from __future__ import annotations
@@ -132,36 +132,37 @@ def _settings(doc: str) -> Settings:
     return Settings.model_validate_json(doc)
 
 
-def _event_sender(job_id: str) -> Callable[[float, str], None] | None:
-    """Progress as Dask worker events, throttled; None outside a Dask worker (the library's
-    inline runs)."""
+def _worker():
+    """The Dask worker running this task, or None (the library's inline runs)."""
     try:
         from distributed import get_worker
 
-        worker = get_worker()
+        return get_worker()
     except (ImportError, ValueError):
         return None
+
+
+def _event_sender(worker, job_id: str) -> Callable[[float, str], None]:
+    """Progress of one job as Dask worker events, throttled."""
     last = [-1.0, 0.0]
 
     def send(fraction: float, message: str) -> None:
         now = time.monotonic()
         if fraction - last[0] >= PROGRESS_STEP or now - last[1] >= PROGRESS_INTERVAL_S:
             last[0], last[1] = fraction, now
-            worker.log_event(PROGRESS_TOPIC, {"id": job_id, "progress": fraction, "message": message[:200]})
+            worker.log_event(PROGRESS_TOPIC, {"ids": [job_id], "progress": fraction, "message": message[:200]})
 
     return send
 
 
-def execute(job_id: str, endpoint: str, request: dict[str, Any], settings_json: str) -> tuple[str, Any]:
-    """The Dask task of one job: ``("done", answer as JSON bytes)`` or ``("failed", error
-    detail)``. Runs under the settings' job time budget; a result over
+def execute(job_id: str, endpoint: str, request: dict[str, Any], settings_json: str,
+            progress: Callable[[float, str], None] | None = None) -> tuple[str, Any]:
+    """One job: ``("done", answer as JSON bytes)`` or ``("failed", error detail)``, its
+    progress reported to ``progress``. Runs under the settings' job time budget; a result over
     ``max_job_result_bytes`` fails with ``result_too_large`` here, before it is shipped."""
     settings = _settings(settings_json)
-    send = _event_sender(job_id)
-    if send is not None:
-        send(0.0, "running")
     try:
-        with settings_scope(settings), time_budget(settings.job_time_budget_s), progress_scope(send):
+        with settings_scope(settings), time_budget(settings.job_time_budget_s), progress_scope(progress):
             data = json.dumps(answer(endpoint, validated(endpoint, request)), allow_nan=False,
                               separators=(",", ":")).encode()
     except Exception as exc:  # noqa: BLE001 — every failure of the request is the job's answer
@@ -177,6 +178,15 @@ def execute(job_id: str, endpoint: str, request: dict[str, Any], settings_json: 
 
 
 def execute_chunk(jobs: list[tuple[str, str, dict[str, Any]]], settings_json: str) -> list[tuple[str, str, Any]]:
-    """The Dask task of a chunk of jobs, (id, endpoint, request) each, run one after the other:
-    (id, status, payload) of each, as ``execute`` returns them."""
-    return [(job_id, *execute(job_id, endpoint, request, settings_json)) for job_id, endpoint, request in jobs]
+    """The Dask task: a chunk of jobs, (id, endpoint, request) each, run one after the other;
+    (id, status, payload) of each, as ``execute`` returns them. One event marks them all
+    running; a chunk of one job (a single job) also reports that job's progress, a chunk of
+    sweep points only their ends (a sweep's progress is its count of finished points)."""
+    worker = _worker()
+    if worker is not None:
+        worker.log_event(PROGRESS_TOPIC, {"ids": [job_id for job_id, _, _ in jobs], "progress": 0.0, "message": "running"})
+    out = []
+    for job_id, endpoint, request in jobs:
+        progress = _event_sender(worker, job_id) if worker is not None and len(jobs) == 1 else None
+        out.append((job_id, *execute(job_id, endpoint, request, settings_json, progress)))
+    return out

@@ -200,7 +200,7 @@ def test_a_job_fails_with_the_code_its_endpoint_answers(client):
     assert direct.status_code == 422
     status = wait(client, submit(client, "/v1/motion", SINGULAR_MOTION))
     assert status["status"] == "failed"
-    assert status["error"] == {k: direct.json()["detail"][k] for k in ("code", "message")}
+    assert without_timings(status["error"]) == without_timings(direct.json()["detail"])  # with the best figures
     assert status["error"]["code"] == "singular_path"
 
 

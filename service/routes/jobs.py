@@ -7,12 +7,12 @@ from typing import Any
 
 from fastapi import APIRouter, HTTPException, Request
 from fastapi.exceptions import RequestValidationError
-from fastapi.responses import JSONResponse
+from fastapi.responses import JSONResponse, Response
 
 from zeromode.service.engine import EngineUnavailable
 from zeromode.service.errors import error_body
 from zeromode.service.jobs import JobRejected, Jobs, jobs_of_app
-from zeromode.service.responses import job_body
+from zeromode.service.responses import job_body, job_json
 from zeromode.service.schemas.common import ERROR_RESPONSES, ErrorResponse
 from zeromode.service.schemas.jobs import JobAccepted, JobRequest, JobStatus
 from zeromode.service.tasks import RequestRefused, validated
@@ -87,13 +87,13 @@ def submit_job(job: JobRequest, request: Request) -> JSONResponse:
 
 
 @router.get("/jobs/{job_id}", response_model=JobStatus, responses={**UNKNOWN, **UNAVAILABLE})
-def get_job(job_id: str, request: Request) -> dict:
+def get_job(job_id: str, request: Request) -> Response:
     """Status, progress (0..1) and message of a job; its result when done, its error when not.
     Any replica answers: records live in the store (ZEROMODE_DATABASE_URL)."""
-    record = jobs_of(request).store.job(job_id)
+    record = jobs_of(request).store.job(job_id, raw_result=True)
     if record is None or record["sweep_id"] is not None:
         raise unknown("job", job_id)
-    return job_body(record)
+    return Response(job_json(record), media_type="application/json")
 
 
 @router.delete("/jobs/{job_id}", response_model=JobStatus, responses={**UNKNOWN, **UNAVAILABLE})
