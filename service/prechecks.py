@@ -15,7 +15,7 @@ What is decided here, and what only the run can decide:
                          frame's), no_solution of the placement.
   /v1/design/auxetic     cell and half-size counts, sizes, the module's conic (no_solution), a
                          sheet colliding at rest (no_solution, e.g. ν = 0), a sheet's strain
-                         (strain_out_of_range, scanning one module's motion up to ±strain), a
+                         (strain_out_of_range, from one module's scan of its range, kept), a
                          sheet's refine / certify / tolerance sizes (too_few_unknowns,
                          too_expensive), a chain's couplings (coupling_failed, e.g. ν = 0),
                          finite_strain's options.  Run time: a chain's strain (its range is a
@@ -114,6 +114,6 @@ PRECHECKS: dict[str, Callable] = {
 def precheck(endpoint: str, body: BaseModel) -> None:
     """Raise what ``endpoint`` would answer up front for ``body`` (its request model, validated):
     the DomainError (InvalidInput included) its first checks raise; return when they pass.
-    Typically a few milliseconds; an auxetic sheet's ``strain`` costs a scan of one module's
-    motion up to it (tens of milliseconds)."""
+    Typically a few milliseconds; an auxetic sheet's ``strain`` costs one scan of a module's
+    motion (50–400 ms) per sheet, kept for the last 128 sheets (lattice.sheet_motion)."""
     PRECHECKS[endpoint](body)

@@ -28,6 +28,7 @@ one bar between their upper apexes (removes the remaining hinge), as in the main
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -47,6 +48,7 @@ from zeromode.solver.sheet_module import (
 from zeromode.solver.solution_space import solution_space
 from zeromode.solver.strain_range import (
     PROXIMITY_FRACTION,
+    ModuleMotion,
     StrainRange,
     chain_range,
     module_range,
@@ -169,9 +171,8 @@ def auxetic_sheet(
     ``strain_out_of_range`` naming it otherwise); None: ±DEFAULT_STATE_STRAIN clipped to the
     range.  Each state is the module's Newton-exact configuration tiled (sheet_module).
     """
-    module, node_motions = sheet_module_for(nx, ny, poisson, cell)
+    module, node_motions, motion = sheet_motion(nx, ny, poisson, tuple(cell))
     beta = -poisson
-    motion = module_range(module, (nx, ny))
     strains = state_strains(motion.range, strain)
     positions = sheet_positions(module, nx, ny, module.reference)
     n_corners = (nx + 1) * (ny + 1)
@@ -232,13 +233,23 @@ def check_reference_spacing(module: SymmetricModule, cells: tuple[int, int], poi
         )
 
 
-def check_sheet_strain(module: SymmetricModule, cells: tuple[int, int], strain: float | None) -> None:
-    """auxetic_sheet's ``strain_out_of_range`` (state_strains) decided by scanning the module's
-    motion no further than ±strain (module_range's limits): the cost grows with |strain|, not
-    with the whole range, and the range named is the part scanned.  None: nothing to check (the
-    default states are clipped to the range)."""
+@lru_cache(maxsize=128)
+def sheet_motion(
+    nx: int, ny: int, poisson: float, cell: tuple[float, float]
+) -> tuple[SymmetricModule, np.ndarray, ModuleMotion]:
+    """sheet_module_for, and the sheet's usable range with the module's motion over it
+    (strain_range.module_range: one module's scan, tens to hundreds of milliseconds), kept for
+    the last 128 sheets so that a request's precheck and its run, or sweep points that differ
+    only in other options, scan once.  The arrays are shared: read them, never write."""
+    module, node_motions = sheet_module_for(nx, ny, poisson, cell)
+    return module, node_motions, module_range(module, (nx, ny))
+
+
+def check_sheet_strain(nx: int, ny: int, poisson: float, cell: tuple[float, float], strain: float | None) -> None:
+    """auxetic_sheet's ``strain_out_of_range`` (state_strains on sheet_motion's range) before
+    the sheet is tiled.  None: nothing to check (the default states are clipped to the range)."""
     if strain is not None:
-        state_strains(module_range(module, cells, limits=(-strain, strain)).range, strain)
+        state_strains(sheet_motion(nx, ny, poisson, cell)[2].range, strain)
 
 
 def state_strains(usable: StrainRange, strain: float | None) -> dict[str, float]:

@@ -204,9 +204,9 @@ def check_auxetic_request(
 ) -> None:
     """auxetic_pipeline's refusals before the lattice is built (auxetic_pipeline's arguments),
     in its order: finite_strain on a 3D chain, then the lattice's own (finite-strain sheet:
-    check_finite_strain_request; sheet: sheet_module_for, then check_sheet_strain, whose scan
-    grows with |strain|; chain: chain_couplings), then a sheet's stages from its reference
-    frame (sizes only: refine.check_problem_size, certificates.check_size,
+    check_finite_strain_request; sheet: sheet_module_for, then check_sheet_strain — one
+    module's scan, kept for the run; chain: chain_couplings), then a sheet's stages from its
+    reference frame (sizes only: refine.check_problem_size, certificates.check_size,
     tolerance.check_tolerance_request).  Not decided here: a chain's strain (its range is a
     continuation of the whole chain), a chain's and a finite-strain sheet's stages (their frames
     come from the design), and what only the design shows (the sheet's single mode)."""
@@ -219,7 +219,7 @@ def check_auxetic_request(
         chain_couplings(cells[0], poisson, tuple(cell or (1.0, 1.0, 1.0)))
         return
     module, _ = sheet_module_for(*cells, poisson, tuple(cell or (1.0, 1.0)))
-    check_sheet_strain(module, tuple(cells), strain)
+    check_sheet_strain(*cells, poisson, tuple(cell or (1.0, 1.0)), strain)
     if refine_stage is None and not certify_stage and tolerance_stage is None:
         return
     # The sheet's nodes and bars at rest, its corner grid specified as the refinement drives it.
