@@ -3,8 +3,15 @@
 The caller opens ``progress_scope(callback)``; main loops call ``report_progress(fraction,
 message)`` where they know how far they are, and the callback receives the fraction clamped to
 [0, 1]. Outside a scope a report costs one context-variable lookup and goes nowhere. The
-callback lives in a context variable (like the time budget of budget.py), so concurrent jobs
+scope lives in a context variable (like the time budget of budget.py), so concurrent jobs
 each report to their own.
+
+Stages nest: ``progress_stage(lo, hi, label)`` maps the inner fractions 0..1 affinely onto
+[lo, hi] of the enclosing stage (the scope is the stage [0, 1]), so a pipeline whose parts each
+report 0..1 reports one fraction overall, monotone when each part is and the stages of one
+level are entered in increasing, non-overlapping order. A function that reports is called
+inside a stage by any caller that reports around it; its reports then stay within the share the
+caller gave it. Entering a stage reports its start, leaving it (without an exception) its end.
 """
 
 from __future__ import annotations
@@ -12,24 +19,81 @@ from __future__ import annotations
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
+from dataclasses import dataclass
 
 ProgressCallback = Callable[[float, str], None]
 
-_CALLBACK: ContextVar[ProgressCallback | None] = ContextVar("zeromode_progress", default=None)
+
+@dataclass(frozen=True)
+class _Stage:
+    """The scope's callback and the interval [lo, hi] of the scope's fraction that this stage's
+    0..1 maps onto; ``label`` prefixes its messages."""
+
+    callback: ProgressCallback
+    lo: float
+    hi: float
+    label: str
+
+
+_STAGE: ContextVar[_Stage | None] = ContextVar("zeromode_progress", default=None)
 
 
 @contextmanager
 def progress_scope(callback: ProgressCallback | None) -> Iterator[None]:
-    """Within this block, ``report_progress`` calls ``callback(fraction, message)``."""
-    token = _CALLBACK.set(callback)
+    """Within this block, ``report_progress`` calls ``callback(fraction, message)``; None turns
+    the reports of an enclosing scope off."""
+    token = _STAGE.set(None if callback is None else _Stage(callback, 0.0, 1.0, ""))
     try:
         yield
     finally:
-        _CALLBACK.reset(token)
+        _STAGE.reset(token)
+
+
+@contextmanager
+def progress_stage(lo: float, hi: float, label: str = "") -> Iterator[None]:
+    """Within this block, a report of f (0..1) is the enclosing stage's lo + f·(hi − lo)
+    (0 ≤ lo ≤ hi ≤ 1), its message prefixed by ``label``. Reports lo on entry, hi on a normal
+    exit. Outside a scope: nothing."""
+    outer = _STAGE.get()
+    if outer is None:
+        yield
+        return
+    width = outer.hi - outer.lo
+    if outer.label and label:
+        label = f"{outer.label}: {label}"
+    stage = _Stage(outer.callback, outer.lo + width * lo, outer.lo + width * hi, label or outer.label)
+    token = _STAGE.set(stage)
+    try:
+        report_progress(0.0, "started")
+        yield
+        report_progress(1.0, "done")
+    finally:
+        _STAGE.reset(token)
 
 
 def report_progress(fraction: float, message: str = "") -> None:
-    """Tell the current scope that ``fraction`` (0..1) of the work is done."""
-    callback = _CALLBACK.get()
-    if callback is not None:
-        callback(min(max(float(fraction), 0.0), 1.0), message)
+    """Tell the current stage that ``fraction`` (0..1) of its work is done."""
+    stage = _STAGE.get()
+    if stage is not None:
+        f = min(max(float(fraction), 0.0), 1.0)
+        text = f"{stage.label}: {message}" if stage.label and message else message or stage.label
+        stage.callback(stage.lo + (stage.hi - stage.lo) * f, text)
+
+
+def report_steps(total: int, message: str, step: float = 0.01) -> Callable[[int], None]:
+    """For a loop of ``total`` iterations: ``tick(i)`` reports (i + 1)/total when that moved by
+    at least ``step`` since the last report (and at the last iteration), so a fast loop
+    reports about 1/step times whatever its length. Outside a scope ``tick`` does nothing."""
+    if _STAGE.get() is None or total <= 0:
+        return _nothing
+    stride = max(1, int(step * total))
+
+    def tick(i: int) -> None:
+        if (i + 1) % stride == 0 or i + 1 == total:
+            report_progress((i + 1) / total, message)
+
+    return tick
+
+
+def _nothing(i: int) -> None:
+    """report_steps' tick outside a scope."""
