@@ -36,7 +36,7 @@ from scipy.spatial import cKDTree
 from zeromode.solver.coupling import Module, check_transmission, couple
 from zeromode.solver.design import design
 from zeromode.solver.errors import DomainError, InvalidInput
-from zeromode.solver.frame import Frame
+from zeromode.solver.frame import Frame, check_extent
 from zeromode.solver.multimode import spatial_quadric
 from zeromode.solver.rigidity import Analysis, analyze, zero_mode_residual
 from zeromode.solver.sheet_module import (
@@ -195,17 +195,22 @@ def auxetic_sheet(
     return measured_lattice(frame, mode, analysis, boundary, states, motion.range, np.arange(n_corners))
 
 
+@lru_cache(maxsize=256)
 def sheet_module_for(nx: int, ny: int, poisson: float, cell: tuple[float, float]) -> tuple[SymmetricModule, np.ndarray]:
     """The module of an n_x × n_y sheet and its unspecified nodes' motions (2, 2), with every
     refusal of auxetic_sheet that needs neither the tiled sheet nor its analysis: InvalidInput
     ``invalid_size`` / ``invalid_cell``, DomainError ``no_solution`` when the module's conic
     misses its axis (module_nodes) or the reference sheet already has a collision
-    (check_reference_spacing).  Cost: one module's solution space and a patch of a few modules."""
+    (check_reference_spacing).  Cost: one module's solution space and a patch of a few modules
+    (a few milliseconds), kept for the last 256 sheets (sweep points repeat them); the arrays
+    are shared: read them, never write."""
     if nx < 1 or ny < 1 or nx * ny > MAX_SHEET_CELLS:
         raise InvalidInput("invalid_size", f"cells must be between 1 and {MAX_SHEET_CELLS} in all.")
     w, h = cell
     if not (w > 0 and h > 0):
         raise InvalidInput("invalid_cell", "cell half-width and half-height must be positive.")
+    # The module's motion works in the caller's units (squared bar lengths): out_of_range beyond them.
+    check_extent(np.array([[w, h], [-w, -h]]), name="cell")
     _, _, nodes, node_motions = module_nodes(w, h, -poisson)
     module = two_node_module(w, h, float(nodes[0, 0]))
     check_reference_spacing(module, (nx, ny), poisson)

@@ -92,6 +92,7 @@ BAD = [
     ("/v1/design/auxetic", {"dim": 3, "cells": [65]}, "invalid_size"),
     ("/v1/design/auxetic", {"cells": [2, 2], "cell": [1.0, 1.0, 1.0]}, "invalid_cell"),
     ("/v1/design/auxetic", {"cells": [2, 2], "cell": [-1.0, 1.0]}, "invalid_cell"),
+    ("/v1/design/auxetic", {"cells": [1, 1], "cell": [1e-185, 1e-185]}, "out_of_range"),  # squares underflow
     # ν = 0: each module's axis node sits where its neighbour's does (c² = w² + βh² = w²).
     ("/v1/design/auxetic", {"cells": [4, 4], "poisson_ratio": 0.0}, "no_solution"),
     ("/v1/design/auxetic", {"cells": [4, 1], "poisson_ratio": 0.0}, "no_solution"),
