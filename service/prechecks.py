@@ -25,8 +25,9 @@ What is decided here, and what only the run can decide:
                          that does not pin the rigid motions), the relays' module count
                          (too_expensive).  Run time: inaccurate_design, the tolerance stage.
   /v1/motion             the frame, its extent, direction / amplitude / max_step, the size
-                         (too_expensive), the boundary sets.  Run time: everything about the
-                         frame's modes (no_motion, ambiguous_mode, the given mode's rows).
+                         (too_expensive), the given mode's shape, the boundary sets.  Run time:
+                         everything about the frame's modes (no_motion, ambiguous_mode,
+                         not_a_zero_mode, a zero mode given), singular_path.
   /v1/refine             the frame, the target (motion and amplitude, or targets), no
                          unspecified node, K, the NLP's size (too_expensive, too_few_unknowns).
                          Run time: not_single_mode (an analysis), refinement_failed.
@@ -51,7 +52,7 @@ from zeromode.service.schemas.lattice import AuxeticRequest
 from zeromode.service.schemas.motion import MotionRequest, RefineRequest
 from zeromode.solver.allostery import allosteric_inputs
 from zeromode.solver.certificates import check_certify_request
-from zeromode.solver.finite_motion import check_trace_arguments
+from zeromode.solver.finite_motion import check_trace_arguments, given_mode
 from zeromode.solver.frame import Frame, check_extent
 from zeromode.solver.lattice import boundary_sets
 from zeromode.solver.pipeline import check_auxetic_request, check_design_request
@@ -60,11 +61,13 @@ from zeromode.solver.refine import refinement_target
 
 def motion_frame(request: MotionRequest) -> Frame:
     """The frame of a /v1/motion request once everything refused before tracing has passed:
-    the frame, its extent, the continuation's arguments and size, the boundary sets (its route
-    calls this first)."""
+    the frame, its extent, the continuation's arguments and size, the given mode's shape, the
+    boundary sets (its route calls this first)."""
     frame = frame_from_model(request.frame)
     check_extent(frame.positions)
     check_trace_arguments(frame, request.amplitude, request.max_step, request.direction)
+    if request.mode is not None:
+        given_mode(request.mode, frame.n_nodes, frame.dim)
     if request.boundary is not None:
         boundary_sets(request.boundary, frame.n_nodes)
     return frame

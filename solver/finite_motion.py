@@ -629,17 +629,22 @@ def _reference_null_space(cons: BarConstraints, x: np.ndarray, explicit_mode: bo
     return null, complement_within(null, cons.rigid(x))
 
 
+def given_mode(mode, n: int, d: int) -> np.ndarray:
+    """A given mode as an (n, d) array of finite numbers (InvalidInput ``invalid_shape`` or
+    ``not_finite`` naming it otherwise)."""
+    u = check_positions(mode, d, name="mode")
+    if u.shape[0] != n:
+        raise InvalidInput("invalid_shape", f"mode must have one row per node ({n}), got {u.shape[0]}.")
+    return u
+
+
 def start_direction(cons: BarConstraints, x: np.ndarray, mode):
     """(unit starting tangent (dN), orthonormal basis of N(C(x))) in normalised coordinates;
     ``mode`` (n, d) or None (then the single nontrivial mode, largest entry positive).
     DomainError if there is no tangent."""
     n = x.shape[0]
     if mode is not None:
-        u = check_positions(mode, x.shape[1], name="mode")
-        if u.shape[0] != n:
-            raise InvalidInput(
-                "invalid_shape", f"mode must have one row per node ({n}), got {u.shape[0]}."
-            )
+        u = given_mode(mode, n, x.shape[1])
     null, modes = _reference_null_space(cons, x, explicit_mode=mode is not None)
     if mode is None:
         u = modes[:, 0]

@@ -115,6 +115,7 @@ BAD = [
     # /v1/motion.
     ("/v1/motion", {"frame": SQUARE, "boundary": {"left": [0], "right": [1], "bottom": [0], "top": [9]}}, "invalid_boundary"),
     ("/v1/motion", {"frame": {**SQUARE, "positions": [[0.0, 0.0], [1e160, 0.0], [1e160, 1e160], [0.0, 1e160]]}}, "out_of_range"),
+    ("/v1/motion", {"frame": SQUARE, "mode": [[1.0, 0.0]] * 3}, "invalid_shape"),  # 3 rows for 4 nodes
     ("/v1/motion", {"frame": many_nodes(30_001)}, "too_expensive"),  # 60 002 > 60 000 degrees of freedom
     # /v1/refine.
     ("/v1/refine", {"frame": {**SQUARE, "specified": [0]}, "motion": [[1.0, 0.0]]}, "too_few_specified"),
