@@ -85,6 +85,30 @@ def couple(
     the returned mode is the one nontrivial mode, scaled to agree with module 0's designed mode.
     Raises DomainError ``coupling_failed`` when a condition of the paper fails.
     """
+    frame, node_map = merged_frame(modules, merges, bonds, specified)
+    check_transmission([(m.frame.positions, m.mode) for m in modules], merges)
+    analysis = analyze(frame, bases=True)
+    if analysis.nontrivial_zero_modes != nontrivial_modes or (
+        analysis.self_stresses and not allow_self_stress
+    ):
+        raise DomainError(
+            "coupling_failed",
+            f"the coupled frame has {analysis.nontrivial_zero_modes} nontrivial zero modes and "
+            f"{analysis.self_stresses} self-stresses (wanted {nontrivial_modes} and 0).",
+        )
+    mode = _aligned_mode(frame, analysis, modules[0], node_map[0])
+    return Composite(frame, mode, analysis, node_map)
+
+
+def merged_frame(
+    modules: list[Module],
+    merges: list[tuple[tuple[int, int], tuple[int, int]]],
+    bonds: list[tuple[tuple[int, int], tuple[int, int]]] = (),
+    specified: list[tuple[int, int]] = (),
+) -> tuple[Frame, tuple[np.ndarray, ...]]:
+    """The frame of the modules with merged nodes made one (they must coincide: DomainError
+    ``coupling_failed`` otherwise) and the bonds added, with the specified (module, node) pairs,
+    and each module's node indices in it; no analysis (couple analyses it)."""
     offsets = np.cumsum([0] + [m.frame.n_nodes for m in modules])
     parent = np.arange(offsets[-1])
 
@@ -101,7 +125,6 @@ def couple(
         if np.linalg.norm(positions[a] - positions[b]) > DISTINCT_RTOL * scale:
             raise DomainError("coupling_failed", f"merged nodes {ma}:{ia} and {mb}:{ib} do not coincide.")
         parent[root(b)] = root(a)
-    check_transmission([(m.frame.positions, m.mode) for m in modules], merges)
     roots = np.array([root(i) for i in range(offsets[-1])])
     unique, new_index = np.unique(roots, return_inverse=True)
     edges = np.vstack(
@@ -109,19 +132,8 @@ def couple(
         + [np.array([[new_index[offsets[ma] + ia], new_index[offsets[mb] + ib]] for (ma, ia), (mb, ib) in bonds]).reshape(-1, 2)]
     )
     spec = sorted({int(new_index[offsets[m] + i]) for m, i in specified})
-    frame = Frame.build(positions[unique], edges, spec)
-    analysis = analyze(frame, bases=True)
-    if analysis.nontrivial_zero_modes != nontrivial_modes or (
-        analysis.self_stresses and not allow_self_stress
-    ):
-        raise DomainError(
-            "coupling_failed",
-            f"the coupled frame has {analysis.nontrivial_zero_modes} nontrivial zero modes and "
-            f"{analysis.self_stresses} self-stresses (wanted {nontrivial_modes} and 0).",
-        )
     node_map = tuple(new_index[offsets[m] : offsets[m + 1]] for m in range(len(modules)))
-    mode = _aligned_mode(frame, analysis, modules[0], node_map[0])
-    return Composite(frame, mode, analysis, node_map)
+    return Frame.build(positions[unique], edges, spec), node_map
 
 
 def _aligned_mode(frame: Frame, analysis: Analysis, reference: Module, nodes: np.ndarray) -> np.ndarray:

@@ -321,8 +321,10 @@ def _block_targets(w: float, h: float, l: float, beta: float, gamma: float) -> t
     return x_s, x_s * np.array([1.0, beta, gamma])
 
 
+@lru_cache(maxsize=64)
 def _block_3d(w: float, h: float, l: float, beta: float, gamma: float, seed: int):
-    """A designed 3D block (its specified nodes first, their motion exact: _block_targets)."""
+    """A designed 3D block (its specified nodes first, their motion exact: _block_targets), kept
+    for the last 64 blocks (a chain's precheck and its run design it once)."""
     result = design(*_block_targets(w, h, l, beta, gamma), seed=seed)
     return Module(result.frame, result.modes[0])
 
@@ -341,6 +343,28 @@ def chain_couplings(n: int, poisson: float, block: tuple[float, float, float]):
     return merges, bonds
 
 
+def chain_specified(n: int) -> list[tuple[int, int]]:
+    """The chain's specified nodes: every block's ports and apexes, (block, node) pairs."""
+    return [(b, i) for b in range(n) for i in range(6)]
+
+
+def chain_modules(n: int, poisson: float, block: tuple[float, float, float], seed: int):
+    """The n designed blocks of a chain, placed along x (block b moved by 2w·b, its mode by the
+    affine field's translation), with their couplings (chain_couplings, whose refusals come
+    first): (modules, merges, bonds)."""
+    merges, bonds = chain_couplings(n, poisson, block)
+    w, h, l = block
+    beta = gamma = -poisson
+    base = _block_3d(w, h, l, beta, gamma, seed)
+    shift = np.array([2 * w, 0.0, 0.0])
+    affine = np.array([1.0, beta, gamma])
+    modules = [
+        Module(Frame.build(base.frame.positions + b * shift, base.frame.edges), base.mode + b * shift * affine)
+        for b in range(n)
+    ]
+    return modules, merges, bonds
+
+
 def auxetic_chain_3d(
     n: int,
     poisson: float = -0.5,
@@ -355,17 +379,8 @@ def auxetic_chain_3d(
     contracted states are the traced configurations whose ε_x is nearest ±``strain`` (as
     state_strains; their own ε_x is reported, within one continuation step of it).
     """
-    merges, bonds = chain_couplings(n, poisson, block)
-    w, h, l = block
-    beta = gamma = -poisson
-    base = _block_3d(w, h, l, beta, gamma, seed)
-    shift = np.array([2 * w, 0.0, 0.0])
-    affine = np.array([1.0, beta, gamma])
-    modules = [
-        Module(Frame.build(base.frame.positions + b * shift, base.frame.edges), base.mode + b * shift * affine)
-        for b in range(n)
-    ]
-    composite = couple(modules, merges, bonds, specified=[(b, i) for b in range(n) for i in range(6)])
+    modules, merges, bonds = chain_modules(n, poisson, block, seed)
+    composite = couple(modules, merges, bonds, specified=chain_specified(n))
     m = composite.node_map
     boundary = {
         "left": np.array([m[0][0], m[0][1]]),

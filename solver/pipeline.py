@@ -29,6 +29,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from zeromode.solver.certificates import SDP_MAX_DIM, Certificate, certify, check_size
+from zeromode.solver.coupling import merged_frame
 from zeromode.solver.design import Design, design, design_targets
 from zeromode.solver.errors import InvalidInput
 from zeromode.solver.finite_strain import (
@@ -42,6 +43,8 @@ from zeromode.solver.lattice import (
     auxetic_chain_3d,
     auxetic_sheet,
     chain_couplings,
+    chain_modules,
+    chain_specified,
     check_sheet_strain,
     poisson_ratio,
     sheet_module_for,
@@ -205,28 +208,35 @@ def check_auxetic_request(
     """auxetic_pipeline's refusals before the lattice is built (auxetic_pipeline's arguments),
     in its order: finite_strain on a 3D chain, then the lattice's own (finite-strain sheet:
     check_finite_strain_request; sheet: sheet_module_for, then check_sheet_strain — one
-    module's scan, kept for the run; chain: chain_couplings), then a sheet's stages from its
-    reference frame (sizes only: refine.check_problem_size, certificates.check_size,
-    tolerance.check_tolerance_request).  Not decided here: a chain's strain (its range is a
-    continuation of the whole chain), a chain's and a finite-strain sheet's stages (their frames
-    come from the design), and what only the design shows (the sheet's single mode)."""
+    module's scan, kept for the run; chain: chain_couplings), then the stages' sizes on the
+    lattice's frame at rest (refine.check_problem_size, certificates.check_size,
+    tolerance.check_tolerance_request; a chain's frame needs its block designed, kept for the
+    run).  Not decided here: a chain's strain (its range is a continuation of the whole chain),
+    a finite-strain sheet's stages (its module is chosen by the design), and what only the
+    analysis shows (the lattice's single mode).  ``seed``: the chain's block design."""
     if finite_strain is not None:
         if dim != 2:
             raise InvalidInput("invalid_options", "finite_strain holds the secant ratio of 2D sheets only.")
         check_finite_strain_request(*cells, finite_strain[:2], finite_strain[2], tuple(cell or (1.0, 1.0)))
         return
+    stages = refine_stage is not None or certify_stage or tolerance_stage is not None
     if dim != 2:
-        chain_couplings(cells[0], poisson, tuple(cell or (1.0, 1.0, 1.0)))
-        return
-    module, _ = sheet_module_for(*cells, poisson, tuple(cell or (1.0, 1.0)))
-    check_sheet_strain(*cells, poisson, tuple(cell or (1.0, 1.0)), strain)
-    if refine_stage is None and not certify_stage and tolerance_stage is None:
-        return
-    # The sheet's nodes and bars at rest, its corner grid specified as the refinement drives it.
-    n_corners = (cells[0] + 1) * (cells[1] + 1)
-    frame = Frame.build(
-        sheet_positions(module, *cells, module.reference), sheet_edges(module, *cells), range(n_corners)
-    )
+        n, block = cells[0], tuple(cell or (1.0, 1.0, 1.0))
+        if not stages:
+            chain_couplings(n, poisson, block)
+            return
+        # The chain's nodes and bars (one block designed), its ports and apexes specified.
+        frame, _ = merged_frame(*chain_modules(n, poisson, block, seed), chain_specified(n))
+    else:
+        module, _ = sheet_module_for(*cells, poisson, tuple(cell or (1.0, 1.0)))
+        check_sheet_strain(*cells, poisson, tuple(cell or (1.0, 1.0)), strain)
+        if not stages:
+            return
+        # The sheet's nodes and bars at rest, its corner grid specified as the refinement drives it.
+        n_corners = (cells[0] + 1) * (cells[1] + 1)
+        frame = Frame.build(
+            sheet_positions(module, *cells, module.reference), sheet_edges(module, *cells), range(n_corners)
+        )
     if refine_stage is not None:
         check_problem_size(frame, refine_stage.K)
     if certify_stage:

@@ -106,6 +106,8 @@ BAD = [
     ("/v1/design/auxetic", {"cells": [4, 4], "poisson_ratio": -0.5, "refine": {}}, "too_few_unknowns"),
     # 8 × 8 sheet: 2·(81 + 128) = 418 degrees of freedom, tolerances stop at 400.
     ("/v1/design/auxetic", {"cells": [8, 8], "poisson_ratio": -0.5, "tolerance": {}}, "too_expensive"),
+    # A chain of 20 blocks (13 nodes each, 2 merged per coupling): 3·(260 − 38) = 666 > 400.
+    ("/v1/design/auxetic", {"dim": 3, "cells": [20], "poisson_ratio": -0.5, "tolerance": {}}, "too_expensive"),
     # /v1/design/allosteric.
     ("/v1/design/allosteric", request_body(x_src, u_src, x_tgt, u_tgt, relay_spacing=1e-3, relay_growth=1.0), "too_expensive"),  # ~3000 relays
     ("/v1/design/allosteric", request_body(x_src, u_src, x_src + 1e-12, u_tgt), "overlapping_sites"),
@@ -145,6 +147,7 @@ GOOD = [
     ("/v1/design/auxetic", {"cells": [1, 4], "poisson_ratio": 0.0}, True),  # one column: no neighbour to meet
     ("/v1/design/auxetic", {"cells": [3, 3], "poisson_ratio": -0.5, "tolerance": {}, "certify": True}, False),
     ("/v1/design/auxetic", {"dim": 3, "cells": [2], "poisson_ratio": -0.5}, False),
+    ("/v1/design/auxetic", {"dim": 3, "cells": [2], "poisson_ratio": -0.5, "tolerance": {}, "refine": {}}, False),
     ("/v1/design/allosteric", request_body(x_src, u_src, x_tgt, u_tgt), False),
     ("/v1/motion", {"frame": SQUARE, "boundary": {"left": [0, 3], "right": [1, 2], "bottom": [0, 1], "top": [2, 3]}}, True),
     ("/v1/refine", {"frame": {**SQUARE, "specified": [0, 1]}, "motion": [[0.0, 1.0], [0.0, -1.0]]}, False),
