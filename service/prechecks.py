@@ -13,14 +13,16 @@ What is decided here, and what only the run can decide:
                          motion count, n_unspecified, refinement of one motion.  Run time: the
                          stages' sizes (refine's unknowns, certificates, tolerances: the designed
                          frame's), no_solution of the placement.
-  /v1/design/auxetic     cell and half-size counts, sizes, the module's conic (no_solution), a
-                         sheet colliding at rest (no_solution, e.g. ν = 0), a sheet's strain
-                         (strain_out_of_range, from one module's scan of its range, kept), a
-                         sheet's refine / certify / tolerance sizes (too_few_unknowns,
-                         too_expensive), a chain's couplings (coupling_failed, e.g. ν = 0),
-                         finite_strain's options.  Run time: a chain's strain (its range is a
-                         continuation of the whole chain), a chain's and a finite-strain sheet's
-                         stages, finite_strain_unreachable, the sheet's single mode.
+  /v1/design/auxetic     cell and half-size counts, sizes, the cell's extent (out_of_range),
+                         the module's conic (no_solution), a sheet colliding at rest
+                         (no_solution, e.g. ν = 0), a sheet's strain (strain_out_of_range, from
+                         one module's scan of its range, kept), a chain's couplings
+                         (coupling_failed, e.g. ν = 0), the refine / certify / tolerance sizes on
+                         the lattice's frame at rest (too_few_unknowns, too_expensive; a chain's
+                         needs one block designed, kept), finite_strain's options.  Run time: a
+                         chain's strain (its range is a continuation of the whole chain), a
+                         finite-strain sheet's stages, finite_strain_unreachable, the lattice's
+                         single mode.
   /v1/design/allosteric  shapes, options, the sites (overlap, rigid or zero motions, a source
                          that does not pin the rigid motions), the relays' module count
                          (too_expensive).  Run time: inaccurate_design, the tolerance stage.
@@ -117,6 +119,7 @@ PRECHECKS: dict[str, Callable] = {
 def precheck(endpoint: str, body: BaseModel) -> None:
     """Raise what ``endpoint`` would answer up front for ``body`` (its request model, validated):
     the DomainError (InvalidInput included) its first checks raise; return when they pass.
-    Typically a few milliseconds; an auxetic sheet's ``strain`` costs one scan of a module's
-    motion (50–400 ms) per sheet, kept for the last 128 sheets (lattice.sheet_motion)."""
+    Typically under a few milliseconds; an auxetic sheet's ``strain`` costs one scan of a
+    module's motion (50–400 ms) and a chain with stages one block's design (≈ 20 ms) per
+    lattice, both kept for the run and the sweep's other points (lattice.py caches)."""
     PRECHECKS[endpoint](body)
