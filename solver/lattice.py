@@ -195,14 +195,14 @@ def auxetic_sheet(
     return measured_lattice(frame, mode, analysis, boundary, states, motion.range, np.arange(n_corners))
 
 
-@lru_cache(maxsize=256)
+@lru_cache(maxsize=4096)
 def sheet_module_for(nx: int, ny: int, poisson: float, cell: tuple[float, float]) -> tuple[SymmetricModule, np.ndarray]:
     """The module of an n_x × n_y sheet and its unspecified nodes' motions (2, 2), with every
     refusal of auxetic_sheet that needs neither the tiled sheet nor its analysis: InvalidInput
     ``invalid_size`` / ``invalid_cell``, DomainError ``no_solution`` when the module's conic
     misses its axis (module_nodes) or the reference sheet already has a collision
     (check_reference_spacing).  Cost: one module's solution space and a patch of a few modules
-    (a few milliseconds), kept for the last 256 sheets (sweep points repeat them); the arrays
+    (a few milliseconds), kept for the last 4096 sheets (sweep points repeat them); the arrays
     are shared: read them, never write."""
     if nx < 1 or ny < 1 or nx * ny > MAX_SHEET_CELLS:
         raise InvalidInput("invalid_size", f"cells must be between 1 and {MAX_SHEET_CELLS} in all.")
@@ -238,13 +238,13 @@ def check_reference_spacing(module: SymmetricModule, cells: tuple[int, int], poi
         )
 
 
-@lru_cache(maxsize=128)
+@lru_cache(maxsize=1024)
 def sheet_motion(
     nx: int, ny: int, poisson: float, cell: tuple[float, float]
 ) -> tuple[SymmetricModule, np.ndarray, ModuleMotion]:
     """sheet_module_for, and the sheet's usable range with the module's motion over it
     (strain_range.module_range: one module's scan, tens to hundreds of milliseconds), kept for
-    the last 128 sheets so that a request's precheck and its run, or sweep points that differ
+    the last 1024 sheets so that a request's precheck and its run, or sweep points that differ
     only in other options, scan once.  The arrays are shared: read them, never write."""
     module, node_motions = sheet_module_for(nx, ny, poisson, cell)
     return module, node_motions, module_range(module, (nx, ny))
