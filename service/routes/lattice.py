@@ -9,10 +9,10 @@ from fastapi import APIRouter, HTTPException
 
 from zeromode.service.documents import allosteric, allosteric_tolerance, auxetic
 from zeromode.service.responses import (
-    json_safe,
     allosteric_body,
     auxetic_body,
     inaccurate_design_body,
+    json_safe,
     network_allosteric_body,
 )
 from zeromode.service.schemas.allostery import (
