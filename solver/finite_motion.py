@@ -81,7 +81,7 @@ from zeromode.solver.eigen import nontrivial_zero_modes, smallest_eigenpairs
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame, check_positions
 from zeromode.solver.normalisation import Normalisation
-from zeromode.solver.progress import report_progress
+from zeromode.solver.progress import progress_stage, report_progress
 from zeromode.solver.rank import RTOL, complement_within, nullspace
 from zeromode.solver.rigidity import DENSE_MAX_DOF, analyze, compatibility_matrix, rigid_motions
 from zeromode.solver.tolerances import GIVEN_MODE_RTOL
@@ -383,18 +383,15 @@ def _correct(cons, point: _Point, pred, start=None, tight=False):
     return None
 
 
-def _trace_one_way(
-    cons, start: _Point, amplitude, max_step, max_steps, stop=None, share=(0.0, 1.0), stop_bisections=0
-):
+def _trace_one_way(cons, start: _Point, amplitude, max_step, max_steps, stop=None, stop_bisections=0):
     """Continue from ``start`` to parameter ``amplitude``, or until ``stop(y)`` is true for a
     new configuration y (normalised; it is kept as the last one, its step first shortened
     towards where ``stop`` turns true by ``stop_bisections`` bisections: _shortened).
 
     Returns (configurations after the start, their parameters, singularity or None) with the
     singularity's ``step`` counted from the start (1 = first new point).  Progress is reported
-    as τ/amplitude after every step, and while a singular point is located as the share of its
-    bisection steps taken towards the end of the direction, mapped onto the ``share`` (first,
-    last) of the caller's work, never decreasing."""
+    as τ/amplitude after every step, never decreasing; locating a singular point (a stage from
+    there to the end of the direction) reports the share of its bisection steps taken."""
     sqrt_n = np.sqrt(cons.measured_nodes)
     point, tau, h = start, 0.0, min(max_step, amplitude)
     xs, taus = [], []
@@ -403,7 +400,7 @@ def _trace_one_way(
     def progress(fraction: float, message: str) -> None:
         nonlocal done
         done = max(done, fraction)
-        report_progress(share[0] + (share[1] - share[0]) * done, message)
+        report_progress(done, message)
 
     for _ in range(max_steps):
         check_budget()
@@ -422,7 +419,8 @@ def _trace_one_way(
                     break
             h *= 0.5
         if accepted is None:
-            extra, sigma = _extra_zero_modes(cons, point.x, point.zero_modes)
+            with progress_stage(done, 1.0, "counting zero modes where the corrector stalled"):
+                extra, sigma = _extra_zero_modes(cons, point.x, point.zero_modes)
             return xs, taus, Singularity(len(xs), tau, max(extra, 0), sigma, "stalled")
         y, iters, c_y, f_y, w = accepted
         crossed = (
@@ -431,10 +429,9 @@ def _trace_one_way(
             or _soft_on_complement(cons, f_y, c_y) <= RTOL  # landed on the singular point itself
         )
         if crossed:
-            f0 = tau / amplitude
-            found = _locate(
-                cons, point, h, y, f_y, c_y, lambda q, f0=f0: progress(f0 + (1 - f0) * q, "locating a singular point")
-            )
+            with progress_stage(done, 1.0, "locating a singular point"):
+                found = _locate(cons, point, h, y, f_y, c_y, report_progress)
+            done = 1.0  # the stage reported the end of the direction
             if found is not None:
                 y_star, s_star, extra, sigma = found
                 xs.append(y_star)
@@ -677,23 +674,21 @@ def follow(
     max_steps,
     stop=None,
     stop_bisections=0,
-    share=(0.0, 1.0),
 ):
     """Continuation of the constraint system ``cons`` from x0 (normalised) along ±t0, with
     ``null`` an orthonormal basis of N(C(x0)): (configurations (normalised, ordered by
     parameter), parameters, index of x0, singular points (path indices)).  ``stop(y, sign)``,
     if given, ends a direction at the first new configuration y where it is true, its step
-    shortened by ``stop_bisections`` bisections towards where it turns true.  Progress is
-    reported on the ``share`` (first, last) of the caller's work, half of it per direction."""
+    shortened by ``stop_bisections`` bisections towards where it turns true.  Progress: one
+    stage per direction."""
     c0 = cons.jacobian(x0)
     branches = {}
     ways = [(s, n) for s, n in ((1.0, "forward"), (-1.0, "backward")) if direction in (n, "both")]
     for k, (sign, name) in enumerate(ways):
         start = _Point(x0, _tangent_frame(cons, x0, null, sign * t0), c0)
         until = None if stop is None else (lambda y, sign=sign: stop(y, sign))
-        part = [share[0] + (share[1] - share[0]) * (k + e) / len(ways) for e in (0, 1)]
-        branches[name] = _trace_one_way(cons, start, amplitude, max_step, max_steps, until, part, stop_bisections)
-        report_progress(part[1], f"continuation {name} done")
+        with progress_stage(k / len(ways), (k + 1) / len(ways), f"continuation {name}"):
+            branches[name] = _trace_one_way(cons, start, amplitude, max_step, max_steps, until, stop_bisections)
     back_x, back_tau, back_sing = branches.get("backward", ([], [], None))
     fwd_x, fwd_tau, fwd_sing = branches.get("forward", ([], [], None))
     ref = len(back_x)
@@ -763,13 +758,14 @@ def trace_motion(
         raise InvalidInput("invalid_method", "method must be 'auto', 'dense' or 'sparse'.")
     norm = Normalisation.of(frame.positions)
     x0 = norm.positions_in(frame.positions)
-    cons = BarConstraints(frame.edges, x0, method)
-    t0, null = start_direction(cons, x0, mode)
-    report_progress(REFERENCE_SHARE, "zero modes at the reference")
+    with progress_stage(0.0, REFERENCE_SHARE, "zero modes at the reference"):
+        cons = BarConstraints(frame.edges, x0, method)
+        t0, null = start_direction(cons, x0, mode)
     until = None if stop is None else (lambda y, sign: stop(norm.positions_out(y), sign))
-    configs, params, ref, singularities = follow(
-        cons, x0, t0, null, amplitude, max_step, direction, max_steps, until, share=(REFERENCE_SHARE, 1.0)
-    )
+    with progress_stage(REFERENCE_SHARE, 1.0):
+        configs, params, ref, singularities = follow(
+            cons, x0, t0, null, amplitude, max_step, direction, max_steps, until
+        )
     positions = np.stack(
         [
             frame.positions if i == ref else align_to(norm.positions_out(y), frame.positions)

@@ -53,15 +53,16 @@ from zeromode.solver.finite_motion import (
     check_trace_arguments,
     curve_chart,
     follow,
+    given_mode,
     located_sigma,
     relative_bar_error,
     signed_determinant,
     start_direction,
     trace_motion,
 )
-from zeromode.solver.frame import Frame, check_positions
+from zeromode.solver.frame import Frame
 from zeromode.solver.normalisation import Normalisation, rms_radius
-from zeromode.solver.progress import report_progress
+from zeromode.solver.progress import progress_stage, report_progress
 from zeromode.solver.rank import RTOL, complement_within, decide_rank, nullspace, orthonormal_range
 from zeromode.solver.rigidity import DENSE_MAX_DOF, rigid_motions
 from zeromode.solver.tolerances import DESIGN_MODE_RTOL, GIVEN_MODE_RTOL
@@ -276,11 +277,9 @@ def trace_periodic_motion(
     direction: str = "both",
     max_steps: int = 5000,
     stop=None,
-    share=(0.0, 1.0),
 ) -> PeriodicPath:
     """Follow the periodic finite motion of ``cell`` tiled by ``tiling`` (see the module
-    docstring and PeriodicConstraints: the parameter is the patch's), progress reported on
-    the ``share`` (first, last) of the caller's work.
+    docstring and PeriodicConstraints: the parameter is the patch's).
 
     mode: ((n_c + k), d) rates of the nodes and lattice vectors, or None (the cell's single
     nontrivial mode, largest entry positive). stop(patch positions (N, d), sign): as
@@ -293,7 +292,7 @@ def trace_periodic_motion(
     t0, null = start_direction(cons, z0, None if mode is None else cons.r_factor @ np.asarray(mode, float))
     until = None if stop is None else (lambda z, sign: stop(cell.tile(*cons.cell_of(z), tiling), sign))
     configs, params, ref, singularities = follow(
-        cons, z0, t0, null, amplitude, max_step, direction, max_steps, until, STOP_BISECTIONS, share
+        cons, z0, t0, null, amplitude, max_step, direction, max_steps, until, STOP_BISECTIONS
     )
     cells = [cons.cell_of(z) for z in configs]
     return PeriodicPath(
@@ -312,7 +311,6 @@ def tiled_motion(
     cell: PeriodicCell,
     path: PeriodicPath,
     check: _PatchCheck | None = None,
-    share=(0.0, 1.0),
 ) -> MotionPath:
     """The patch ``frame`` (tiled from ``cell`` by ``tiling``) along the cell's ``path``, checked
     on the patch (module docstring), as a MotionPath with method "periodic": configurations
@@ -324,8 +322,8 @@ def tiled_motion(
     patch's determinant, confirmed by counting the patch's zero modes, and ends the path in
     that direction. DomainError ``not_periodic`` when the patch does not move with its cell.
     ``check``: the patch's _PatchCheck, when the caller has built it already.  Progress: the
-    share of configurations checked (and of the bisection steps while locating), mapped onto
-    ``share`` (first, last) of the caller's work."""
+    share of configurations checked, each one's zero-mode count or singular point located in
+    a stage of its own."""
     tiling = np.asarray(tiling, dtype=int)
     lengths = bar_lengths(frame.positions, frame.edges)
     configs = [cell.tile(p, lat, tiling) for p, lat in zip(path.positions, path.lattice)]
@@ -340,15 +338,18 @@ def tiled_motion(
     cell_singular = {s.step: s for s in path.singularities}
     sides, done, at_reference = {}, 0, check.frame_at(path, ref, configs[ref])
 
-    def progress(count: float, message: str) -> None:
-        report_progress(share[0] + (share[1] - share[0]) * count / max(len(configs) - 1, 1), message)
+    def stage(count: int, label: str):
+        """The progress stage of the configuration after ``count`` checked ones."""
+        total = max(len(configs) - 1, 1)
+        return progress_stage(count / total, (count + 1) / total, label)
 
     for sign in (-1, 1):
         out, end = [], None  # out: (parameter, configuration) moving away from the reference
         previous = at_reference
         for k in range(ref + sign, -1 if sign < 0 else len(configs), sign):
             if k in cell_singular:
-                extra, sigma = check.extra_zero_modes(configs[k])
+                with stage(done, "counting the frame's zero modes at the cell's singular point"):
+                    extra, sigma = check.extra_zero_modes(configs[k])
                 if extra <= 0 and cell_singular[k].kind == "rank_drop":
                     raise DomainError(
                         "not_periodic", "the cell's singular point is a regular configuration of the patch."
@@ -358,9 +359,8 @@ def tiled_motion(
                 break
             current = check.frame_at(path, k, configs[k])
             if not check.regular_between(previous, current):
-                found = check.locate(
-                    previous, path, k - sign, k, lambda q, done=done: progress(done + q, "locating a singular point")
-                )
+                with stage(done, "locating a singular point"):
+                    found = check.locate(previous, path, k - sign, k, report_progress)
                 if found is not None:
                     parameter, x, extra, sigma = found
                     out.append((parameter, x))
@@ -369,7 +369,7 @@ def tiled_motion(
             out.append((path.parameter[k], configs[k]))
             previous = current
             done += 1
-            progress(done, "checking the tiled motion on the frame")
+            report_progress(done / max(len(configs) - 1, 1), "checking the tiled motion on the frame")
         sides[sign] = (out, end)
     (back, back_end), (fwd, fwd_end) = sides[-1], sides[1]
     entries = back[::-1] + [(path.parameter[ref], frame.positions)] + fwd
@@ -434,12 +434,9 @@ class _PatchCheck:
         """The cell's rates ((n_c + k), d) of its mode, signed like the frame's ``mode`` (N, d);
         DomainError ``not_periodic`` unless ``mode`` lies in span(rigid motions, tiled mode) to
         within GIVEN_MODE_RTOL (then it is a zero mode: the frame has one nontrivial mode) with
-        a part along the tiled mode."""
+        a part along the tiled mode; InvalidInput as trace_motion's for a mode of the wrong shape."""
         u, rates = self.tiled_mode(self.cell_cons.reference)
-        m = check_positions(mode, self.frame.dim, name="mode")
-        if m.shape != self.frame.positions.shape:
-            raise DomainError("not_periodic", "the given mode has not one row per node.")
-        m = m.ravel()
+        m = given_mode(mode, self.frame.n_nodes, self.frame.dim).ravel()
         rigid = rigid_motions(self.norm.positions_in(self.frame.positions), RTOL)
         span = np.linalg.qr(np.column_stack([u, rigid]))[0]
         norm = np.linalg.norm(m)
@@ -626,16 +623,21 @@ def trace_motion_through_cell(
     if guess is None:
         return trace_motion(frame, **full)
     tiling, lattice = guess
+    reached = 0.0  # the end of the last progress stage entered: a fallback starts there
     try:
         cell = PeriodicCell.from_frame(frame, tiling, lattice)
-        check = _PatchCheck(frame, tiling, cell)
-        cell_mode = check.cell_rates(check.default_mode() if mode is None else mode)
-        report_progress(CHECK_SHARE, "the frame has one nontrivial mode, its cell's")
-        path = trace_periodic_motion(
-            cell, tiling, cell_mode, amplitude, max_step, direction, max_steps, stop, (CHECK_SHARE, CELL_SHARE)
-        )
-        return tiled_motion(frame, tiling, cell, path, check, (CELL_SHARE, 1.0))
+        reached = CHECK_SHARE
+        with progress_stage(0.0, CHECK_SHARE, "the frame's zero modes"):
+            check = _PatchCheck(frame, tiling, cell)
+            cell_mode = check.cell_rates(check.default_mode() if mode is None else mode)
+        reached = CELL_SHARE
+        with progress_stage(CHECK_SHARE, CELL_SHARE, "its cell's motion"):
+            path = trace_periodic_motion(cell, tiling, cell_mode, amplitude, max_step, direction, max_steps, stop)
+        reached = 1.0
+        with progress_stage(CELL_SHARE, 1.0, "checked on the frame"):
+            return tiled_motion(frame, tiling, cell, path, check)
     except (DomainError, InvalidInput) as exc:
         if exc.code not in NOT_TILED:
             raise
-    return trace_motion(frame, **full)
+    with progress_stage(reached, 1.0, "the frame's own continuation"):
+        return trace_motion(frame, **full)
