@@ -22,6 +22,7 @@ from zeromode.service import __version__
 from zeromode.service.body import BodyRefusal, read_checked_body, replay
 from zeromode.service.errors import error_body, install_error_handlers
 from zeromode.service.jobs import jobs_of_app
+from zeromode.service.offload import Offload
 from zeromode.service.routes import (
     analyze,
     certify,
@@ -114,26 +115,28 @@ class LimitsAndAuth:
 
 @asynccontextmanager
 async def lifespan(app: FastAPI) -> AsyncIterator[None]:
-    """At startup, work left unfinished in the store by a stopped service is adopted (its
-    engine starts in the background, so the service answers at once); at shutdown the engine
-    gives its lease up and closes its cluster."""
-    threading.Thread(target=_adopt_unfinished, args=(app,), name="zeromode-adopt", daemon=True).start()
+    """At startup the job engine starts in the background (the service answers at once) when
+    heavy requests are offloaded to it or the store holds unfinished work to adopt; at shutdown
+    the engine gives its lease up and closes its cluster."""
+    threading.Thread(target=_start_engine, args=(app,), name="zeromode-adopt", daemon=True).start()
     yield
     jobs, app.state.jobs = app.state.jobs, None  # a later start opens them again
     if jobs is not None:
         jobs.close()
 
 
-def _adopt_unfinished(app: FastAPI) -> None:
+def _start_engine(app: FastAPI) -> None:
     settings = app.state.settings
-    if settings.database_url.startswith("sqlite:///") and not os.path.exists(settings.database_url[len("sqlite:///"):]):
-        return  # no store yet: nothing was ever submitted here
+    if not settings.offload and settings.database_url.startswith("sqlite:///") and not os.path.exists(
+        settings.database_url[len("sqlite:///"):]
+    ):
+        return  # no store yet: nothing was ever submitted here, nothing to adopt
     try:
         jobs = jobs_of_app(app.state)
-        if jobs.has_orphans():
-            jobs.engine.start()
+        if jobs.has_orphans() or settings.offload:
+            jobs.engine.start()  # heavy requests need it soon: ready before the first
     except Exception:
-        log.exception("unfinished jobs could not be adopted at startup")
+        log.exception("the job engine could not start (the first job or heavy request retries)")
 
 
 def create_app(settings: Settings | None = None) -> FastAPI:
@@ -157,6 +160,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     for module in (health, analyze, certify, design, examples, lattice, plot, export, motion, jobs, sweeps, viewer):
         app.include_router(module.router)
 
+    app.add_middleware(Offload, settings=settings)  # inside the limits: sees checked bodies
     app.add_middleware(LimitsAndAuth, settings=settings)
     app.add_middleware(GZipMiddleware, minimum_size=GZIP_MINIMUM_BYTES)
     describe = app.openapi

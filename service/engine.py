@@ -17,6 +17,7 @@ left (``ZEROMODE_JOB_MAX_ATTEMPTS``), else marks them ``interrupted``.
 
 from __future__ import annotations
 
+import json
 import logging
 import os
 import queue
@@ -28,7 +29,7 @@ from typing import Any
 
 from zeromode.service.settings import Settings
 from zeromode.service.store import Store, Submission
-from zeromode.service.tasks import PROGRESS_TOPIC, execute_chunk
+from zeromode.service.tasks import PROGRESS_TOPIC, execute_chunk, execute_request
 
 log = logging.getLogger("zeromode")
 
@@ -40,28 +41,42 @@ WORKER_NICENESS = 10
 WORKER_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 # Single jobs go ahead of sweep points in the cluster's queue.
 JOB_PRIORITY, SWEEP_PRIORITY = 10, 0
+# A heavy request a client waits for goes ahead of every job.
+REQUEST_PRIORITY = 100
 # The recorder writes progress at most this often (one transaction per batch).
 RECORD_INTERVAL_S = 0.25
 CONNECT_TIMEOUT_S = 10.0
 MAX_CHUNK = 16
 
 
+def _processing_on(dask_scheduler, key: str) -> str | None:
+    """Run on the scheduler: the address of the worker running task ``key`` (None if none)."""
+    task = dask_scheduler.tasks.get(key)
+    worker = None if task is None else task.processing_on
+    return None if worker is None else worker.address
+
+
 class EngineUnavailable(Exception):
     """The Dask cluster cannot be reached or started (an operator's problem: HTTP 503)."""
 
 
-def _nice_plugin():
-    """A Dask worker plugin that lowers the embedded workers' priority below the service's."""
+def _prepare_plugin(niceness: int):
+    """A Dask worker plugin run on every worker, restarted ones included: imports zeromode's
+    endpoints (seconds on a busy machine, which would otherwise fall on the first task and its
+    time budget) and, for the embedded workers, lowers their priority below the service's."""
     from distributed import WorkerPlugin
 
-    class Nice(WorkerPlugin):
+    class Prepare(WorkerPlugin):
         def setup(self, worker) -> None:
-            try:
-                os.nice(WORKER_NICENESS)
-            except OSError:  # not permitted here: the workers keep the default priority
-                pass
+            import zeromode.service.tasks  # noqa: F401 — the import is the point
 
-    return Nice()
+            if niceness:
+                try:
+                    os.nice(niceness)
+                except OSError:  # not permitted here: the workers keep their priority
+                    pass
+
+    return Prepare()
 
 
 def local_cluster(settings: Settings):
@@ -92,10 +107,11 @@ def dask_client(settings: Settings, scheduler: str | None = None):
     address = scheduler or settings.dask_scheduler
     try:
         if address:
-            return Client(address, timeout=CONNECT_TIMEOUT_S, set_as_default=False), None
-        cluster = local_cluster(settings)
-        client = Client(cluster, set_as_default=False)
-        client.register_plugin(_nice_plugin(), name="zeromode-nice")
+            client, cluster = Client(address, timeout=CONNECT_TIMEOUT_S, set_as_default=False), None
+        else:
+            cluster = local_cluster(settings)
+            client = Client(cluster, set_as_default=False)
+        client.register_plugin(_prepare_plugin(0 if address else WORKER_NICENESS), name="zeromode-prepare")
         return client, cluster
     except (OSError, TimeoutError) as exc:
         where = address or "the embedded LocalCluster"
@@ -144,7 +160,8 @@ class Engine:
 
     @property
     def started(self) -> bool:
-        return self._client is not None
+        """Connected, its threads running and not closing."""
+        return self._client is not None and bool(self._threads) and not self._closing.is_set()
 
     def start(self) -> None:
         """Connect (or start the embedded cluster), take the lease and adopt orphaned work.
@@ -216,6 +233,32 @@ class Engine:
     def _workers(self) -> int:
         """Workers of the cluster now (at least 1)."""
         return max(len(self._client.scheduler_info(n_workers=-1).get("workers", {})), 1)
+
+    # --- heavy requests (service/offload.py) ---------------------------------------------------
+
+    def run_request(self, endpoint: str, request: dict[str, Any], budget_s: float):
+        """A Dask future of the request's (status, body), ahead of every job in the queue."""
+        return self._client.submit(execute_request, endpoint, request, self._settings_json, budget_s,
+                                   key=f"zeromode-request-{uuid.uuid4().hex}", pure=False, priority=REQUEST_PRIORITY)
+
+    @staticmethod
+    def request_outcome(future) -> tuple[int, bytes]:
+        if future.status == "finished":
+            return future.result()
+        return 503, json.dumps({"detail": {
+            "code": "worker_lost", "message": "the worker process answering this request died; try again."}}).encode()
+
+    def stop_request(self, future) -> None:
+        """Cancel the request's task and restart the worker running it, if any (the only way to
+        stop a long library call); without a nanny (``dask worker --no-nanny``) it runs on."""
+        key = future.key
+        where = self._client.run_on_scheduler(_processing_on, key=key)
+        future.cancel()
+        if where:
+            try:
+                self._client.restart_workers([where], timeout=30, raise_for_error=False)
+            except Exception:  # noqa: BLE001 — a worker without a nanny cannot be restarted
+                log.warning("could not restart worker %s to stop an overrunning request", where)
 
     # --- recording -----------------------------------------------------------------------------
 

@@ -61,6 +61,11 @@ class Settings(BaseSettings):
     dask_worker_memory_bytes: int = Field(
         default=0, ge=0, description="Memory of one embedded worker (0: the machine's divided by the workers)."
     )
+    offload: bool = Field(
+        default=True,
+        description="Heavy requests (service/offload.py) run on the job engine's worker processes: the "
+        "time budget holds inside long calls and work stops when the client leaves.",
+    )
     job_max_attempts: int = Field(
         default=2, ge=1, description="Runs of a job whose service stopped before it finished; then interrupted."
     )

@@ -75,9 +75,9 @@ class RequestRefused(Exception):
     """A job's request that its endpoint would refuse up front: ``detail`` is the error body's
     {"code", "message", ...}; ``errors`` the schema errors when the schema refused it."""
 
-    def __init__(self, detail: dict[str, Any], errors: list[dict[str, Any]] | None = None):
+    def __init__(self, detail: dict[str, Any], errors: list[dict[str, Any]] | None = None, status: int = 422):
         super().__init__(detail.get("message", ""))
-        self.detail, self.errors = detail, errors
+        self.detail, self.errors, self.status = detail, errors, status
 
 
 def validated(endpoint: str, request: dict[str, Any]) -> BaseModel:
@@ -114,6 +114,13 @@ def error_detail(exc: Exception) -> dict[str, Any]:
     return {"code": "internal_error", "message": "an unexpected error occurred."}
 
 
+def error_status(exc: Exception) -> int:
+    """The HTTP status an endpoint answers for ``exc`` (domain failures are 422)."""
+    if isinstance(exc, RequestRefused):
+        return exc.status
+    return exc.status_code if isinstance(exc, HTTPException) else 422
+
+
 def answer(endpoint: str, body: BaseModel) -> dict[str, Any]:
     """Run the endpoint's function: the JSON body it would have answered (an error body raises
     RequestRefused with its detail)."""
@@ -122,7 +129,7 @@ def answer(endpoint: str, body: BaseModel) -> dict[str, Any]:
     if isinstance(out, Response):  # endpoints answer some domain failures with a JSONResponse
         data = json.loads(out.body)
         if out.status_code >= 400:
-            raise RequestRefused(data.get("detail", {}))
+            raise RequestRefused(data.get("detail", {}), status=out.status_code)
         return data
     return runnable.response_model.model_validate(out).model_dump(mode="json")
 
@@ -155,6 +162,25 @@ def _event_sender(worker, job_id: str) -> Callable[[float, str], None]:
     return send
 
 
+def _answered(endpoint: str, request: dict[str, Any], settings: Settings, budget_s: float,
+              progress: Callable[[float, str], None] | None, stated_s: float | None = None) -> bytes:
+    """The endpoint's answer as JSON bytes, under ``settings`` and a time budget of
+    ``budget_s`` seconds (named ``stated_s`` in a refusal)."""
+    with settings_scope(settings), time_budget(budget_s, stated_s), progress_scope(progress):
+        return json.dumps(answer(endpoint, validated(endpoint, request)), allow_nan=False,
+                          separators=(",", ":")).encode()
+
+
+def execute_request(endpoint: str, request: dict[str, Any], settings_json: str, budget_s: float) -> tuple[int, bytes]:
+    """The Dask task of a heavy request answered through the engine (service/offload.py):
+    (HTTP status, body) exactly as the endpoint answers, under the request's time budget."""
+    try:
+        settings = _settings(settings_json)
+        return 200, _answered(endpoint, request, settings, budget_s, None, settings.time_budget_s)
+    except Exception as exc:  # noqa: BLE001 — every failure is the endpoint's error answer
+        return error_status(exc), json.dumps({"detail": error_detail(exc)}, separators=(",", ":")).encode()
+
+
 def execute(job_id: str, endpoint: str, request: dict[str, Any], settings_json: str,
             progress: Callable[[float, str], None] | None = None) -> tuple[str, Any]:
     """One job: ``("done", answer as JSON bytes)`` or ``("failed", error detail)``, its
@@ -162,9 +188,7 @@ def execute(job_id: str, endpoint: str, request: dict[str, Any], settings_json: 
     ``max_job_result_bytes`` fails with ``result_too_large`` here, before it is shipped."""
     settings = _settings(settings_json)
     try:
-        with settings_scope(settings), time_budget(settings.job_time_budget_s), progress_scope(progress):
-            data = json.dumps(answer(endpoint, validated(endpoint, request)), allow_nan=False,
-                              separators=(",", ":")).encode()
+        data = _answered(endpoint, request, settings, settings.job_time_budget_s, progress)
     except Exception as exc:  # noqa: BLE001 — every failure of the request is the job's answer
         return "failed", error_detail(exc)
     limit = settings.max_job_result_bytes

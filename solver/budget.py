@@ -19,9 +19,11 @@ _DEADLINE: ContextVar[tuple[float, float] | None] = ContextVar("zeromode_deadlin
 
 
 @contextmanager
-def time_budget(seconds: float | None) -> Iterator[None]:
-    """Within this block, ``check_budget`` fails once ``seconds`` have passed (None: no limit)."""
-    token = _DEADLINE.set(None if seconds is None else (time.monotonic() + seconds, seconds))
+def time_budget(seconds: float | None, stated: float | None = None) -> Iterator[None]:
+    """Within this block, ``check_budget`` fails once ``seconds`` have passed (None: no limit),
+    naming ``stated`` as the budget (default ``seconds``: a request's budget of which only
+    ``seconds`` are left when its computation starts elsewhere)."""
+    token = _DEADLINE.set(None if seconds is None else (time.monotonic() + seconds, seconds if stated is None else stated))
     try:
         yield
     finally:

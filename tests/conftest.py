@@ -15,6 +15,9 @@ import tempfile  # noqa: E402
 # not in the user's state directory.
 _STATE = tempfile.mkdtemp(prefix="zeromode-tests-")
 os.environ.setdefault("ZEROMODE_DATABASE_URL", f"sqlite:///{_STATE}/jobs.sqlite3")
+# Apps under test answer every request in process unless a test turns offloading on
+# (tests/test_offload.py): no Dask cluster per test app.
+os.environ.setdefault("ZEROMODE_OFFLOAD", "false")
 
 
 import pytest  # noqa: E402

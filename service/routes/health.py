@@ -1,7 +1,7 @@
 """GET /health."""
 
-from fastapi import APIRouter
-from pydantic import BaseModel
+from fastapi import APIRouter, Request
+from pydantic import BaseModel, Field
 
 from zeromode.service import __version__
 
@@ -11,9 +11,15 @@ router = APIRouter(tags=["health"])
 class Health(BaseModel):
     status: str
     version: str
+    engine: str = Field(
+        description="The job engine (Dask): 'running', or 'idle' until the first job (or, with "
+        "offloading on, while it starts)."
+    )
 
 
 @router.get("/health", response_model=Health)
-async def health() -> dict:
+async def health(request: Request) -> dict:
     # async: served on the event loop, never queued behind compute in the thread pool.
-    return {"status": "ok", "version": __version__}
+    jobs = request.app.state.jobs
+    running = jobs is not None and jobs.engine.started
+    return {"status": "ok", "version": __version__, "engine": "running" if running else "idle"}

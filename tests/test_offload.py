@@ -1,0 +1,168 @@
+"""Heavy requests on the job engine's worker processes (service/offload.py), against a real
+`zeromode serve` with its embedded Dask cluster: the same answers as in process, the time budget
+held inside a long library call, work stopped when the client leaves, /health quick while many
+heavy requests run.
+"""
+
+from __future__ import annotations
+
+import socket
+import threading
+import time
+from pathlib import Path
+
+import httpx
+import numpy as np
+import pytest
+from fastapi.testclient import TestClient
+from test_sweeps import zeromode_service
+
+from zeromode.service.app import create_app
+from zeromode.service.settings import Settings
+
+SHEET = {"dim": 2, "cells": [3, 3], "poisson_ratio": -0.5}
+
+
+def numbers_close(a, b, path: str = "") -> None:
+    """Two answers equal up to rounding (another process may order a BLAS sum differently)."""
+    if isinstance(a, dict):
+        assert set(a) == set(b), path
+        for key in a:
+            if key not in ("timings_ms", "time_ms"):  # measured times differ
+                numbers_close(a[key], b[key], f"{path}.{key}")
+    elif isinstance(a, list):
+        assert len(a) == len(b), path
+        for i, (x, y) in enumerate(zip(a, b, strict=True)):
+            numbers_close(x, y, f"{path}[{i}]")
+    elif isinstance(a, float) and isinstance(b, float):
+        assert np.isclose(a, b, rtol=1e-9, atol=1e-12), (path, a, b)
+    else:
+        assert a == b, (path, a, b)
+
+
+@pytest.fixture(scope="module")
+def service(tmp_path_factory: pytest.TempPathFactory):
+    tmp = tmp_path_factory.mktemp("offload")
+    env = {"ZEROMODE_DATABASE_URL": f"sqlite:///{tmp}/jobs.sqlite3", "ZEROMODE_OFFLOAD": "true",
+           "ZEROMODE_TIME_BUDGET_S": "2", "ZEROMODE_DASK_WORKERS": "2"}
+    with zeromode_service(tmp, env, "offload") as (url, _):
+        deadline = time.monotonic() + 60
+        while httpx.get(url + "/health").json()["engine"] != "running":  # started in the background
+            assert time.monotonic() < deadline, (tmp / "offload.log").read_text()
+            time.sleep(0.1)
+        yield url, tmp / "offload.log"
+
+
+def test_heavy_requests_answer_as_in_process(service):
+    service, _ = service
+    inline = TestClient(create_app(Settings(offload=False)))
+    frame = inline.post("/v1/design/auxetic", json=SHEET).json()["frame"]
+    for path, body in [
+        ("/v1/motion", {"frame": frame, "amplitude": 0.1}),
+        ("/v1/certify", {"frame": frame}),
+        ("/v1/motion", {"frame": {"dim": 2, "positions": [[0, 0], [1, 0], [0, 1]], "edges": [[0, 1], [1, 2], [0, 2]]},
+                        "amplitude": 0.1}),  # an endpoint's own refusal, from the worker
+        ("/v1/motion", {"frame": frame, "amplitude": -1}),  # invalid: the route's own 422
+    ]:
+        offloaded = httpx.post(service + path, json=body, timeout=60)
+        direct = inline.post(path, json=body)
+        assert offloaded.status_code == direct.status_code, (path, offloaded.text)
+        numbers_close(offloaded.json(), direct.json())
+
+
+def big_frame(n: int) -> dict:
+    """A triangulated strip of n nodes: one sparse factorisation takes seconds at 10⁵."""
+    half = n // 2
+    positions = [[float(i), 0.0] for i in range(half)] + [[i + 0.5, 1.0] for i in range(half)]
+    edges = [[i, i + 1] for i in range(half - 1)] + [[half + i, half + i + 1] for i in range(half - 1)]
+    edges += [[i, half + i] for i in range(half)] + [[i + 1, half + i] for i in range(half - 1)]
+    return {"dim": 2, "positions": positions, "edges": edges}
+
+
+def test_the_time_budget_holds_inside_a_long_call(service):
+    """An analysis that takes longer than the 2 s budget in one library call: answered
+    too_expensive within 10 % of the budget (the worker is restarted), and the service serves
+    the next request."""
+    service, _ = service
+    frame = big_frame(100_000)
+    t0 = time.perf_counter()
+    r = httpx.post(service + "/v1/analyze", json={"frame": frame, "options": {"bases": False}}, timeout=60)
+    elapsed = time.perf_counter() - t0
+    if r.status_code == 200:
+        pytest.skip(f"this machine analysed 10⁵ nodes within the budget ({elapsed:.1f} s)")
+    assert r.status_code == 422 and r.json()["detail"]["code"] == "too_expensive"
+    # Measured from the client: the upload and parse of a 6 MB body come on top of the budget.
+    assert elapsed <= 2.0 * 1.1 + upload_time(service, frame), elapsed
+    assert httpx.post(service + "/v1/design/auxetic", json=SHEET, timeout=60).status_code == 200
+
+
+def upload_time(url: str, frame: dict) -> float:
+    """Seconds to send and parse the body alone (a request the route refuses after parsing)."""
+    t0 = time.perf_counter()
+    httpx.post(url + "/v1/analyze", json={"frame": frame, "options": {"unknown": 1}}, timeout=60)
+    return time.perf_counter() - t0
+
+
+def test_work_stops_when_the_client_leaves(service):
+    """A client that hangs up on a long analysis: the worker running it is restarted (the
+    service's log says so) and the service goes on answering."""
+    import json
+
+    service, log = service
+    restarts = log.read_text().count("Restarting worker")
+    body = json.dumps({"frame": big_frame(100_000), "options": {"bases": False}}).encode()
+    port = int(service.rsplit(":", 1)[1])
+    with socket.create_connection(("127.0.0.1", port)) as sock:
+        sock.sendall(b"POST /v1/analyze HTTP/1.1\r\nhost: x\r\ncontent-type: application/json\r\n"
+                     + f"content-length: {len(body)}\r\n\r\n".encode() + body)
+        time.sleep(1.0)
+    deadline = time.monotonic() + 15
+    while log.read_text().count("Restarting worker") == restarts:
+        assert time.monotonic() < deadline, "the abandoned request's worker was not stopped"
+        time.sleep(0.2)
+    assert httpx.get(service + "/health").json()["status"] == "ok"
+
+
+def test_health_stays_quick_while_48_heavy_requests_run(service):
+    service, _ = service
+    inline = TestClient(create_app(Settings(offload=False)))
+    frame = inline.post("/v1/design/auxetic", json={**SHEET, "cells": [6, 6]}).json()["frame"]
+    body = {"frame": frame, "amplitude": 0.2}
+    latencies: list[float] = []
+    statuses: list[int] = []
+    stop = threading.Event()
+
+    def heavy() -> None:
+        with httpx.Client(timeout=120) as http:
+            statuses.append(http.post(service + "/v1/motion", json=body).status_code)
+
+    def probe() -> None:
+        with httpx.Client(timeout=30) as http:
+            while not stop.is_set():
+                t0 = time.perf_counter()
+                http.get(service + "/health")
+                latencies.append(time.perf_counter() - t0)
+                time.sleep(0.02)
+
+    prober = threading.Thread(target=probe)
+    prober.start()
+    workers = [threading.Thread(target=heavy) for _ in range(48)]
+    for w in workers:
+        w.start()
+    for w in workers:
+        w.join()
+    stop.set()
+    prober.join()
+    assert len(statuses) == 48 and set(statuses) <= {200, 422}, statuses
+    p99 = float(np.percentile(1e3 * np.asarray(latencies), 99))
+    # The floor (50 ms) is measured on a quiet machine by benchmarks/bench_offload.py; here the
+    # 48 clients, the server and its workers share CI's two cores with the rest of the suite: a
+    # regression guard (computing in the service's own threads, this was 41.9 s).
+    assert len(latencies) > 20 and p99 <= 1000.0, (p99, len(latencies))
+
+
+def test_offloading_off_answers_in_process(tmp_path: Path):
+    app = create_app(Settings(database_url=f"sqlite:///{tmp_path}/jobs.sqlite3", offload=False))
+    with TestClient(app) as client:
+        assert client.post("/v1/certify", json={"frame": client.post("/v1/design/auxetic", json=SHEET).json()["frame"]}).status_code == 200
+        assert app.state.jobs is None  # no engine was started
