@@ -82,15 +82,16 @@ def process_pool(requests: list[dict], workers: int) -> float:
     return wall
 
 
-def start_service(db_url: str) -> tuple[subprocess.Popen, str]:
+def start_service_with(env: dict[str, str]) -> tuple[subprocess.Popen, str]:
+    """`zeromode serve` on a free loopback port with these ZEROMODE_* variables; (process, URL)."""
     import socket
 
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
     exe = Path(sys.executable).with_name("zeromode")
-    env = {**os.environ, "ZEROMODE_DATABASE_URL": db_url, "ZEROMODE_MAX_STORED_JOBS": str(10 * STORED_JOBS)}
-    proc = subprocess.Popen([str(exe), "serve", "--port", str(port)], env=env,
+    env = {"ZEROMODE_DATABASE_URL": f"sqlite:///{tempfile.mkdtemp(prefix='zeromode-bench-')}/jobs.sqlite3", **env}
+    proc = subprocess.Popen([str(exe), "serve", "--port", str(port)], env={**os.environ, **env},
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     url = f"http://127.0.0.1:{port}"
     deadline = time.monotonic() + 60
@@ -164,7 +165,7 @@ def main() -> None:
     db_url = f"sqlite:///{state}/jobs.sqlite3"
     example = json.dumps(httpx_free_answer(requests[0]), separators=(",", ":")).encode()
     ids = fill_store(db_url, example)
-    proc, url = start_service(db_url)
+    proc, url = start_service_with({"ZEROMODE_DATABASE_URL": db_url, "ZEROMODE_MAX_STORED_JOBS": str(10 * STORED_JOBS)})
     try:
         with httpx.Client(base_url=url, timeout=60) as http:
             run_sweep(http, requests[: 4 * workers])  # starts the embedded cluster and warms its workers
@@ -234,21 +235,21 @@ def write_markdown(r: dict, out: Path) -> None:
     lines = [
         "# Sweeps on the embedded Dask cluster (benchmarks/bench_sweeps.py)",
         "",
-        f"{r['points']} small 2D designs (Fig. 3c, one point per placement seed) on {r['machine']['cores']} cores "
-        f"(load average at the end {r['machine']['load_average'][0]:.1f}); one run, all rows from the same run.",
+        (f"{r['points']} small 2D designs (Fig. 3c, one point per placement seed) on {r['machine']['cores']} cores "
+        f"(load average at the end {r['machine']['load_average'][0]:.1f}); one run, all rows from the same run."),
         "",
         "| route | wall (s) | points/s | of W/t₁ | overhead per point |",
         "|---|---|---|---|---|",
-        f"| one process, sequential (t₁ = {r['single_process_ms_per_point']:.2f} ms) | "
-        f"{r['points'] * r['single_process_ms_per_point'] / 1e3:.2f} | {1e3 / r['single_process_ms_per_point']:.0f} | — | — |",
-        f"| ProcessPoolExecutor, W processes, chunks of 16 (peer) | {p['wall_s']:.2f} | {p['points_per_s']:.0f} | "
-        f"{100 * p['efficiency']:.0f} % | — |",
-        f"| zeromode: POST /v1/sweeps → last point recorded | {z['wall_s']:.2f} | {z['points_per_s']:.0f} | "
-        f"{100 * z['efficiency']:.0f} % | {z['overhead_ms_per_point']:.2f} ms |",
+        (f"| one process, sequential (t₁ = {r['single_process_ms_per_point']:.2f} ms) | "
+        f"{r['points'] * r['single_process_ms_per_point'] / 1e3:.2f} | {1e3 / r['single_process_ms_per_point']:.0f} | — | — |"),
+        (f"| ProcessPoolExecutor, W processes, chunks of 16 (peer) | {p['wall_s']:.2f} | {p['points_per_s']:.0f} | "
+        f"{100 * p['efficiency']:.0f} % | — |"),
+        (f"| zeromode: POST /v1/sweeps → last point recorded | {z['wall_s']:.2f} | {z['points_per_s']:.0f} | "
+        f"{100 * z['efficiency']:.0f} % | {z['overhead_ms_per_point']:.2f} ms |"),
         "",
-        "The floor: overhead ≤ 5 ms per point over the design itself, throughput ≥ 80 % of W/t₁ (W workers each at "
+        ("The floor: overhead ≤ 5 ms per point over the design itself, throughput ≥ 80 % of W/t₁ (W workers each at "
         "the single-process rate). The zeromode row includes validating all points, recording them in SQLite, "
-        "the Dask scheduler (in the service process, on the same cores) and recording every result.",
+        "the Dask scheduler (in the service process, on the same cores) and recording every result."),
         "",
         "| GET /health | n | p50 (ms) | p99 (ms) | max (ms) |",
         "|---|---|---|---|---|",
