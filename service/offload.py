@@ -36,7 +36,7 @@ log = logging.getLogger("zeromode")
 # The worker answers too_expensive itself at the budget; this much later it is stopped.
 OVERRUN_SLACK = 0.05
 # Requests whose answer can take long, by endpoint: the rest are cheap enough to answer inline.
-ALWAYS = frozenset({"/v1/motion", "/v1/refine", "/v1/certify", "/v1/design/allosteric", "/v1/design/allosteric/network"})
+ALWAYS = frozenset({"/v1/motion", "/v1/refine", "/v1/certify", "/v1/design/allosteric"})
 # Above these sizes an analysis or an auxetic design is heavy (both take well under 0.1 s below).
 HEAVY_NODES = 2_000
 HEAVY_CELLS = 400
@@ -70,7 +70,7 @@ class Offload:
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         path = scope.get("path", "")
-        if scope["type"] != "http" or scope["method"] != "POST" or not path.startswith("/v1/"):
+        if not self.settings.offload or scope["type"] != "http" or scope["method"] != "POST" or not path.startswith("/v1/"):
             await self.app(scope, receive, send)
             return
         message = await receive()
@@ -99,13 +99,13 @@ class Offload:
         """The request to offload, or None to answer it inline."""
         from zeromode.service.tasks import RUNNABLE
 
-        if not self.settings.offload or (path not in RUNNABLE and path not in ALWAYS):
+        if path not in RUNNABLE:
             return None
         try:
             request = json.loads(body)
         except ValueError:
             return None
-        if not isinstance(request, dict) or not heavy(path, request) or path not in RUNNABLE:
+        if not isinstance(request, dict) or not heavy(path, request):
             return None
         try:
             validated(path, request)
