@@ -57,6 +57,7 @@ from zeromode.solver.frame import Frame, check_positions
 from zeromode.solver.hierarchy import Module, module_gap, place_module, tied_space
 from zeromode.solver.normalisation import Normalisation, rms_radius, unit_scaled
 from zeromode.solver.placement import target_zero_modes
+from zeromode.solver.progress import progress_scope, progress_stage, report_progress
 from zeromode.solver.rank import orthonormal_range
 from zeromode.solver.rigidity import compatibility_matrix, rigid_motions
 from zeromode.solver.tolerances import DISTINCT_RTOL
@@ -337,7 +338,9 @@ def _module(a, b, seed: int) -> tuple[Module, float]:
     d = a[0].shape[1]
     null = sla.block_diag(*(tied_space(x, u) if tied else np.eye(x.size) for x, u, tied in (a, b)))
     target = target_zero_modes(d, 1)
-    module = place_module(np.vstack([a[0], b[0]]), np.vstack([a[1], b[1]]), null, target, seed)
+    # Tried in loops (site variants, alternatives): the chain reports per module, not placement.
+    with progress_scope(None):
+        module = place_module(np.vstack([a[0], b[0]]), np.vstack([a[1], b[1]]), null, target, seed)
     return module, module_gap(module, null, target)
 
 
@@ -442,6 +445,7 @@ def build_chain(y_src, v_src, y_tgt, v_tgt, plan: Plan, options: ChainOptions):
     x_unit, u_unit = port(d, 0.0, 1.0)
     relays: list[int] = []
     fronts = []
+    placed = itertools.count(1)
     for (index, y, v), ports, mirrored in zip(sites, (plan.source_ports, plan.target_ports), (False, True)):
         if not ports:
             fronts.append((index, y, v, False))
@@ -451,6 +455,7 @@ def build_chain(y_src, v_src, y_tgt, v_tgt, plan: Plan, options: ChainOptions):
         p_index = asm.add_nodes(x_p, u_p)
         k = module.given
         asm.add_module(module, np.concatenate([index, p_index]), module.positions[k:], module.motion[k:])
+        report_progress(next(placed) / plan.modules, "placed a site's module")
         relays.extend(p_index.tolist())
         base = growth_module(d, options.growth, options.aspect, options.seed)
         for (t0, a0), (t1, a1) in itertools.pairwise(ports):
@@ -459,6 +464,7 @@ def build_chain(y_src, v_src, y_tgt, v_tgt, plan: Plan, options: ChainOptions):
             p_index = asm.add_nodes(x_p, u_p)
             x_new, u_new = side.place(base.positions[base.given :], base.motion[base.given :], t0, a0)
             asm.add_module(base, np.concatenate([previous, p_index]), x_new, u_new)
+            report_progress(next(placed) / plan.modules, "placed a relay")
             relays.extend(p_index.tolist())
         fronts.append((p_index, x_p, u_p, True))
     (i_a, x_a, u_a, tied_a), (i_b, x_b, u_b, tied_b) = fronts
@@ -692,20 +698,22 @@ def design_allosteric(
     best: AllostericDesign | None = None
     failures = []
     tried = set()
-    for change in ALTERNATIVES:
+    for i, change in enumerate(ALTERNATIVES):
         options = replace(first, **{**change, **fixed}) if change else first
         if options in tried:
             continue
         tried.add(options)
         check_budget()
         try:
-            result = _attempt(sim, (x_src, u_src), (x_tgt, u_tgt), options, distance)
+            with progress_stage(i / len(ALTERNATIVES), (i + 1) / len(ALTERNATIVES), f"chain options {i + 1}"):
+                result = _attempt(sim, (x_src, u_src), (x_tgt, u_tgt), options, distance)
         except DomainError as exc:
             if exc.code == "too_expensive":
                 raise
             failures.append(exc.message)
             continue
         if result.figures.acceptable():
+            report_progress(1.0, "designed")
             return result
         if best is None or result.figures.rank() < best.figures.rank():
             best = result
@@ -744,9 +752,10 @@ def _attempt(sim: Similarity, src, tgt, options: ChainOptions, distance: float) 
     plan = plan_chain(*fronts, options)
     direct = fronts[1] - fronts[0] < DIRECT_GAP * options.aspect * options.port
     sites = (y_grid[:k_src], v_grid[:k_src], y_grid[k_src:], v_grid[k_src:])
-    chain = None if direct else build_chain(*sites, plan, options)
-    if chain is None:
-        joined = design(y_grid, v_grid, seed=options.seed)
+    with progress_stage(0.0, 0.8, "one module" if direct else "chain"):
+        chain = None if direct else build_chain(*sites, plan, options)
+        joined = design(y_grid, v_grid, seed=options.seed) if chain is None else None
+    if joined is not None:
         positions, motion = joined.frame.positions.copy(), joined.modes[0].copy()
         edges, anchor_sets, relays, modules = joined.frame.edges, joined.anchor_sets, (), 1
     else:
@@ -758,6 +767,7 @@ def _attempt(sim: Similarity, src, tgt, options: ChainOptions, distance: float) 
     u = np.vstack([u_src, u_tgt, sim.motions_out(motion[k:])])
     frame = Frame.build(x, edges, specified=range(k))
     result = verify(frame, u[None], anchor_sets)
+    report_progress(0.9, "verified the frame")
     source, target = np.arange(k_src), np.arange(k_src, k)
     achieved = response(frame, source, u_src)[target]
     error = float(np.linalg.norm(achieved - u_tgt) / np.linalg.norm(u_tgt))

@@ -63,7 +63,7 @@ from zeromode.solver.budget import check_budget, remaining
 from zeromode.solver.eigen import nontrivial_zero_modes, smallest_eigenpairs
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame
-from zeromode.solver.progress import report_progress
+from zeromode.solver.progress import progress_heartbeat, progress_stage, report_progress
 from zeromode.solver.rank import RTOL, nullspace, orthonormal_range
 from zeromode.solver.rigidity import (
     DENSE_MAX_DOF,
@@ -81,6 +81,12 @@ SOLVERS = ("clarabel", "scs")
 # 1–4 s at n = 37, 3–7 s at n = 47, 10–20 s at n = 57 (growing like n⁶). Larger complements
 # go to the spectral bundle route (stiffness.py), prestress LMIs beyond it are refused.
 SDP_MAX_DIM = 48
+
+
+def sdp_expected_s(n: int) -> float:
+    """A solve's expected seconds for an n × n LMI (the figures above: ~2.5 s at n = 37, ∝ n⁶),
+    for progress only (progress_heartbeat's clock scale)."""
+    return max(2.5 * (n / 37) ** 6, 0.05)
 # Largest frame certified (d·N): the analysis, the prestress projections and the uniform margin
 # are sparse (a few seconds at dN = 15 000, the 50 × 50 auxetic sheet).
 MAX_DOF = 60_000
@@ -268,10 +274,13 @@ def solve_lmi(
         )
     order = (solver,) + tuple(s for s in SOLVERS if s != solver)
     attempts = []
-    for name in order:
+    for i, name in enumerate(order):
         check_budget()
         t0 = time.perf_counter()
-        x, y, status = _solve_once(program, name, remaining(), max_iters)
+        with progress_stage(i / len(order), (i + 1) / len(order)), progress_heartbeat(
+            sdp_expected_s(program.size), f"{program.size}×{program.size} SDP with {name}"
+        ):
+            x, y, status = _solve_once(program, name, remaining(), max_iters)
         if x is not None:
             x = program.project(x)
             lower, upper = program.lower_bound(x), program.upper_bound(y)
@@ -589,7 +598,8 @@ def certify(
     t0 = time.perf_counter()
     check_certify_request(frame, modes or (), solver, stiffness)
     if analysis is None:
-        analysis = analyze(frame)
+        with progress_stage(0.0, 0.2, "analysis", detail=True):
+            analysis = analyze(frame)
     c = compatibility_matrix(frame.normalised_positions(), frame.edges)
     t1 = time.perf_counter()
     report_progress(0.2, "analysed the frame")
@@ -602,14 +612,14 @@ def certify(
         f = analysis.nontrivial_zero_modes
         return analysis.rigid_basis, nontrivial_zero_modes(c, analysis.rigid_basis, f)
 
-    prestress = prestress_certificate(analysis, frame.edges, c, null, solver, max_iters=max_iters)
+    with progress_stage(0.2, 0.5, "prestress stability"):
+        prestress = prestress_certificate(analysis, frame.edges, c, null, solver, max_iters=max_iters)
     t2 = time.perf_counter()
-    report_progress(0.5, "decided prestress stability")
-    margin = rigidity_margin(
-        frame, analysis, c, modes or (), stiffness, solver, max_iters=max_iters
-    )
+    with progress_stage(0.5, 1.0, "rigidity margin"):
+        margin = rigidity_margin(
+            frame, analysis, c, modes or (), stiffness, solver, max_iters=max_iters
+        )
     t3 = time.perf_counter()
-    report_progress(1.0, "computed the rigidity margin")
     return Certificate(
         analysis,
         certificate,

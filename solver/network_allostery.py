@@ -48,6 +48,7 @@ from zeromode.solver.frame import Frame, check_positions
 from zeromode.solver.hierarchy import Module, place_module
 from zeromode.solver.normalisation import Normalisation, rms_radius
 from zeromode.solver.placement import target_zero_modes
+from zeromode.solver.progress import progress_stage, report_progress
 from zeromode.solver.rank import nullspace, orthonormal_range
 from zeromode.solver.rigidity import (
     Analysis,
@@ -180,7 +181,9 @@ with a source that does not fix the rigid motions, allostery.check_source_pins),
             raise DomainError("zero_strain", "a strain ratio of 0 asks the target not to respond; give a nonzero ratio.")
         if len(src) != 2 or len(tgt) != 2:
             raise InvalidInput("invalid_nodes", "a strain ratio needs a source pair and a target pair.")
-    if _counts(frame).nontrivial_zero_modes:
+    with progress_stage(0.0, 0.1, "the network's counts", detail=True):
+        floppy = _counts(frame).nontrivial_zero_modes
+    if floppy:
         raise DomainError(
             "floppy_network", "the given frame has nontrivial zero modes, so its response is not unique."
         )
@@ -188,16 +191,18 @@ with a source that does not fix the rigid motions, allostery.check_source_pins),
         [(src, u_src, tgt, u_tgt)] if strain_ratio is None else _pair_plans(frame, src, tgt, float(strain_ratio))
     )
     failures = []
-    for moving_src, u_ms, moving_tgt, u_mt in plans:
+    for i, (moving_src, u_ms, moving_tgt, u_mt) in enumerate(plans):
         check_budget()
         try:
-            result = _build(frame, src, tgt, moving_src, u_ms, moving_tgt, u_mt, seed)
+            with progress_stage(0.1 + 0.9 * i / len(plans), 0.1 + 0.9 * (i + 1) / len(plans), f"plan {i + 1}"):
+                result = _build(frame, src, tgt, moving_src, u_ms, moving_tgt, u_mt, seed)
         except DomainError as exc:
             if exc.code == "too_expensive":
                 raise
             failures.append(exc.message)
             continue
         if result.target_error <= TARGET_ERROR_MAX:
+            report_progress(1.0, "tuned")
             return _timed(result, started)
         failures.append(f"a target error of {result.target_error:.1e}")
     raise DomainError(
@@ -423,7 +428,7 @@ def _build(frame, src, tgt, moving_src, u_ms, moving_tgt, u_mt, seed) -> Network
     positions, modes = current()
     amplitude = np.linalg.norm(modes[: n * d].reshape(n, d, -1), axis=(1, 2))
     loose = np.setdiff1d(np.flatnonzero(amplitude > LOOSE_RTOL * amplitude.max()), moving)
-    for site, other in ((moving_src, moving_tgt), (moving_tgt, moving_src)):
+    for share, site, other in (((0.1, 0.4), moving_src, moving_tgt), ((0.4, 0.7), moving_tgt, moving_src)):
         nearer = np.linalg.norm(x[loose] - x[site].mean(0), axis=1) <= np.linalg.norm(x[loose] - x[other].mean(0), axis=1)
         free = np.concatenate([site, loose[nearer]]).astype(int)
         touching = alive[np.isin(alive, free).any(axis=1)]
@@ -433,20 +438,23 @@ def _build(frame, src, tgt, moving_src, u_ms, moving_tgt, u_mt, seed) -> Network
         state = np.concatenate([free, core]).astype(int)
         null = pinned.allowed(positions, modes, state)
         if null.shape[1] > target_modes:
-            attach(state, null, target_modes)
-            positions, modes = current()
+            with progress_stage(*share, "tying a site"):
+                attach(state, null, target_modes)
+                positions, modes = current()
     # The coupler: the source node and target node that move most, and ground nodes near them.
     s_rep = moving_src[np.argmax(np.linalg.norm(u_ms, axis=1))]
     t_rep = moving_tgt[np.argmax(np.linalg.norm(u_mt, axis=1))]
     ground = _ground_near(frame, (s_rep, t_rep), set(moving.tolist()), COUPLER_GROUND)
     state = np.array([s_rep, t_rep, *ground], dtype=int)
-    attach(state, pinned.allowed(positions, modes, state), target_modes)
+    with progress_stage(0.7, 0.8, "the coupler"):
+        attach(state, pinned.allowed(positions, modes, state), target_modes)
 
     positions = np.vstack([x, np.asarray(added_x).reshape(-1, d)])
     mode = np.vstack([motion, np.asarray(added_u).reshape(-1, d)])
     edges = np.vstack([frame.edges[~strained], np.asarray(added_edges, dtype=int).reshape(-1, 2)])
     modified = Frame.build(positions, edges, specified=np.concatenate([src, tgt]))
-    analysis = _counts(modified)
+    with progress_stage(0.8, 0.9, "the modified network's counts", detail=True):
+        analysis = _counts(modified)
     residual = zero_mode_residual(modified, mode)
     if analysis.zero_modes != target_modes or not residual <= DESIGN_MODE_RTOL:
         raise DomainError(

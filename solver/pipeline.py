@@ -49,9 +49,25 @@ from zeromode.solver.lattice import (
     poisson_ratio,
     sheet_module_for,
 )
+from zeromode.solver.progress import progress_stage
 from zeromode.solver.refine import Refinement, RefinementFailed, check_problem_size, refine
 from zeromode.solver.sheet_module import sheet_edges, sheet_positions
 from zeromode.solver.tolerance import ToleranceReport, check_tolerance_request, tolerance_report
+
+# Relative cost of the stages, for progress: each stage that runs gets its weight's share of the
+# whole (_shares). The refinement's IPOPT solves and two finite motions cost most; the
+# certificates' SDPs next; the design (one analysis) and the tolerances' Monte Carlo least.
+STAGE_WEIGHTS = {"design": 1.0, "refine": 4.0, "certify": 2.0, "tolerance": 1.0}
+
+
+def _shares(refine_stage, certify_stage: bool, tolerance_stage) -> dict[str, tuple[float, float]]:
+    """The progress_stage of each stage that runs (design, then the ones asked for, in order):
+    consecutive intervals of [0, 1] with lengths proportional to STAGE_WEIGHTS."""
+    asked = {"refine": refine_stage is not None, "certify": certify_stage, "tolerance": tolerance_stage is not None}
+    stages = ["design", *(name for name, run in asked.items() if run)]
+    weights = [STAGE_WEIGHTS[name] for name in stages]
+    ends = np.cumsum([0.0, *weights]) / sum(weights)
+    return {name: (float(ends[i]), float(ends[i + 1])) for i, name in enumerate(stages)}
 
 
 @dataclass(frozen=True)
@@ -141,36 +157,41 @@ def design_pipeline(
     error: its best result is returned with ``ok`` False).
     """
     check_design_request(positions, motions, dim=dim, n_unspecified=n_unspecified, refine_stage=refine_stage)
+    share = _shares(refine_stage, certify_stage, tolerance_stage)
     t0 = time.perf_counter()
-    result = design(positions, motions, dim=dim, seed=seed, n_unspecified=n_unspecified)
+    with progress_stage(*share["design"], "design"):
+        result = design(positions, motions, dim=dim, seed=seed, n_unspecified=n_unspecified)
     timings = {"design": 1e3 * (time.perf_counter() - t0)}
     refined = None
     if refine_stage is not None:
         t1 = time.perf_counter()
-        try:
-            refined = refine(
-                result.frame,
-                motion_s=np.asarray(motions[0], dtype=float),
-                analysis=result.analysis,
-                **asdict(refine_stage),
-            )
-        except RefinementFailed as exc:
-            refined = exc.best
+        with progress_stage(*share["refine"], "refinement"):
+            try:
+                refined = refine(
+                    result.frame,
+                    motion_s=np.asarray(motions[0], dtype=float),
+                    analysis=result.analysis,
+                    **asdict(refine_stage),
+                )
+            except RefinementFailed as exc:
+                refined = exc.best
         timings["refine"] = 1e3 * (time.perf_counter() - t1)
     certificate = None
     if certify_stage:
         t2 = time.perf_counter()
-        certificate = certify(
-            result.frame,
-            list(result.modes),
-            stiffness=stiffness_sdp_fits(result.frame, result.target_zero_modes),
-            analysis=result.analysis,
-        )
+        with progress_stage(*share["certify"], "certificates"):
+            certificate = certify(
+                result.frame,
+                list(result.modes),
+                stiffness=stiffness_sdp_fits(result.frame, result.target_zero_modes),
+                analysis=result.analysis,
+            )
         timings["certify"] = 1e3 * (time.perf_counter() - t2)
     tolerance = None
     if tolerance_stage is not None:
         t3 = time.perf_counter()
-        tolerance = tolerance_report(result.frame, result.modes, seed=seed, **asdict(tolerance_stage))
+        with progress_stage(*share["tolerance"], "tolerances"):
+            tolerance = tolerance_report(result.frame, result.modes, seed=seed, **asdict(tolerance_stage))
         timings["tolerance"] = 1e3 * (time.perf_counter() - t3)
     timings["total"] = 1e3 * (time.perf_counter() - t0)
     return PipelineResult(result, refined, certificate, timings, tolerance)
@@ -270,27 +291,30 @@ def auxetic_pipeline(
         dim, cells, poisson=poisson, cell=cell, strain=strain, refine_stage=refine_stage,
         certify_stage=certify_stage, tolerance_stage=tolerance_stage, finite_strain=finite_strain,
     )
+    share = _shares(refine_stage, certify_stage, tolerance_stage)
     t0 = time.perf_counter()
     held = None
-    if finite_strain is not None:
-        held = finite_strain_sheet(
-            *cells, poisson=poisson, strain_range=finite_strain[:2], tolerance=finite_strain[2],
-            cell=tuple(cell or (1.0, 1.0)),
-        )
-        lat = held.lattice
-    elif dim == 2:
-        lat = auxetic_sheet(*cells, poisson=poisson, cell=tuple(cell or (1.0, 1.0)), strain=strain)
-    else:
-        lat = auxetic_chain_3d(cells[0], poisson=poisson, block=tuple(cell or (1.0, 1.0, 1.0)), strain=strain, seed=seed)
+    with progress_stage(*share["design"], "lattice"):
+        if finite_strain is not None:
+            held = finite_strain_sheet(
+                *cells, poisson=poisson, strain_range=finite_strain[:2], tolerance=finite_strain[2],
+                cell=tuple(cell or (1.0, 1.0)),
+            )
+            lat = held.lattice
+        elif dim == 2:
+            lat = auxetic_sheet(*cells, poisson=poisson, cell=tuple(cell or (1.0, 1.0)), strain=strain)
+        else:
+            lat = auxetic_chain_3d(cells[0], poisson=poisson, block=tuple(cell or (1.0, 1.0, 1.0)), strain=strain, seed=seed)
     timings = {"design": 1e3 * (time.perf_counter() - t0)}
     refined, refined_nu = None, None
     if refine_stage is not None:
         t1 = time.perf_counter()
         frame = Frame.build(lat.frame.positions, lat.frame.edges, lat.driven, dim=lat.frame.dim)
-        try:
-            refined = refine(frame, motion_s=lat.mode[lat.driven], **asdict(refine_stage))
-        except RefinementFailed as exc:
-            refined = exc.best
+        with progress_stage(*share["refine"], "refinement"):
+            try:
+                refined = refine(frame, motion_s=lat.mode[lat.driven], **asdict(refine_stage))
+            except RefinementFailed as exc:
+                refined = exc.best
         if refined.mode is not None:
             sets = {k: np.asarray(v) for k, v in lat.boundary.items()}
             refined_nu = poisson_ratio(refined.frame.positions, refined.mode, sets)
@@ -299,14 +323,16 @@ def auxetic_pipeline(
     if certify_stage:
         t2 = time.perf_counter()
         zero_modes = lat.frame.dim * (lat.frame.dim + 1) // 2 + 1
-        certificate = certify(
-            lat.frame, [lat.mode], stiffness=stiffness_sdp_fits(lat.frame, zero_modes), analysis=lat.analysis
-        )
+        with progress_stage(*share["certify"], "certificates"):
+            certificate = certify(
+                lat.frame, [lat.mode], stiffness=stiffness_sdp_fits(lat.frame, zero_modes), analysis=lat.analysis
+            )
         timings["certify"] = 1e3 * (time.perf_counter() - t2)
     tolerance = None
     if tolerance_stage is not None:
         t3 = time.perf_counter()
-        tolerance = tolerance_report(lat.frame, [lat.mode], boundary=lat.boundary, seed=seed, **asdict(tolerance_stage))
+        with progress_stage(*share["tolerance"], "tolerances"):
+            tolerance = tolerance_report(lat.frame, [lat.mode], boundary=lat.boundary, seed=seed, **asdict(tolerance_stage))
         timings["tolerance"] = 1e3 * (time.perf_counter() - t3)
     timings["total"] = 1e3 * (time.perf_counter() - t0)
     return AuxeticResult(lat, refined, refined_nu, certificate, timings, tolerance, held)

@@ -12,10 +12,21 @@ report 0..1 reports one fraction overall, monotone when each part is and the sta
 level are entered in increasing, non-overlapping order. A function that reports is called
 inside a stage by any caller that reports around it; its reports then stay within the share the
 caller gave it. Entering a stage reports its start, leaving it (without an exception) its end.
+
+A building block called from many places inside other stages' loops (the rigidity analysis,
+run at every step of a continuation) reports with ``report_detail``: only into a stage its
+caller opened with ``detail=True`` for that one call, so its fractions never interleave with
+those of a loop around it.
+
+An opaque call (one solver call without callbacks) reports through ``progress_heartbeat``: a
+thread reports the clock while it runs.
 """
 
 from __future__ import annotations
 
+import math
+import threading
+import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
@@ -27,12 +38,13 @@ ProgressCallback = Callable[[float, str], None]
 @dataclass(frozen=True)
 class _Stage:
     """The scope's callback and the interval [lo, hi] of the scope's fraction that this stage's
-    0..1 maps onto; ``label`` prefixes its messages."""
+    0..1 maps onto; ``label`` prefixes its messages; ``detail``: report_detail goes out."""
 
     callback: ProgressCallback
     lo: float
     hi: float
     label: str
+    detail: bool = False
 
 
 _STAGE: ContextVar[_Stage | None] = ContextVar("zeromode_progress", default=None)
@@ -50,10 +62,11 @@ def progress_scope(callback: ProgressCallback | None) -> Iterator[None]:
 
 
 @contextmanager
-def progress_stage(lo: float, hi: float, label: str = "") -> Iterator[None]:
+def progress_stage(lo: float, hi: float, label: str = "", detail: bool = False) -> Iterator[None]:
     """Within this block, a report of f (0..1) is the enclosing stage's lo + f·(hi − lo)
     (0 ≤ lo ≤ hi ≤ 1), its message prefixed by ``label``. Reports lo on entry, hi on a normal
-    exit. Outside a scope: nothing."""
+    exit. detail: the block is one call of a building block whose report_detail calls go out
+    (not those of stages nested in it). Outside a scope: nothing."""
     outer = _STAGE.get()
     if outer is None:
         yield
@@ -61,7 +74,7 @@ def progress_stage(lo: float, hi: float, label: str = "") -> Iterator[None]:
     width = outer.hi - outer.lo
     if outer.label and label:
         label = f"{outer.label}: {label}"
-    stage = _Stage(outer.callback, outer.lo + width * lo, outer.lo + width * hi, label or outer.label)
+    stage = _Stage(outer.callback, outer.lo + width * lo, outer.lo + width * hi, label or outer.label, detail)
     token = _STAGE.set(stage)
     try:
         report_progress(0.0, "started")
@@ -78,6 +91,43 @@ def report_progress(fraction: float, message: str = "") -> None:
         f = min(max(float(fraction), 0.0), 1.0)
         text = f"{stage.label}: {message}" if stage.label and message else message or stage.label
         stage.callback(stage.lo + (stage.hi - stage.lo) * f, text)
+
+
+@contextmanager
+def progress_heartbeat(expected_s: float, message: str, interval_s: float = 0.5) -> Iterator[None]:
+    """While the block runs, a thread reports 1 − exp(−t / expected_s) of the current stage
+    every ``interval_s`` seconds (t since entry): a fraction that grows with the clock, about
+    2/3 at the expected duration, never reaching the end, which the caller reports. The block
+    must not report itself (the thread's reports would interleave with its own); the thread is
+    joined on exit. Outside a scope: nothing, no thread. The scope's callback is then called
+    from that thread too."""
+    stage = _STAGE.get()
+    if stage is None:
+        yield
+        return
+    done = threading.Event()
+    t0 = time.perf_counter()
+
+    def beat() -> None:
+        while not done.wait(interval_s):
+            f = 1.0 - math.exp(-(time.perf_counter() - t0) / expected_s)
+            text = f"{stage.label}: {message}" if stage.label else message
+            stage.callback(stage.lo + (stage.hi - stage.lo) * f, text)
+
+    thread = threading.Thread(target=beat, name="zeromode-progress", daemon=True)
+    thread.start()
+    try:
+        yield
+    finally:
+        done.set()
+        thread.join()
+
+
+def report_detail(fraction: float, message: str = "") -> None:
+    """report_progress from a building block: only within a stage opened with ``detail=True``."""
+    stage = _STAGE.get()
+    if stage is not None and stage.detail:
+        report_progress(fraction, message)
 
 
 def report_steps(total: int, message: str, step: float = 0.01) -> Callable[[int], None]:

@@ -55,7 +55,7 @@ from zeromode.solver.finite_motion import (
 )
 from zeromode.solver.frame import Frame, check_positions
 from zeromode.solver.normalisation import Normalisation, rms_radius
-from zeromode.solver.progress import report_progress
+from zeromode.solver.progress import progress_stage, report_progress
 from zeromode.solver.rigidity import Analysis, analyze
 from zeromode.solver.tolerances import REACHED_EPS
 
@@ -71,6 +71,9 @@ MAX_K = 64
 # IPOPT unknowns are capped so one refinement stays within a request's time budget.
 MAX_UNKNOWNS = 20_000
 IPOPT_SUCCESS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+# Progress of one attempt: the NLP built at NLP_SHARE[0], IPOPT's iterations up to NLP_SHARE[1],
+# then the re-verification (analyses, the refined frame's finite motion).
+NLP_SHARE = (0.1, 0.7)
 
 
 @dataclass(frozen=True, eq=False)
@@ -260,21 +263,25 @@ def refine(
     spec = np.asarray(frame.specified, dtype=int)
     if kabsch_distance(frame.positions[spec] + delta, frame.positions[spec]) <= REACHED_EPS * np.linalg.norm(delta):
         return _rigid_target(frame, delta, a, analysis, t_start)
-    before = analysis if analysis is not None else analyze(frame)
+    with progress_stage(0.0, 0.1, "analysing the design", detail=True):
+        before = analysis if analysis is not None else analyze(frame)
     if not _single_mode(before):
         raise DomainError(
             "not_single_mode",
             f"refinement follows one nontrivial zero mode; the frame has {before.nontrivial_zero_modes}.",
         )
-    fid_before, _ = motion_fidelity(frame, delta)
+    with progress_stage(0.1, 0.3, "the design's finite motion"):
+        fid_before, _ = motion_fidelity(frame, delta)
 
     # IPOPT's K configurations can straddle two branches of the configuration space (the
     # refined motion then misses the target); a finer path (2K) usually stays on one.
+    # Progress: the first solve [0.3, 0.9], a retry [0.9, 1].
     attempts = []
-    for k_try in (K, 2 * K):
-        attempt = _attempt(
-            frame, before, delta, k_try, tol, max_iter, max_time_s, stay_on_solution_space
-        )
+    for k_try, share in zip((K, 2 * K), ((0.3, 0.9), (0.9, 1.0))):
+        with progress_stage(*share, f"IPOPT with K = {k_try}"):
+            attempt = _attempt(
+                frame, before, delta, k_try, tol, max_iter, max_time_s, stay_on_solution_space
+            )
         attempts.append(attempt)
         if not attempt.problems or not attempt.discontinuous or 2 * k_try > MAX_K:
             break
@@ -341,7 +348,7 @@ def _attempt(
         x0, frame.edges, spec, unspec, target, K, before.modes[0], stay_on_solution_space
     )
     check_budget()
-    report_progress(0.1, "built the NLP")
+    report_progress(NLP_SHARE[0], "built the NLP")
     # max_time_s covers the NLP's construction too, and the request's budget bounds both.
     left = float(max_time_s) - (time.perf_counter() - t_build)
     budget = remaining()
@@ -352,11 +359,13 @@ def _attempt(
             f"building the refinement's NLP (K = {K}, {frame.n_nodes} nodes) took the whole time limit "
             f"of {max_time_s:g} s; lower K or raise max_time_s.",
         )
+    iterations_report = _IterationReport(nlp["x"].numel(), nlp["g"].numel(), max_iter, left)
     solver = ca.nlpsol(
         "refine",
         "ipopt",
         nlp,
         {
+            "iteration_callback": iterations_report,
             "print_time": False,
             "error_on_fail": False,
             "ipopt.print_level": 0,
@@ -371,7 +380,8 @@ def _attempt(
         },
     )
     t_ipopt = time.perf_counter()
-    sol = solver(x0=x_init, lbg=lbg, ubg=ubg)
+    with progress_stage(*NLP_SHARE, "IPOPT"):
+        sol = solver(x0=x_init, lbg=lbg, ubg=ubg)
     ipopt_ms = 1e3 * (time.perf_counter() - t_ipopt)
     stats = solver.stats()
     status = str(stats.get("return_status", "unknown"))
@@ -395,8 +405,10 @@ def _attempt(
     try:
         refined = Frame.build(path[0], frame.edges, frame.specified, dim=d)
         # Counts decide the re-verification; the reference's bases give the refined mode.
-        an_ref = analyze(refined)
-        an_end = analyze(Frame.build(path[-1], frame.edges, frame.specified, dim=d), bases=False)
+        with progress_stage(NLP_SHARE[1], 0.75, "analysing the refined frame", detail=True):
+            an_ref = analyze(refined)
+        with progress_stage(0.75, 0.8, "analysing its far end", detail=True):
+            an_end = analyze(Frame.build(path[-1], frame.edges, frame.specified, dim=d), bases=False)
     except DomainError as exc:  # a diverged iterate, or two joined nodes collapsed onto each other
         problems.append(f"the refined frame is invalid ({exc.message})")
     if an_ref is not None and an_end is not None:
@@ -413,7 +425,8 @@ def _attempt(
             steps = np.linalg.norm(np.diff(path, axis=0), axis=(1, 2))
             horizon = 1.5 * float(np.sum(steps)) / (np.sqrt(n) * (rms_radius(path[0]) or 1.0))
             try:
-                eps_after = motion_fidelity(refined, delta, horizon=horizon)[0].epsilon
+                with progress_stage(0.8, 1.0, "the refined frame's finite motion"):
+                    eps_after = motion_fidelity(refined, delta, horizon=horizon)[0].epsilon
             except DomainError as exc:
                 problems.append(f"the refined frame's motion could not be traced ({exc.message})")
     # IPOPT's configurations may jump between branches of the configuration space; then the
@@ -440,6 +453,41 @@ def _attempt(
         discontinuous,
         an_ref.modes[0] if an_ref is not None and _single_mode(an_ref) else None,
     )
+
+
+class _IterationReport(ca.Callback):
+    """IPOPT's iteration callback: after iteration i, report max(i / max_iter, t / time_limit)
+    (both bound the solve, both grow), so a slow solve reports each iteration and a long one
+    moves with the clock.  Receives nlpsol's outputs (x, f, g, multipliers) and ignores them."""
+
+    def __init__(self, nx: int, ng: int, max_iter: int, time_limit: float):
+        ca.Callback.__init__(self)
+        self._sizes = {"x": nx, "lam_x": nx, "g": ng, "lam_g": ng, "f": 1}
+        self._max_iter, self._time_limit = max(int(max_iter), 1), max(float(time_limit), 1e-9)
+        self._count, self._t0 = 0, time.perf_counter()
+        self.construct("refine_progress", {})
+
+    def get_n_in(self):
+        return ca.nlpsol_n_out()
+
+    def get_n_out(self):
+        return 1
+
+    def get_name_in(self, i):
+        return ca.nlpsol_out(i)
+
+    def get_name_out(self, i):
+        return "ret"
+
+    def get_sparsity_in(self, i):
+        n = self._sizes.get(ca.nlpsol_out(i))
+        return ca.Sparsity(0, 0) if n is None else ca.Sparsity.dense(n)
+
+    def eval(self, arg):
+        self._count += 1
+        elapsed = time.perf_counter() - self._t0
+        report_progress(max(self._count / self._max_iter, elapsed / self._time_limit), "IPOPT iterations")
+        return [0]
 
 
 def _build_nlp(x0, edges, spec, unspec, target, K, mode, stay_on_solution_space):

@@ -35,6 +35,7 @@ from zeromode.solver.budget import check_budget
 from zeromode.solver.errors import DomainError
 from zeromode.solver.factorisation import cholesky, nested_dissection
 from zeromode.solver.frame import Frame
+from zeromode.solver.progress import report_detail
 from zeromode.solver.rank import RTOL, RankGap, complement_within, decide_rank, orthonormal_range
 
 # Dense linear algebra up to this many degrees of freedom (dN) in the modules that share this
@@ -325,6 +326,7 @@ def _sparse_null_spaces(c: sp.csr_matrix, x: np.ndarray, edges: np.ndarray, rigi
     sigma_max = _largest_singular_value(gram, rng)
     tol = rtol * sigma_max
     factor = cholesky(gram, _elimination_order(x, edges, count_modes), shift=SHIFT * sigma_max**2)
+    report_detail(0.3, "factorised the Gram matrix")
     if count_modes:
         modes = _NullProblem(c, factor.solve, rigid)
         stresses = _NullProblem(ct, lambda w: w - c @ factor.solve(ct @ w), np.zeros((nb, 0)))
@@ -340,6 +342,7 @@ def _sparse_null_spaces(c: sp.csr_matrix, x: np.ndarray, edges: np.ndarray, rigi
         dropped = max(dropped, float(np.sqrt(max(np.linalg.eigvalsh(moved.T @ moved)[-1], 0.0))))
     rank = ndof - rho - found.shape[1] if count_modes else nb - found.shape[1]
     gap = RankGap(kept, dropped)
+    report_detail(0.7, "decided the rank")
     n_modes, n_stresses = ndof - rho - rank, nb - rank
     if not (want_bases and _bases_fit(n_modes, n_stresses, c.shape, basis_limit)):
         return None, None, rank, gap

@@ -39,6 +39,7 @@ import scipy.sparse as sp
 
 from zeromode.solver.budget import check_budget, remaining
 from zeromode.solver.eigen import smallest_eigenpairs
+from zeromode.solver.progress import report_progress
 from zeromode.solver.rank import orthonormal_range
 
 # Relative gap (U − L)/U at which the bracket is closed.
@@ -114,6 +115,7 @@ def optimal_stiffness(c, span: np.ndarray, uniform: float, time_s: float = TIME_
     iterations = 0
     while time.perf_counter() - t0 < budget:
         check_budget()
+        report_progress((time.perf_counter() - t0) / budget, "spectral bundle iterations")
         iterations += 1
         bundle = _soft_part(scaled, bundle, k_hat)
         a_v = scaled @ bundle

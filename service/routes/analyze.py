@@ -11,6 +11,7 @@ from zeromode.service.responses import analyze_body
 from zeromode.service.schemas.analyze import AnalyzeRequest, AnalyzeResponse
 from zeromode.service.schemas.common import ERROR_RESPONSES
 from zeromode.service.settings import current_settings
+from zeromode.solver.progress import progress_stage
 from zeromode.solver.rigidity import analyze
 
 router = APIRouter(prefix="/v1", tags=["analysis"])
@@ -23,5 +24,6 @@ def post_analyze(request: AnalyzeRequest) -> dict:
     frame = frame_from_model(request.frame)
     opts = request.options
     limit = current_settings().max_basis_numbers
-    result = analyze(frame, rtol=opts.rtol, method=opts.method, bases=opts.bases, basis_limit=limit)
+    with progress_stage(0.0, 1.0, "analysis", detail=True):
+        result = analyze(frame, rtol=opts.rtol, method=opts.method, bases=opts.bases, basis_limit=limit)
     return analyze_body(result, {"total": 1e3 * (time.perf_counter() - t0)})
