@@ -130,6 +130,11 @@ def main() -> None:
         f"({chain.strain_range.lower.reason}, {chain.strain_range.upper.reason}) | {t_chain:.2f} | {t_chain_motion:.2f} | "
         f"{t_chain_cert:.2f} | {chain_error:.1e} |"),
         "",
+        "Motion runs what `/v1/motion` runs for a lattice: above 400 degrees of freedom the sheet is recognised as",
+        "tiled, one cell is traced (its last step shortened to the range's end) and every configuration is checked on",
+        "the full sheet (route `periodic`: bar lengths, the tiled tangent in N(C), the determinant test between",
+        "configurations); the chain's motion bends it, so its own continuation answers (`sparse`).",
+        "",
         "The two-node module's secant ν drifts over its range (its curvature is fixed by the linear ratio); the",
         "finite-strain option chooses a trammel module instead, whose secant ν stays within the tolerance over the",
         "requested range. The 64-block chain's ε_x turns back at a tiny positive strain (`strain_extremum`): its motion",
