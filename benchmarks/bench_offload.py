@@ -24,7 +24,7 @@ from pathlib import Path
 
 import httpx
 
-from benchmarks.bench_sweeps import percentiles, start_service_with
+from benchmarks.bench_sweeps import health_probe, percentiles, start_service_with
 
 CLIENTS = 48
 BUDGET_S = 2.0
@@ -38,7 +38,9 @@ def big_frame(n: int) -> dict:
     return {"dim": 2, "positions": positions, "edges": edges}
 
 
-def heavy_load(url: str) -> dict:
+def heavy_load(url: str, clients: int = CLIENTS) -> dict:
+    """``clients`` concurrent POST /v1/motion (a 6×6 sheet, amplitude 0.2) while a probe asks
+    GET /health every 20 ms: the probe's latencies, the requests' wall time and statuses."""
     frame = httpx.post(url + "/v1/design/auxetic", json={"dim": 2, "cells": [6, 6], "poisson_ratio": -0.5},
                        timeout=60).json()["frame"]
     body = {"frame": frame, "amplitude": 0.2}
@@ -50,18 +52,10 @@ def heavy_load(url: str) -> dict:
         with httpx.Client(timeout=600) as http:
             statuses.append(http.post(url + "/v1/motion", json=body).status_code)
 
-    def probe() -> None:
-        with httpx.Client(timeout=120) as http:
-            while not stop.is_set():
-                t0 = time.perf_counter()
-                http.get(url + "/health")
-                latencies.append(time.perf_counter() - t0)
-                time.sleep(0.02)
-
-    prober = threading.Thread(target=probe)
+    prober = threading.Thread(target=health_probe, args=(url, stop, latencies))
     prober.start()
     t0 = time.perf_counter()
-    threads = [threading.Thread(target=heavy) for _ in range(CLIENTS)]
+    threads = [threading.Thread(target=heavy) for _ in range(clients)]
     for t in threads:
         t.start()
     for t in threads:
@@ -69,7 +63,7 @@ def heavy_load(url: str) -> dict:
     wall = time.perf_counter() - t0
     stop.set()
     prober.join()
-    return {"health": percentiles(latencies), "wall_s": wall,
+    return {"health": percentiles(latencies), "latencies": latencies, "wall_s": wall,
             "statuses": {str(s): statuses.count(s) for s in sorted(set(statuses))}}
 
 
@@ -101,7 +95,9 @@ def main() -> None:
             while offload == "true" and httpx.get(url + "/health").json()["engine"] != "running":
                 assert time.monotonic() < deadline
                 time.sleep(0.2)
-            report[offload] = {"load": heavy_load(url), "overruns": overruns(url)}
+            load = heavy_load(url)
+            del load["latencies"]
+            report[offload] = {"load": load, "overruns": overruns(url)}
         finally:
             proc.terminate()
             proc.wait(timeout=60)

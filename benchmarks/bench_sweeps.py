@@ -25,7 +25,6 @@ import json
 import os
 import random
 import subprocess
-import sys
 import tempfile
 import threading
 import time
@@ -35,6 +34,8 @@ from pathlib import Path
 
 import httpx
 import numpy as np
+
+from benchmarks.load import start_server
 
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
@@ -83,26 +84,10 @@ def process_pool(requests: list[dict], workers: int) -> float:
 
 
 def start_service_with(env: dict[str, str]) -> tuple[subprocess.Popen, str]:
-    """`zeromode serve` on a free loopback port with these ZEROMODE_* variables; (process, URL)."""
-    import socket
-
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
-    exe = Path(sys.executable).with_name("zeromode")
-    env = {"ZEROMODE_DATABASE_URL": f"sqlite:///{tempfile.mkdtemp(prefix='zeromode-bench-')}/jobs.sqlite3", **env}
-    proc = subprocess.Popen([str(exe), "serve", "--port", str(port)], env={**os.environ, **env},
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    url = f"http://127.0.0.1:{port}"
-    deadline = time.monotonic() + 60
-    while time.monotonic() < deadline:
-        try:
-            if httpx.get(url + "/health", timeout=1).status_code == 200:
-                return proc, url
-        except httpx.HTTPError:
-            time.sleep(0.2)
-    proc.kill()
-    raise RuntimeError("the service did not start")
+    """`zeromode serve` (one process) with these ZEROMODE_* variables and, unless they name
+    one, a fresh SQLite store; (process, URL)."""
+    store = f"sqlite:///{tempfile.mkdtemp(prefix='zeromode-bench-')}/jobs.sqlite3"
+    return start_server(1, {"ZEROMODE_DATABASE_URL": store, **env})
 
 
 def run_sweep(http: httpx.Client, requests: list[dict]) -> tuple[float, dict]:

@@ -42,13 +42,15 @@ def free_port() -> int:
         return s.getsockname()[1]
 
 
-def start_server(workers: int) -> tuple[subprocess.Popen, str]:
+def start_server(workers: int, env: dict[str, str] | None = None) -> tuple[subprocess.Popen, str]:
+    """`zeromode serve` on a free loopback port, with these extra environment variables."""
     port = free_port()
     exe = Path(sys.executable).with_name("zeromode")
     proc = subprocess.Popen(
         [str(exe), "serve", "--host", "127.0.0.1", "--port", str(port), "--workers", str(workers)],
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
+        env={**os.environ, **(env or {})},
     )
     url = f"http://127.0.0.1:{port}"
     deadline = time.monotonic() + 60

@@ -348,7 +348,8 @@ def test_no_request_gives_a_5xx(client, body):
 
 def test_health(client):
     body = ok(client.get("/health"))
-    assert body == {"status": "ok", "version": importlib.metadata.version("zeromode")}
+    # The session's app has offloading off and has run no job: its engine is idle.
+    assert body == {"status": "ok", "version": importlib.metadata.version("zeromode"), "engine": "idle"}
 
 
 def resolve(schema, doc):
