@@ -254,8 +254,8 @@ class Store:
         return self.cancel_queued(ids, now)
 
     def expire(self, now: float, ttl_s: float, max_jobs: int) -> int:
-        """Forget finished records older than ``ttl_s``, then the oldest finished single jobs and
-        sweeps past ``max_jobs`` rows; the number of rows removed."""
+        """Forget finished records older than ``ttl_s``, then past ``max_jobs`` rows the oldest
+        finished single jobs, then the oldest finished sweeps; the number of rows removed."""
         removed = 0
         with self.db.begin() as conn:
             old = conn.execute(
@@ -274,6 +274,15 @@ class Store:
                 ).scalars().all()
                 for chunk in _chunks(list(oldest)):
                     removed += conn.execute(sa.delete(jobs).where(jobs.c.id.in_(chunk))).rowcount
+                excess -= len(oldest)
+            # Still too many: whole finished sweeps go, the oldest first.
+            for sweep_id in conn.execute(
+                sa.select(sweeps.c.id).where(sweeps.c.finished.is_not(None)).order_by(sweeps.c.finished)
+            ).scalars().all():
+                if excess <= 0:
+                    break
+                dropped = self._drop_sweeps(conn, [sweep_id])
+                excess, removed = excess - dropped, removed + dropped
         return removed
 
     def delete_sweep(self, sweep_id: str) -> None:

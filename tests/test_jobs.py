@@ -232,6 +232,16 @@ def test_old_records_expire_and_the_store_keeps_its_row_cap(tmp_path):
     assert store.expire(now, ttl_s=97.5, max_jobs=10) == 3  # finished 100, 99, 98 s ago
     assert store.expire(now, ttl_s=1e6, max_jobs=1) == 1  # the oldest of the two left
     assert store.job(f"{4:032x}") is not None and store.job(f"{3:032x}") is None
+    # Past the cap with no single job left to drop, whole finished sweeps go, the oldest first.
+    for k in range(2):
+        sweep_id = f"{k:031x}s"
+        points = [{"id": f"{k}{i:031x}", "sweep_id": sweep_id, "point": i, "endpoint": "/v1/analyze",
+                   "request": "{}", "client": "", "status": "done", "progress": 1.0, "message": "done",
+                   "created": now, "finished": now + k, "attempts": 1, "owner": "x", "bytes": 0} for i in range(3)]
+        store.add_sweep({"id": sweep_id, "endpoint": "/v1/analyze", "spec": "{}", "client": "", "total": 3,
+                         "finished_count": 3, "cancelled": False, "created": now, "finished": now + k}, points)
+    assert store.expire(now, ttl_s=1e6, max_jobs=4) == 1 + 3  # the last single job, the older sweep
+    assert store.sweep(f"{0:031x}s") is None and store.sweep(f"{1:031x}s")["counts"] == {"done": 3}
 
 
 def test_the_service_answers_429_when_its_job_slots_are_full(tmp_path, dask_scheduler):
