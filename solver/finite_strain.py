@@ -41,7 +41,7 @@ from zeromode.solver.lattice import (
     closest_unjoined,
     measured_lattice,
 )
-from zeromode.solver.progress import report_progress
+from zeromode.solver.progress import progress_stage, report_progress, report_steps
 from zeromode.solver.rigidity import analyze
 from zeromode.solver.sheet_module import (
     SymmetricModule,
@@ -175,12 +175,14 @@ def finite_strain_sheet(
         return min(usable.upper.strain / hi, usable.lower.strain / lo)
 
     devs = []
-    for k, stretch in enumerate(STRETCHES):
-        try:
-            devs.append(_deviation(member(stretch), poisson, lo, hi))
-        except (DomainError, np.linalg.LinAlgError):
-            devs.append(np.inf)
-    report_progress(0.2, "searched the module family")
+    with progress_stage(0.0, 0.2, "the module family"):
+        searched = report_steps(len(STRETCHES), "secant ratios of a member", step=0.05)
+        for k, stretch in enumerate(STRETCHES):
+            try:
+                devs.append(_deviation(member(stretch), poisson, lo, hi))
+            except (DomainError, np.linalg.LinAlgError):
+                devs.append(np.inf)
+            searched(k)
     devs = np.array(devs)
     if not np.isfinite(devs).any():
         raise FiniteStrainUnreachable(
@@ -194,8 +196,8 @@ def finite_strain_sheet(
     # The smallest stretch first: the axis nodes sit nearest the module's centre there,
     # farthest from the neighbours' bars.
     for i, k in enumerate(within):
-        covers[k] = cover(member(STRETCHES[k]))
-        report_progress(0.2 + 0.5 * (i + 1) / len(within), "scanned a module's usable range")
+        with progress_stage(0.2 + 0.4 * i / len(within), 0.2 + 0.4 * (i + 1) / len(within), "a module's usable range", detail=True):
+            covers[k] = cover(member(STRETCHES[k]))
         if covers[k] >= 1.0:
             chosen = float(STRETCHES[k])
             break
@@ -203,16 +205,26 @@ def finite_strain_sheet(
     # over ±10 % on a square cell, and the cover is rugged in s): maximise the cover around the
     # best grid points, best first.
     best_cover = max(covers.values(), default=-np.inf)
-    for k in sorted(covers, key=covers.get, reverse=True)[:WINDOW_SEARCHES] if chosen is None else ():
-        bounds = (STRETCHES[max(k - 1, 0)], STRETCHES[min(k + 1, len(STRETCHES) - 1)])
-        found = minimize_scalar(
-            lambda t: -cover(member(t)), bounds=bounds, method="bounded",
-            options={"xatol": WINDOW_XTOL * bounds[0], "maxiter": WINDOW_EVALUATIONS},
-        )
-        best_cover = max(best_cover, -found.fun)
-        if -found.fun >= 1.0 and _deviation(member(found.x), poisson, lo, hi) <= tolerance:
-            chosen = float(found.x)
-            break
+    report_progress(0.6, "scanned the modules within the tolerance")
+    # Progress of the window searches: one report per cover evaluated (at most all of them).
+    evaluated = report_steps(WINDOW_SEARCHES * WINDOW_EVALUATIONS, "searching between grid points", step=0.05)
+    counted = iter(range(WINDOW_SEARCHES * WINDOW_EVALUATIONS))
+
+    def window_cover(t: float) -> float:
+        evaluated(next(counted, WINDOW_SEARCHES * WINDOW_EVALUATIONS - 1))
+        return cover(member(t))
+
+    with progress_stage(0.6, 0.75):
+        for k in sorted(covers, key=covers.get, reverse=True)[:WINDOW_SEARCHES] if chosen is None else ():
+            bounds = (STRETCHES[max(k - 1, 0)], STRETCHES[min(k + 1, len(STRETCHES) - 1)])
+            found = minimize_scalar(
+                lambda t: -window_cover(t), bounds=bounds, method="bounded",
+                options={"xatol": WINDOW_XTOL * bounds[0], "maxiter": WINDOW_EVALUATIONS},
+            )
+            best_cover = max(best_cover, -found.fun)
+            if -found.fun >= 1.0 and _deviation(member(found.x), poisson, lo, hi) <= tolerance:
+                chosen = float(found.x)
+                break
     if chosen is None:
         if not covers:
             why = f"the best secant deviation over the range is {best_dev['max_deviation']:.3g}"
@@ -227,8 +239,10 @@ def finite_strain_sheet(
         )
     module = member(chosen)
     s, sign = chosen, SIGN
-    usable = module_range(module, scan_cells).range  # the whole usable range, for the report
-    return _verified_sheet(module, nx, ny, poisson, (lo, hi), tolerance, usable, s, sign)
+    with progress_stage(0.75, 0.8, "the chosen module's usable range", detail=True):
+        usable = module_range(module, scan_cells).range  # the whole usable range, for the report
+    with progress_stage(0.8, 1.0, "the tiled sheet"):
+        return _verified_sheet(module, nx, ny, poisson, (lo, hi), tolerance, usable, s, sign)
 
 
 def _verified_sheet(module, nx, ny, poisson, requested, tolerance, usable: StrainRange, s, sign) -> FiniteStrainSheet:
@@ -238,8 +252,8 @@ def _verified_sheet(module, nx, ny, poisson, requested, tolerance, usable: Strai
     q0 = module.reference
     positions = sheet_positions(module, nx, ny, q0)
     frame = Frame.build(positions, sheet_edges(module, nx, ny))
-    analysis = analyze(frame, bases=False)
-    report_progress(0.85, "analysed the tiled sheet")
+    with progress_stage(0.0, 0.3, "analysis", detail=True):
+        analysis = analyze(frame, bases=False)
     if analysis.nontrivial_zero_modes != 1:
         raise DomainError(
             "no_solution", f"the tiled sheet has {analysis.nontrivial_zero_modes} nontrivial modes, not 1."
@@ -252,19 +266,22 @@ def _verified_sheet(module, nx, ny, poisson, requested, tolerance, usable: Strai
     strains = strains[strains != 0.0]
     lengths = np.linalg.norm(positions[frame.edges[:, 0]] - positions[frame.edges[:, 1]], axis=1)
     ratios, bar_error, configs, closest = [], 0.0, {}, np.inf
-    for side in (strains[strains > 0], strains[strains < 0][::-1]):
-        q, at = q0, 0.0
-        for eps in side:  # outward from the reference, tangent predictor and Newton
-            q = module.configuration(eps, q + (eps - at) * module.tangent(q))
-            if q is None:
-                raise DomainError("no_solution", f"the module's motion does not reach ε_x = {eps:g}.")
-            at, configs[eps] = eps, q
-            x = sheet_positions(module, nx, ny, q)
-            stretched = np.linalg.norm(x[frame.edges[:, 0]] - x[frame.edges[:, 1]], axis=1)
-            bar_error = max(bar_error, float(np.max(np.abs(stretched / lengths - 1))))
-            ex, ey = boundary_strains(positions, x - positions, boundary)
-            ratios.append((eps, -ey / ex))
-            closest = min(closest, closest_unjoined(x, frame.edges) / lengths.min())
+    with progress_stage(0.3, 0.9, "its motion"):
+        checked = report_steps(len(strains), "checked a configuration", step=0.05)
+        for side in (strains[strains > 0], strains[strains < 0][::-1]):
+            q, at = q0, 0.0
+            for eps in side:  # outward from the reference, tangent predictor and Newton
+                q = module.configuration(eps, q + (eps - at) * module.tangent(q))
+                if q is None:
+                    raise DomainError("no_solution", f"the module's motion does not reach ε_x = {eps:g}.")
+                at, configs[eps] = eps, q
+                x = sheet_positions(module, nx, ny, q)
+                stretched = np.linalg.norm(x[frame.edges[:, 0]] - x[frame.edges[:, 1]], axis=1)
+                bar_error = max(bar_error, float(np.max(np.abs(stretched / lengths - 1))))
+                ex, ey = boundary_strains(positions, x - positions, boundary)
+                ratios.append((eps, -ey / ex))
+                closest = min(closest, closest_unjoined(x, frame.edges) / lengths.min())
+                checked(len(configs) - 1)
     ratios.sort()
     secant = np.array([r for _, r in ratios])
     deviation = float(np.max(np.abs(secant - poisson)))
@@ -279,8 +296,8 @@ def _verified_sheet(module, nx, ny, poisson, requested, tolerance, usable: Strai
         "expanded": sheet_positions(module, nx, ny, configs[max(configs)]),
         "contracted": sheet_positions(module, nx, ny, configs[min(configs)]),
     }
-    lattice = measured_lattice(frame, mode, analysis, boundary, states, usable, np.arange(n_corners))
-    report_progress(1.0, "verified the sheet")
+    with progress_stage(0.9, 1.0, "the states"):
+        lattice = measured_lattice(frame, mode, analysis, boundary, states, usable, np.arange(n_corners))
     return FiniteStrainSheet(
         lattice=lattice,
         stretch=s,

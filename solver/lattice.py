@@ -38,6 +38,7 @@ from zeromode.solver.design import design
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame, check_extent
 from zeromode.solver.multimode import spatial_quadric
+from zeromode.solver.progress import progress_stage, report_progress
 from zeromode.solver.rigidity import Analysis, analyze, zero_mode_residual
 from zeromode.solver.sheet_module import (
     SymmetricModule,
@@ -171,7 +172,8 @@ def auxetic_sheet(
     ``strain_out_of_range`` naming it otherwise); None: ±DEFAULT_STATE_STRAIN clipped to the
     range.  Each state is the module's Newton-exact configuration tiled (sheet_module).
     """
-    module, node_motions, motion = sheet_motion(nx, ny, poisson, tuple(cell))
+    with progress_stage(0.0, 0.3, "the module's strain range", detail=True):
+        module, node_motions, motion = sheet_motion(nx, ny, poisson, tuple(cell))
     beta = -poisson
     strains = state_strains(motion.range, strain)
     positions = sheet_positions(module, nx, ny, module.reference)
@@ -182,7 +184,9 @@ def auxetic_sheet(
     mode = positions * affine
     mode[n_corners::2] = centres * affine + node_motions[0]
     mode[n_corners + 1 :: 2] = centres * affine + node_motions[1]
-    analysis = analyze(frame, bases=False)
+    report_progress(0.4, "tiled the sheet")
+    with progress_stage(0.4, 0.8, "analysis", detail=True):
+        analysis = analyze(frame, bases=False)
     if analysis.nontrivial_zero_modes != 1:
         raise DomainError(
             "no_solution", f"the sheet has {analysis.nontrivial_zero_modes} nontrivial modes, not 1."
@@ -192,7 +196,8 @@ def auxetic_sheet(
     states = {
         name: sheet_positions(module, nx, ny, motion.at(eps)) for name, eps in strains.items()
     }
-    return measured_lattice(frame, mode, analysis, boundary, states, motion.range, np.arange(n_corners))
+    with progress_stage(0.8, 1.0, "the states"):
+        return measured_lattice(frame, mode, analysis, boundary, states, motion.range, np.arange(n_corners))
 
 
 @lru_cache(maxsize=4096)
@@ -275,7 +280,8 @@ def state_strains(usable: StrainRange, strain: float | None) -> dict[str, float]
 
 def measured_lattice(frame, mode, analysis, boundary, states, usable: StrainRange, driven) -> Lattice:
     """The Lattice of a verified frame, its states measured from their positions: secant ν and
-    ε_x from the boundary means, bar lengths, and the closest pair of nodes without a bar."""
+    ε_x from the boundary means, bar lengths, and the closest pair of nodes without a bar
+    (progress: one report per state)."""
     lengths = np.linalg.norm(frame.positions[frame.edges[:, 0]] - frame.positions[frame.edges[:, 1]], axis=1)
     worst, closest, measured = 0.0, np.inf, {}
     for name, x in states.items():
@@ -284,6 +290,7 @@ def measured_lattice(frame, mode, analysis, boundary, states, usable: StrainRang
         closest = min(closest, closest_unjoined(x, frame.edges) / lengths.min())
         ex, ey = boundary_strains(frame.positions, x - frame.positions, boundary)
         measured[name] = (x, -ey / ex, ex)
+        report_progress(len(measured) / len(states), f"measured the {name} state")
     return Lattice(
         frame=frame,
         mode=mode,
@@ -379,8 +386,10 @@ def auxetic_chain_3d(
     contracted states are the traced configurations whose ε_x is nearest ±``strain`` (as
     state_strains; their own ε_x is reported, within one continuation step of it).
     """
-    modules, merges, bonds = chain_modules(n, poisson, block, seed)
-    composite = couple(modules, merges, bonds, specified=chain_specified(n))
+    with progress_stage(0.0, 0.1, "blocks"):
+        modules, merges, bonds = chain_modules(n, poisson, block, seed)
+    with progress_stage(0.1, 0.3, "coupling the blocks", detail=True):
+        composite = couple(modules, merges, bonds, specified=chain_specified(n))
     m = composite.node_map
     boundary = {
         "left": np.array([m[0][0], m[0][1]]),
@@ -389,9 +398,11 @@ def auxetic_chain_3d(
         "top": np.unique([m[b][0] for b in range(n)] + [m[b][2] for b in range(n)]),
     }
     frame, mode = composite.frame, composite.mode
-    motion = chain_range(frame, mode, lambda x: boundary_strains(frame.positions, x - frame.positions, boundary)[0])
+    with progress_stage(0.3, 0.9, "the chain's strain range"):
+        motion = chain_range(frame, mode, lambda x: boundary_strains(frame.positions, x - frame.positions, boundary)[0])
     states = {
         name: motion.positions[int(np.argmin(np.abs(motion.strains - eps)))]
         for name, eps in state_strains(motion.range, strain).items()
     }
-    return measured_lattice(frame, mode, composite.analysis, boundary, states, motion.range, frame.specified)
+    with progress_stage(0.9, 1.0, "the states"):
+        return measured_lattice(frame, mode, composite.analysis, boundary, states, motion.range, frame.specified)

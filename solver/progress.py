@@ -33,6 +33,8 @@ from contextvars import ContextVar
 from dataclasses import dataclass
 
 ProgressCallback = Callable[[float, str], None]
+# Reported fractions are rounded to this many decimals (_exact).
+DIGITS = 12
 
 
 @dataclass(frozen=True)
@@ -74,7 +76,7 @@ def progress_stage(lo: float, hi: float, label: str = "", detail: bool = False) 
     width = outer.hi - outer.lo
     if outer.label and label:
         label = f"{outer.label}: {label}"
-    stage = _Stage(outer.callback, outer.lo + width * lo, outer.lo + width * hi, label or outer.label, detail)
+    stage = _Stage(outer.callback, _exact(outer.lo + width * lo), _exact(outer.lo + width * hi), label or outer.label, detail)
     token = _STAGE.set(stage)
     try:
         report_progress(0.0, "started")
@@ -90,7 +92,7 @@ def report_progress(fraction: float, message: str = "") -> None:
     if stage is not None:
         f = min(max(float(fraction), 0.0), 1.0)
         text = f"{stage.label}: {message}" if stage.label and message else message or stage.label
-        stage.callback(stage.lo + (stage.hi - stage.lo) * f, text)
+        stage.callback(_exact(stage.lo + (stage.hi - stage.lo) * f), text)
 
 
 @contextmanager
@@ -121,6 +123,13 @@ def progress_heartbeat(expected_s: float, message: str, interval_s: float = 0.5)
     finally:
         done.set()
         thread.join()
+
+
+def _exact(fraction: float) -> float:
+    """``fraction`` rounded to DIGITS decimals: fractions equal in exact arithmetic but reached
+    by different roundings (a stage's end, the next one's start, the parent's own report there)
+    compare equal, so the reports stay monotone."""
+    return round(fraction, DIGITS)
 
 
 def report_detail(fraction: float, message: str = "") -> None:

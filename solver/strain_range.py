@@ -47,6 +47,7 @@ from scipy.spatial import cKDTree
 
 from zeromode.solver.finite_motion import trace_motion
 from zeromode.solver.frame import Frame
+from zeromode.solver.progress import report_detail
 from zeromode.solver.sheet_module import SymmetricModule
 
 # Two nodes without a bar between them closer than this fraction of the shortest bar collide.
@@ -315,6 +316,8 @@ def module_range(
                 break
             eps, q, prev = target, q_next, now
             samples[eps] = q
+            # Progress (a building block: into a stage opened for it): each direction half.
+            report_detail(0.5 * (sign < 0) + 0.5 * abs(eps) / limit, "scanning the module's motion")
             if abs(eps) >= limit:
                 detail = REASONS["search_limit"] if limits is None else f"the scan stopped at the requested strain {eps:+g}"
                 end = RangeEnd(eps, "search_limit", detail)

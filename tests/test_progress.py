@@ -116,6 +116,18 @@ def test_auxetic_sheet(cells, small):
     check_reports(reports)
 
 
+def test_auxetic_chain_and_finite_strain_sheet():
+    """A 3D chain of 16 blocks (its range by continuation) and a sheet holding ν over ±10 %
+    (the module family searched, ranges scanned, the tiled sheet verified)."""
+    for run in (
+        lambda: auxetic_pipeline(3, (16,), poisson=-0.5),
+        lambda: auxetic_pipeline(2, (8, 8), poisson=-0.5, finite_strain=(-0.1, 0.1, 0.05)),
+    ):
+        result, reports = recorded(run)
+        assert result.lattice.poisson_ratio == pytest.approx(-0.5, rel=1e-6)
+        check_reports(reports)
+
+
 def test_allosteric_design_across_forty_site_radii():
     rng = np.random.default_rng([2, 0])
     x_src, x_tgt = rng.standard_normal((3, 2)), rng.standard_normal((3, 2))
