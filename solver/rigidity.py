@@ -41,13 +41,15 @@ from zeromode.solver.rank import RTOL, RankGap, complement_within, decide_rank, 
 # Dense linear algebra up to this many degrees of freedom (dN) in the modules that share this
 # crossover (finite motion, eigenmodes, certificates, zero_mode_residual below).
 DENSE_MAX_DOF = 400
-# analyze takes the full SVD of C while C has at most this many entries (N_B·dN), the sparse
-# route above. Measured (benchmarks/bench_analysis.py, crossover table in
-# docs/benchmarks/analysis.md): the SVD's cost grows as N_B·dN·min(N_B, dN) while the sparse
-# route costs 4–5 ms of fixed overhead plus, with bases, a QR of each basis; counts alone
-# break even near 20 000–25 000 entries (triangulated: 20 600 entries 4.6 ms both, 33 700
-# dense 7.6 ms against sparse 5.7 ms; kagome 19 650: dense 4.5 ms, sparse 5.5 ms), counts
-# with bases near 40 000 (dN ≈ 200).
+# analyze takes the SVD of C while C has at most this many entries (N_B·dN), the sparse route
+# above. Measured (benchmarks/bench_analysis.py, crossover table in
+# docs/benchmarks/analysis.md): the SVD's cost grows as N_B·dN·min(N_B, dN) (singular values
+# alone for counts) while the sparse route costs about 2 ms of fixed Python-level steps plus,
+# with bases, a QR of each basis; counts alone break even near 20 000–30 000 entries
+# (triangulated: 20 600 entries dense 2.1 ms, sparse 2.5 ms; 33 700 dense 3.5 ms, sparse 2.6 ms),
+# counts with bases near 20 000 (kagome 19 650: dense 4.7 ms, sparse 3.1 ms). The bases limit
+# is kept at 40 000 (the sparse route gains at most 2× below it), so small designed frames keep
+# the exact SVD bases they were verified with.
 DENSE_MAX_ENTRIES_COUNTS = 25_000
 DENSE_MAX_ENTRIES_BASES = 40_000
 # Bases are returned only while they stay this small (numbers); counts are always exact.
