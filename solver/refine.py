@@ -55,7 +55,7 @@ from zeromode.solver.finite_motion import (
 )
 from zeromode.solver.frame import Frame, check_positions
 from zeromode.solver.normalisation import Normalisation, rms_radius
-from zeromode.solver.progress import progress_stage, report_progress
+from zeromode.solver.progress import progress_heartbeat, progress_stage, report_progress
 from zeromode.solver.rigidity import Analysis, analyze
 from zeromode.solver.tolerances import REACHED_EPS
 
@@ -74,6 +74,9 @@ IPOPT_SUCCESS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 # Progress of one attempt: the NLP built at NLP_SHARE[0], IPOPT's iterations up to NLP_SHARE[1],
 # then the re-verification (analyses, the refined frame's finite motion).
 NLP_SHARE = (0.1, 0.7)
+# Clock scale of the NLP's construction and derivation for progress_heartbeat (progress only):
+# about a second for the benchmark designs, far more near MAX_UNKNOWNS.
+NLP_EXPECTED_S = 1.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -344,11 +347,12 @@ def _attempt(
     norm = Normalisation.of(frame.positions)
     x0 = norm.positions_in(frame.positions)
     target = x0[spec] + delta / norm.length
-    nlp, x_init, lbg, ubg, unpack = _build_nlp(
-        x0, frame.edges, spec, unspec, target, K, before.modes[0], stay_on_solution_space
-    )
+    building = NLP_SHARE[0] / 2  # the NLP's expressions, then casadi's derivatives (nlpsol)
+    with progress_stage(0.0, building), progress_heartbeat(NLP_EXPECTED_S, "building the NLP"):
+        nlp, x_init, lbg, ubg, unpack = _build_nlp(
+            x0, frame.edges, spec, unspec, target, K, before.modes[0], stay_on_solution_space
+        )
     check_budget()
-    report_progress(NLP_SHARE[0], "built the NLP")
     # max_time_s covers the NLP's construction too, and the request's budget bounds both.
     left = float(max_time_s) - (time.perf_counter() - t_build)
     budget = remaining()
@@ -360,25 +364,27 @@ def _attempt(
             f"of {max_time_s:g} s; lower K or raise max_time_s.",
         )
     iterations_report = _IterationReport(nlp["x"].numel(), nlp["g"].numel(), max_iter, left)
-    solver = ca.nlpsol(
-        "refine",
-        "ipopt",
-        nlp,
-        {
-            "iteration_callback": iterations_report,
-            "print_time": False,
-            "error_on_fail": False,
-            "ipopt.print_level": 0,
-            "ipopt.sb": "yes",
-            # The separation inequalities are inactive at the solution; the adaptive barrier
-            # update halves the median iteration count on the benchmark designs.
-            "ipopt.mu_strategy": "adaptive",
-            "ipopt.tol": tol,
-            "ipopt.max_iter": int(max_iter),
-            "ipopt.max_cpu_time": left,
-            "ipopt.max_wall_time": left,
-        },
-    )
+    # casadi releases the GIL while it derives the NLP's functions: the heartbeat runs.
+    with progress_stage(building, NLP_SHARE[0]), progress_heartbeat(NLP_EXPECTED_S, "deriving the NLP"):
+        solver = ca.nlpsol(
+            "refine",
+            "ipopt",
+            nlp,
+            {
+                "iteration_callback": iterations_report,
+                "print_time": False,
+                "error_on_fail": False,
+                "ipopt.print_level": 0,
+                "ipopt.sb": "yes",
+                # The separation inequalities are inactive at the solution; the adaptive barrier
+                # update halves the median iteration count on the benchmark designs.
+                "ipopt.mu_strategy": "adaptive",
+                "ipopt.tol": tol,
+                "ipopt.max_iter": int(max_iter),
+                "ipopt.max_cpu_time": left,
+                "ipopt.max_wall_time": left,
+            },
+        )
     t_ipopt = time.perf_counter()
     with progress_stage(*NLP_SHARE, "IPOPT"):
         sol = solver(x0=x_init, lbg=lbg, ubg=ubg)
@@ -457,14 +463,15 @@ def _attempt(
 
 class _IterationReport(ca.Callback):
     """IPOPT's iteration callback: after iteration i, report max(i / max_iter, t / time_limit)
-    (both bound the solve, both grow), so a slow solve reports each iteration and a long one
-    moves with the clock.  Receives nlpsol's outputs (x, f, g, multipliers) and ignores them."""
+    (both bound the solve, both grow; t from IPOPT's first callback, at its starting point), so
+    a slow solve reports each iteration and a long one moves with the clock.  Receives nlpsol's
+    outputs (x, f, g, multipliers) and ignores them."""
 
     def __init__(self, nx: int, ng: int, max_iter: int, time_limit: float):
         ca.Callback.__init__(self)
         self._sizes = {"x": nx, "lam_x": nx, "g": ng, "lam_g": ng, "f": 1}
         self._max_iter, self._time_limit = max(int(max_iter), 1), max(float(time_limit), 1e-9)
-        self._count, self._t0 = 0, time.perf_counter()
+        self._count, self._t0 = 0, None
         self.construct("refine_progress", {})
 
     def get_n_in(self):
@@ -485,6 +492,7 @@ class _IterationReport(ca.Callback):
 
     def eval(self, arg):
         self._count += 1
+        self._t0 = self._t0 or time.perf_counter()
         elapsed = time.perf_counter() - self._t0
         report_progress(max(self._count / self._max_iter, elapsed / self._time_limit), "IPOPT iterations")
         return [0]

@@ -30,7 +30,13 @@ from zeromode.solver.certificates import certify
 from zeromode.solver.lattice import auxetic_sheet
 from zeromode.solver.network_allostery import tune_network
 from zeromode.solver.pipeline import RefineStage, ToleranceStage, auxetic_pipeline, design_pipeline
-from zeromode.solver.progress import progress_scope, progress_stage, report_progress
+from zeromode.solver.progress import (
+    progress_heartbeat,
+    progress_scope,
+    progress_stage,
+    report_detail,
+    report_progress,
+)
 
 # The promise (seconds, fraction) and the time side as asserted under shared-CPU load.
 PROMISED_GAP_S = 1.0
@@ -84,6 +90,35 @@ def test_stages_map_inner_fractions_onto_their_share():
     with progress_stage(0.0, 1.0, "alone"):
         report_progress(0.5, "nobody listens")
     assert len(seen) == 5
+
+
+def test_detail_reports_go_only_into_a_stage_opened_for_them():
+    seen = []
+    with progress_scope(lambda f, m: seen.append(f)):
+        report_detail(0.5)  # the scope itself: a loop's share, not opened for a building block
+        with progress_stage(0.0, 0.5, detail=True):
+            report_detail(0.5)
+            with progress_stage(0.5, 1.0):  # nested: not the building block's own
+                report_detail(0.9)
+    assert seen == pytest.approx([0.0, 0.25, 0.25, 0.5, 0.5])
+
+
+def test_heartbeat_reports_the_clock_while_an_opaque_call_runs():
+    """1 − exp(−t/τ) of the stage at each beat, t measured here; nothing once the block ends."""
+    seen = []
+    t0 = time.perf_counter()
+    with progress_scope(lambda f, m: seen.append((time.perf_counter() - t0, f))), progress_stage(0.5, 1.0):
+        with progress_heartbeat(1.0, "sleeping", interval_s=0.1):
+            time.sleep(0.65)
+        ended = len(seen)
+        time.sleep(0.25)
+    beats = seen[1:ended]
+    # About 6 beats; fewer when the shared CPU delays the thread. Then the stage's end, no beat.
+    assert 2 <= len(beats) <= 7 and len(seen) == ended + 1
+    for t, f in beats:
+        # The heartbeat's clock starts a little after this test's (entering the blocks; 50 ms
+        # allows for preemption) and reads a little before the report is received.
+        assert 0.5 + 0.5 * (1 - np.exp(-(t - 0.05))) <= f <= 0.5 + 0.5 * (1 - np.exp(-t)) + 1e-12
 
 
 def test_design_fig3c_with_refinement_and_certificates():
