@@ -277,8 +277,9 @@ def solve_lmi(
     for i, name in enumerate(order):
         check_budget()
         t0 = time.perf_counter()
-        with progress_stage(i / len(order), (i + 1) / len(order)), progress_heartbeat(
-            sdp_expected_s(program.size), f"{program.size}×{program.size} SDP with {name}"
+        with (
+            progress_stage(i / len(order), (i + 1) / len(order), f"{program.size}×{program.size} SDP with {name}"),
+            progress_heartbeat(sdp_expected_s(program.size), "solving"),
         ):
             x, y, status = _solve_once(program, name, remaining(), max_iters)
         if x is not None:

@@ -348,7 +348,7 @@ def _attempt(
     x0 = norm.positions_in(frame.positions)
     target = x0[spec] + delta / norm.length
     building = NLP_SHARE[0] / 2  # the NLP's expressions, then casadi's derivatives (nlpsol)
-    with progress_stage(0.0, building), progress_heartbeat(NLP_EXPECTED_S, "building the NLP"):
+    with progress_stage(0.0, building, "the NLP"), progress_heartbeat(NLP_EXPECTED_S, "building"):
         nlp, x_init, lbg, ubg, unpack = _build_nlp(
             x0, frame.edges, spec, unspec, target, K, before.modes[0], stay_on_solution_space
         )
@@ -365,7 +365,7 @@ def _attempt(
         )
     iterations_report = _IterationReport(nlp["x"].numel(), nlp["g"].numel(), max_iter, left)
     # casadi releases the GIL while it derives the NLP's functions: the heartbeat runs.
-    with progress_stage(building, NLP_SHARE[0]), progress_heartbeat(NLP_EXPECTED_S, "deriving the NLP"):
+    with progress_stage(building, NLP_SHARE[0], "the NLP's derivatives"), progress_heartbeat(NLP_EXPECTED_S, "casadi"):
         solver = ca.nlpsol(
             "refine",
             "ipopt",

@@ -71,6 +71,7 @@ from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame
 from zeromode.solver.lattice import poisson_ratio
 from zeromode.solver.normalisation import Normalisation
+from zeromode.solver.progress import progress_stage, report_progress
 from zeromode.solver.rigidity import compatibility_matrix, rigid_motions
 from zeromode.solver.tolerances import GIVEN_MODE_RTOL, RANK_RTOL, RIGID_RTOL
 
@@ -179,9 +180,11 @@ def tolerance_report(
     # δx = ε·B ξ, ξ uniform in [−1, 1]: pins move by ε·ℓ̄, lengths change by ε·ℓ.
     maps = {"pin_positions": design.mean_length * np.eye(n * d), "bar_lengths": design.pinv * design.lengths**2}
     rng = np.random.default_rng(seed)
-    estimates = [
-        _estimate(design, q, error, maps[error], budget, samples, rng) for error in ERRORS for q in quantities
-    ]
+    pairs = [(error, q) for error in ERRORS for q in quantities]
+    estimates = []
+    for i, (error, q) in enumerate(pairs):
+        with progress_stage(i / len(pairs), (i + 1) / len(pairs), f"{q.name} under {error}"):
+            estimates.append(_estimate(design, q, error, maps[error], budget, samples, rng))
     return ToleranceReport(
         budget, samples, seed, AGREEMENT_FACTOR, design.mean_length * norm.length,
         int(design.stresses.shape[1]), tuple(estimates),
@@ -387,8 +390,9 @@ def _estimate(design: _Design, q: _Quantity, error: str, b: np.ndarray, budget, 
     tested = min(tol, MAX_ERROR)
     predicted = float(sensitivity * tested**2 if q.quadratic else sensitivity * tested)
     changes, failed = [], 0
-    for _ in range(samples):
+    for k in range(samples):
         check_budget()
+        report_progress(k / samples, "Monte Carlo samples")
         built = _built(design, error, tested, rng)
         if built is None:
             failed += 1
