@@ -25,6 +25,7 @@ from zeromode.solver.pipeline import (
     auxetic_pipeline,
     design_pipeline,
 )
+from zeromode.solver.progress import progress_stage
 from zeromode.solver.tolerance import ToleranceReport, tolerance_report
 
 # What a document is, by its fields (``kind``).
@@ -135,7 +136,14 @@ def allosteric_arguments(r: AllostericRequest) -> dict:
 
 def allosteric(r: AllostericRequest) -> AllostericDesign:
     """The allosteric design of a /v1/design/allosteric request (its route calls this too)."""
-    return design_allosteric(**allosteric_arguments(r))
+    with progress_stage(0.0, _design_share(r), "design"):
+        return design_allosteric(**allosteric_arguments(r))
+
+
+def _design_share(r: AllostericRequest) -> float:
+    """The design's share of an allosteric request's progress, the tolerances taking the rest
+    (measured: 0.05–0.2 s against 0.3–5 s)."""
+    return 1.0 if r.options.tolerance is None else 0.1
 
 
 def auxetic_arguments(r: AuxeticRequest) -> dict:
@@ -180,7 +188,8 @@ def allosteric_tolerance(r: AllostericRequest, result: AllostericDesign) -> Tole
     o = r.options.tolerance
     if o is None:
         return None
-    return tolerance_report(
-        result.design.frame, result.design.modes, source=result.source, target=result.target,
-        seed=r.options.seed, **o.model_dump(),
-    )
+    with progress_stage(_design_share(r), 1.0, "tolerances"):
+        return tolerance_report(
+            result.design.frame, result.design.modes, source=result.source, target=result.target,
+            seed=r.options.seed, **o.model_dump(),
+        )

@@ -25,7 +25,6 @@ from benchmarks.allostery_tasks import make_task
 from benchmarks.lattices import LATTICES
 from zeromode.service.settings import Settings
 from zeromode.service.tasks import execute
-from zeromode.solver.allostery import design_allosteric
 from zeromode.solver.certificates import certify
 from zeromode.solver.lattice import auxetic_sheet
 from zeromode.solver.network_allostery import tune_network
@@ -163,13 +162,22 @@ def test_auxetic_chain_and_finite_strain_sheet():
         check_reports(reports)
 
 
-def test_allosteric_design_across_forty_site_radii():
+def test_allosteric_design_across_forty_site_radii_with_tolerances_as_a_job():
+    """/v1/design/allosteric with its tolerances, as a job runs it: the design, then the
+    tolerances' Monte Carlo, in one monotone fraction."""
     rng = np.random.default_rng([2, 0])
     x_src, x_tgt = rng.standard_normal((3, 2)), rng.standard_normal((3, 2))
     u_src, u_tgt = rng.standard_normal((3, 2)), rng.standard_normal((3, 2))
     x_tgt[:, 0] += 40.0
-    result, reports = recorded(lambda: design_allosteric(x_src, u_src, x_tgt, u_tgt))
-    assert result.figures.acceptable()
+    request = {
+        "dim": 2,
+        "source": {"positions": x_src.tolist(), "motion": u_src.tolist()},
+        "target": {"positions": x_tgt.tolist(), "motion": u_tgt.tolist()},
+        "options": {"tolerance": {}},
+    }
+    (status, body), reports = recorded(lambda callback: job("/v1/design/allosteric", request, callback), job=True)
+    assert status == "done", body
+    assert body["report"]["tolerance"] is not None
     check_reports(reports)
 
 
@@ -191,17 +199,19 @@ def test_certify_a_sheet_with_its_optimal_margin():
     check_reports(reports)
 
 
-def analyze_job(frame, callback):
-    """/v1/analyze run as a job runs it (service.tasks.execute), reporting to ``callback``: its
+def job(endpoint: str, request: dict, callback):
+    """``request`` run as a job runs it (service.tasks.execute), reporting to ``callback``: its
     status and answer."""
-    request = {"frame": {"dim": frame.dim, "positions": frame.positions.tolist(), "edges": frame.edges.tolist()},
-               "options": {"bases": False}}
-    status, data = execute("progress-test", "/v1/analyze", request, Settings().model_dump_json(), callback)
+    status, data = execute("progress-test", endpoint, request, Settings().model_dump_json(), callback)
     return status, json.loads(data) if status == "done" else data
 
 
 def test_analysis_of_ten_thousand_nodes_as_a_job():
     frame = LATTICES["kagome"](10_000)
-    (status, body), reports = recorded(lambda callback: analyze_job(frame, callback), job=True)
+    request = {
+        "frame": {"dim": frame.dim, "positions": frame.positions.tolist(), "edges": frame.edges.tolist()},
+        "options": {"bases": False},
+    }
+    (status, body), reports = recorded(lambda callback: job("/v1/analyze", request, callback), job=True)
     assert status == "done", body
     check_reports(reports)
