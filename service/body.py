@@ -15,7 +15,6 @@ import zlib
 from dataclasses import dataclass
 
 import numpy as np
-
 from starlette.datastructures import MutableHeaders
 from starlette.types import Receive, Scope
 
