@@ -259,6 +259,14 @@ def place_nodes(
             f"of the {state.n_d - state.target} degrees of freedom to remove.",
         )
     to_remove = state.n_d - state.target
+    # Progress within a round: each level built and pool searched moves the fraction on by a
+    # shrinking step, short of the round's end (one more degree of freedom removed).
+    round_progress = [0.0, 0]  # the round's start, levels and pools examined in it
+
+    def searched(what: str) -> None:
+        round_progress[1] += 1
+        report_progress(round_progress[0] + (1 - 1 / (round_progress[1] + 1)) / to_remove, what)
+
     while state.n_d > state.target:
         check_budget()
         nodes_left = None if n_unspecified is None else n_unspecified - len(state.anchor_sets)
@@ -270,6 +278,7 @@ def place_nodes(
             )
         budget = _budget(state, nodes_left)
         best = None
+        round_progress[:] = [1 - (state.n_d - state.target) / to_remove, 0]
         # Well-placed candidates first, through every level; any valid one only if none is found.
         for strict in (True, False):
             level = 0
@@ -279,11 +288,13 @@ def place_nodes(
                     if nxt is None:
                         break
                     levels.append([admissible(p, x_n) for p in nxt])
+                    searched("built a candidate level")
                 # Highest bound first; stop once no remaining pool can reach the best gain found.
                 for pool in sorted(levels[level], key=lambda p: -p.bound):
                     if best is not None and min(pool.bound, budget) < best[0][0][0]:
                         break
                     found = state.best_in(pool, budget, strict)
+                    searched("searched a candidate pool")
                     if found and (best is None or found[0] > best[0][0]):
                         best = (found, pool)
                 level += 1

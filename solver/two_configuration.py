@@ -28,6 +28,7 @@ from zeromode.solver.design import Design, design
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.finite_motion import motion_fidelity
 from zeromode.solver.frame import Frame, check_positions
+from zeromode.solver.progress import progress_stage
 from zeromode.solver.rigidity import Analysis, analyze
 from zeromode.solver.tolerances import REACHED_EPS
 
@@ -57,7 +58,8 @@ def design_two_configurations(initial, final, dim: int | None = None, seed: int 
         raise InvalidInput("invalid_shape", f"final must have one row per specified node ({len(x)}), got {len(y)}.")
     k = len(x)
     try:
-        mid = design(0.5 * (x + y), 0.5 * (y - x), seed=seed)
+        with progress_stage(0.0, 0.2, "design"):  # progress: the design, then the traced motion
+            mid = design(0.5 * (x + y), 0.5 * (y - x), seed=seed)
     except DomainError as exc:
         if exc.code == "rigid_target":
             raise DomainError(
@@ -81,7 +83,8 @@ def design_two_configurations(initial, final, dim: int | None = None, seed: int 
         )
     else:
         try:
-            fid, _ = motion_fidelity(frame, y - x)
+            with progress_stage(0.2, 1.0, "the motion between them"):
+                fid, _ = motion_fidelity(frame, y - x)
             epsilon = fid.epsilon
             note = "continuation from the first configuration reaches the second" if epsilon <= REACHED_EPS else (
                 "the two configurations lie on different branches (or beyond a singular point): "

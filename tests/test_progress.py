@@ -36,6 +36,7 @@ from zeromode.solver.progress import (
     report_detail,
     report_progress,
 )
+from zeromode.solver.two_configuration import design_two_configurations
 
 # The promise (seconds, fraction) and the time side as asserted under shared-CPU load.
 PROMISED_GAP_S = 1.0
@@ -130,6 +131,19 @@ def test_design_fig3c_with_refinement_and_certificates():
     )
     assert result.refinement is not None and result.certificate is not None
     check_reports(reports)
+
+
+def test_two_motion_design_and_two_configuration_design():
+    """Placement rounds of a 3D design for two motions (a second and more in its first round),
+    and a design between two configurations followed by the motion traced between them."""
+    rng = np.random.default_rng([3, 8, 0])
+    x, u = rng.standard_normal((8, 3)), rng.standard_normal((2, 8, 3))
+    rng = np.random.default_rng(1)
+    x2 = rng.standard_normal((6, 2))
+    y2 = x2 + 0.3 * rng.standard_normal((6, 2))
+    for run in (lambda: design_pipeline(x, list(u), dim=3), lambda: design_two_configurations(x2, y2)):
+        _, reports = recorded(run)
+        check_reports(reports)
 
 
 @pytest.mark.parametrize(
