@@ -200,10 +200,15 @@ def place_groups(x_n: np.ndarray, u_n: np.ndarray, rng: np.random.Generator) -> 
     to_remove = state.n_d - state.target
     while state.n_d > state.target:
         best = None
+        # Progress within the round: each try moves on by a shrinking step, short of the round's
+        # end (a group removes at least one more degree of freedom).
+        done, tries = 1 - (state.n_d - state.target) / to_remove, 0
         for helpers in HELPERS:
             for _ in range(GROUP_TRIES):
                 check_budget()
                 group = _try_group(state, k, helpers, rng)
+                tries += 1
+                report_progress(done + (1 - 1 / (tries + 1)) / to_remove, "tried a group of unspecified nodes")
                 if group is not None and (best is None or group.score > best.score):
                     best = group
             if best is not None:

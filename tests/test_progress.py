@@ -133,15 +133,22 @@ def test_design_fig3c_with_refinement_and_certificates():
     check_reports(reports)
 
 
-def test_two_motion_design_and_two_configuration_design():
+def test_multi_motion_designs_and_two_configuration_design():
     """Placement rounds of a 3D design for two motions (a second and more in its first round),
-    and a design between two configurations followed by the motion traced between them."""
+    hierarchical groups for three motions in 2D (M > d), and a design between two
+    configurations followed by the motion traced between them."""
     rng = np.random.default_rng([3, 8, 0])
     x, u = rng.standard_normal((8, 3)), rng.standard_normal((2, 8, 3))
+    rng = np.random.default_rng([2, 5, 0])
+    x3, u3 = rng.standard_normal((5, 2)), rng.standard_normal((3, 5, 2))
     rng = np.random.default_rng(1)
     x2 = rng.standard_normal((6, 2))
     y2 = x2 + 0.3 * rng.standard_normal((6, 2))
-    for run in (lambda: design_pipeline(x, list(u), dim=3), lambda: design_two_configurations(x2, y2)):
+    for run in (
+        lambda: design_pipeline(x, list(u), dim=3),
+        lambda: design_pipeline(x3, list(u3), dim=2),
+        lambda: design_two_configurations(x2, y2),
+    ):
         _, reports = recorded(run)
         check_reports(reports)
 
