@@ -288,6 +288,7 @@ def refine(
         attempts.append(attempt)
         if not attempt.problems or not attempt.discontinuous or 2 * k_try > MAX_K:
             break
+    report_progress(1.0, "refined")
     best = min(attempts, key=lambda t: (bool(t.problems), t.eps_after))
     ok = not best.problems
     keep_refined = best.eps_after < fid_before.epsilon or ok

@@ -133,6 +133,18 @@ def test_design_fig3c_with_refinement_and_certificates():
     check_reports(reports)
 
 
+def test_refinement_as_a_job():
+    """/v1/refine of the Fig. 3c design, as a job runs it (one IPOPT solve, no retry)."""
+    frame = design_pipeline(SQUARE_CORNERS, [SQUARE_CORNERS], dim=2, n_unspecified=4).design.frame
+    request = {
+        "frame": {"dim": 2, "positions": frame.positions.tolist(), "edges": frame.edges.tolist(), "specified": [0, 1, 2, 3]},
+        "motion": SQUARE_CORNERS,
+    }
+    (status, body), reports = recorded(lambda callback: job("/v1/refine", request, callback), job=True)
+    assert status == "done", body
+    check_reports(reports)
+
+
 def test_multi_motion_designs_and_two_configuration_design():
     """Placement rounds of a 3D design for two motions (a second and more in its first round),
     hierarchical groups for three motions in 2D (M > d), and a design between two
