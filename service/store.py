@@ -215,25 +215,37 @@ class Store:
         rows = conn.execute(
             sa.select(jobs.c.id, jobs.c.sweep_id).where(jobs.c.id.in_(ids), jobs.c.status.in_(ACTIVE))
         ).all()
+        if not rows:
+            return
+        values: dict[str, Any] = {
+            "status": status, "finished": now, "message": status,
+            "progress": 1.0 if status == "done" else jobs.c.progress,
+            "result": None if result is None else result.decode(),
+            "bytes": 0 if result is None else len(result),
+            "error": None if error is None else json.dumps(error),
+        }
+        by_sweep: dict[str | None, list[str]] = {}
         for row in rows:
-            values: dict[str, Any] = {
-                "status": status, "finished": now, "message": status,
-                "progress": 1.0 if status == "done" else jobs.c.progress,
-                "result": None if result is None else result.decode(),
-                "bytes": 0 if result is None else len(result),
-                "error": None if error is None else json.dumps(error),
-            }
-            if row.sweep_id is not None:
-                # The finishing order within the sweep: readers page through results by it.
-                seq = conn.execute(
-                    sa.update(sweeps).where(sweeps.c.id == row.sweep_id)
-                    .values(finished_count=sweeps.c.finished_count + 1)
-                    .returning(sweeps.c.finished_count, sweeps.c.total)
-                ).one()
-                values["seq"] = seq.finished_count
-                if seq.finished_count >= seq.total:
-                    conn.execute(sa.update(sweeps).where(sweeps.c.id == row.sweep_id).values(finished=now))
-            conn.execute(sa.update(jobs).where(jobs.c.id == row.id, jobs.c.status.in_(ACTIVE)).values(**values))
+            by_sweep.setdefault(row.sweep_id, []).append(row.id)
+        seqs: dict[str, int | None] = dict.fromkeys(by_sweep.pop(None, []))
+        for sweep_id, members in by_sweep.items():
+            # The finishing order within the sweep: readers page through results by it. One
+            # statement per sweep and one executemany for the rows (a 10 000-point cancel held
+            # the write lock for half a minute as two statements a row).
+            seq = conn.execute(
+                sa.update(sweeps).where(sweeps.c.id == sweep_id)
+                .values(finished_count=sweeps.c.finished_count + len(members))
+                .returning(sweeps.c.finished_count, sweeps.c.total)
+            ).one()
+            seqs.update(zip(members, range(seq.finished_count - len(members) + 1, seq.finished_count + 1), strict=True))
+            if seq.finished_count >= seq.total:
+                conn.execute(sa.update(sweeps).where(sweeps.c.id == sweep_id).values(finished=now))
+        conn.execute(
+            # (IN lists cannot be executemany's: the states one by one)
+            sa.update(jobs).where(jobs.c.id == sa.bindparam("row_id"), sa.or_(*(jobs.c.status == s for s in ACTIVE)))
+            .values(**values, seq=sa.bindparam("row_seq")),
+            [{"row_id": job_id, "row_seq": seq} for job_id, seq in seqs.items()],
+        )
 
     def cancel_queued(self, ids: list[str], now: float) -> list[str]:
         """Cancel those of ``ids`` that have not started; the ids cancelled."""
@@ -248,7 +260,8 @@ class Store:
     def cancel_sweep(self, sweep_id: str, now: float) -> list[str]:
         """Mark the sweep cancelled and cancel its points that have not started."""
         with self.db.begin() as conn:
-            conn.execute(sa.update(sweeps).where(sweeps.c.id == sweep_id).values(cancelled=True))
+            # A sweep whose points have all ended stays as it ended: nothing is left to cancel.
+            conn.execute(sa.update(sweeps).where(sweeps.c.id == sweep_id, sweeps.c.finished.is_(None)).values(cancelled=True))
             ids = [r.id for r in conn.execute(
                 sa.select(jobs.c.id).where(jobs.c.sweep_id == sweep_id, jobs.c.status == "queued")).all()]
         return self.cancel_queued(ids, now)

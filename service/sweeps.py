@@ -172,9 +172,17 @@ def parquet_bytes(rows: Iterable[dict[str, Any]]) -> bytes:
     import pyarrow as pa
     import pyarrow.parquet as pq
 
+    def column(values: list[Any]):
+        # A column whose values share no Arrow type (a parameter given as "-0.6" at one point
+        # and -0.4 at another, as the endpoints' lax validation accepts) is its JSON texts.
+        try:
+            return pa.array(values)
+        except (pa.ArrowException, OverflowError):
+            return pa.array([None if v is None else json.dumps(v) for v in values], pa.string())
+
     rows = list(rows)
     columns = list(dict.fromkeys(key for r in rows for key in r))
-    table = pa.Table.from_pylist([{c: r.get(c) for c in columns} for r in rows])
+    table = pa.table({c: column([r.get(c) for r in rows]) for c in columns})
     sink = io.BytesIO()
     pq.write_table(table, sink)
     return sink.getvalue()

@@ -60,7 +60,7 @@ def _sweep(request: Request, sweep_id: str) -> dict:
 def get_sweep(
     sweep_id: str,
     request: Request,
-    after: int = Query(0, ge=0, description="Cursor: results finished after this one (the last `next`)."),
+    after: int = Query(0, ge=0, le=2**63 - 1, description="Cursor: results finished after this one (the last `next`)."),
     limit: int = Query(PAGE_DEFAULT, ge=0, le=PAGE_MAX, description="Results in this answer at most."),
 ) -> dict:
     """Progress (done / failed / running / queued / total) and the results finished since the
