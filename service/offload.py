@@ -105,8 +105,11 @@ class Offload:
             request = json.loads(body)
         except ValueError:
             return None
-        if not isinstance(request, dict) or not heavy(path, request):
-            return None
+        try:
+            if not isinstance(request, dict) or not heavy(path, request):
+                return None
+        except (TypeError, ValueError, AttributeError, OverflowError):
+            return None  # fields of the wrong type: the route answers with its validation error
         try:
             validated(path, request)
         except RequestRefused:

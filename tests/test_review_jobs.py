@@ -18,6 +18,9 @@ from fastapi.testclient import TestClient
 from test_jobs import app_client
 from test_sweeps import finish, submit
 
+from zeromode.service.app import create_app
+from zeromode.service.settings import Settings
+
 AUXETIC = {"dim": 2, "cells": [2, 2]}
 
 
@@ -83,3 +86,32 @@ def test_cancelling_a_large_sweep_is_quick_and_leaves_the_engine_its_database(cl
     status = finish(client.get, sweep_id)
     assert status["status"] == "cancelled"
     assert status["done"] + status["failed"] + status["cancelled"] == 4000
+
+
+# Bodies a heavy endpoint refuses: offloaded or not, the answer is the route's own 422 (the
+# offload's size test read ill-typed fields before validation: 500).
+ILL_TYPED = [
+    ("/v1/design/auxetic", {"dim": 2, "cells": ["a", 3]}),
+    ("/v1/design/auxetic", {"dim": 2, "cells": 5}),
+    ("/v1/design", {"dim": 2, "options": [1]}),
+    ("/v1/design", {"dim": 2, "options": "refine"}),
+    ("/v1/analyze", {"frame": [1]}),
+    ("/v1/analyze", {"frame": {"positions": 5}}),
+    ("/v1/motion", [1, 2]),
+]
+
+
+def test_ill_typed_heavy_requests_get_the_routes_own_422_when_offloaded(tmp_path: Path, dask_scheduler: str):
+    answers = {}
+    for offload in (False, True):
+        app = create_app(Settings(database_url=f"sqlite:///{tmp_path}/{offload}.sqlite3",
+                                  dask_scheduler=dask_scheduler, offload=offload))
+        with TestClient(app, raise_server_exceptions=False) as c:
+            deadline = time.monotonic() + 30
+            while offload and c.get("/health").json()["engine"] != "running":  # started in the background
+                assert time.monotonic() < deadline
+                time.sleep(0.05)
+            answers[offload] = [c.post(path, json=body) for path, body in ILL_TYPED]
+    for (path, body), inline, offloaded in zip(ILL_TYPED, answers[False], answers[True], strict=True):
+        assert inline.status_code == 422, (path, body)
+        assert (offloaded.status_code, offloaded.json()) == (422, inline.json()), (path, body)
