@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import io
 import json
+import sqlite3
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -115,3 +116,16 @@ def test_ill_typed_heavy_requests_get_the_routes_own_422_when_offloaded(tmp_path
     for (path, body), inline, offloaded in zip(ILL_TYPED, answers[False], answers[True], strict=True):
         assert inline.status_code == 422, (path, body)
         assert (offloaded.status_code, offloaded.json()) == (422, inline.json()), (path, body)
+
+
+def test_a_sweeps_point_is_no_job_to_delete_either(client, tmp_path: Path):
+    """GET /v1/jobs/{a point's id} is 404; DELETE answered 200 with the point's record and
+    cancelled it behind the sweep's back."""
+    sweep_id = submit(client, {"endpoint": "/v1/design/auxetic", "template": AUXETIC,
+                               "grid": {"poisson_ratio": [-0.4, -0.6]}})["id"]
+    finish(client.get, sweep_id)
+    with sqlite3.connect(tmp_path / "jobs.sqlite3") as db:  # the store's own file, read directly
+        point_id = db.execute("SELECT id FROM jobs WHERE sweep_id = ?", (sweep_id,)).fetchone()[0]
+    assert client.get(f"/v1/jobs/{point_id}").status_code == 404
+    answer = client.delete(f"/v1/jobs/{point_id}")
+    assert answer.status_code == 404 and answer.json()["detail"]["code"] == "unknown_job"

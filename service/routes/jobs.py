@@ -100,7 +100,8 @@ def get_job(job_id: str, request: Request) -> Response:
 def cancel_job(job_id: str, request: Request) -> dict:
     """Cancel a job that has not started (a running one finishes); its status after."""
     jobs = jobs_of(request)
-    if jobs.store.job(job_id, with_result=False) is None:
+    record = jobs.store.job(job_id, with_result=False)
+    if record is None or record["sweep_id"] is not None:  # a sweep's points are the sweep's
         raise unknown("job", job_id)
     jobs.cancel_job(job_id)
     return job_body(jobs.store.job(job_id))
