@@ -260,6 +260,11 @@ class Engine:
             except Exception:  # noqa: BLE001 — a worker without a nanny cannot be restarted
                 log.warning("could not restart worker %s to stop an overrunning request", where)
 
+    def load(self) -> dict[str, int]:
+        """Workers of the cluster and tasks they are running now (GET /v1/engine)."""
+        processing = self._client.processing()
+        return {"workers": len(processing), "processing": sum(len(keys) for keys in processing.values())}
+
     # --- recording -----------------------------------------------------------------------------
 
     def _on_progress(self, event) -> None:

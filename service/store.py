@@ -155,20 +155,24 @@ class Store:
             ).all()
             again = [r for r in rows if r.attempts < max_attempts]
             spent = [r.id for r in rows if r.attempts >= max_attempts]
+            claimed: set[str] = set()
             for chunk in _chunks([r.id for r in again]):
-                conn.execute(
+                # Only the rows this update changed are ours: another instance adopting at the
+                # same moment gets the others (RETURNING: SQLite ≥ 3.35, PostgreSQL).
+                claimed.update(conn.execute(
                     sa.update(jobs)
                     .where(jobs.c.id.in_(chunk), orphaned)
                     .values(owner=instance, status="queued", progress=0.0, started=None,
                             attempts=jobs.c.attempts + 1, message="resubmitted after its service stopped")
-                )
+                    .returning(jobs.c.id)
+                ).scalars())
             for chunk in _chunks(spent):
                 self._finish_many(conn, chunk, "interrupted", now, error={
                     "code": "interrupted",
                     "message": f"the service running this job stopped {max_attempts} times before it "
                     "finished; submit it again.",
                 })
-        return [Submission(r.id, r.endpoint, json.loads(r.request), r.sweep_id) for r in again]
+        return [Submission(r.id, r.endpoint, json.loads(r.request), r.sweep_id) for r in again if r.id in claimed]
 
     # --- writing ---------------------------------------------------------------------------
 

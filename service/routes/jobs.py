@@ -3,11 +3,12 @@ engine, polled for progress; records in the store (service/jobs.py)."""
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal
 
 from fastapi import APIRouter, HTTPException, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse, Response
+from pydantic import BaseModel, Field
 
 from zeromode.service.engine import EngineUnavailable
 from zeromode.service.errors import error_body
@@ -105,3 +106,18 @@ def cancel_job(job_id: str, request: Request) -> dict:
         raise unknown("job", job_id)
     jobs.cancel_job(job_id)
     return job_body(jobs.store.job(job_id))
+
+
+class EngineStatus(BaseModel):
+    status: Literal["running", "idle"] = Field(description="'idle' until the engine has started.")
+    workers: int = Field(description="Dask workers of its cluster.")
+    processing: int = Field(description="Tasks (jobs, sweep chunks, heavy requests) running on them now.")
+
+
+@router.get("/engine", response_model=EngineStatus, responses=UNAVAILABLE)
+def engine_status(request: Request) -> dict:
+    """The job engine's cluster: its workers and what they are running now."""
+    jobs = request.app.state.jobs
+    if jobs is None or not jobs.engine.started:
+        return {"status": "idle", "workers": 0, "processing": 0}
+    return {"status": "running", **jobs.engine.load()}
