@@ -219,6 +219,12 @@ class Engine:
         for future in futures:
             future.add_done_callback(self._on_done)
 
+    def validate_points(self, endpoint: str, sweep_points: list) -> None:
+        """A sweep's points validated on the cluster's workers (sweeps.validate_points_on)."""
+        from zeromode.service.sweeps import validate_points_on
+
+        validate_points_on(self._client, endpoint, sweep_points, self._settings_json, self._workers())
+
     def cancel(self, ids: Iterable[str]) -> None:
         """Drop the cluster's tasks whose jobs were all cancelled in the store (a chunk that
         also holds a job still wanted runs on; its cancelled jobs' answers are not recorded)."""
@@ -317,7 +323,8 @@ class Engine:
             if not (future.cancelled() and self._closing.is_set()):
                 outcomes += _outcomes(ids, future)
         ended = {job_id for job_id, *_ in outcomes}
-        progress = {i: p for i, p in progress.items() if i not in ended}
+        # A chunk's start marks its jobs running (above); only real fractions are written.
+        progress = {i: p for i, p in progress.items() if i not in ended and p[0] > 0.0}
         if progress:
             self.store.progressed(progress)
         if outcomes:

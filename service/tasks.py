@@ -135,7 +135,8 @@ def answer(endpoint: str, body: BaseModel) -> dict[str, Any]:
 
 
 @lru_cache(maxsize=8)
-def _settings(doc: str) -> Settings:
+def settings_of(doc: str) -> Settings:
+    """The service's settings as a worker receives them (JSON), parsed once per process."""
     return Settings.model_validate_json(doc)
 
 
@@ -175,7 +176,7 @@ def execute_request(endpoint: str, request: dict[str, Any], settings_json: str, 
     """The Dask task of a heavy request answered through the engine (service/offload.py):
     (HTTP status, body) exactly as the endpoint answers, under the request's time budget."""
     try:
-        settings = _settings(settings_json)
+        settings = settings_of(settings_json)
         return 200, _answered(endpoint, request, settings, budget_s, None, settings.time_budget_s)
     except Exception as exc:  # noqa: BLE001 — every failure is the endpoint's error answer
         return error_status(exc), json.dumps({"detail": error_detail(exc)}, separators=(",", ":")).encode()
@@ -186,7 +187,7 @@ def execute(job_id: str, endpoint: str, request: dict[str, Any], settings_json: 
     """One job: ``("done", answer as JSON bytes)`` or ``("failed", error detail)``, its
     progress reported to ``progress``. Runs under the settings' job time budget; a result over
     ``max_job_result_bytes`` fails with ``result_too_large`` here, before it is shipped."""
-    settings = _settings(settings_json)
+    settings = settings_of(settings_json)
     try:
         data = _answered(endpoint, request, settings, settings.job_time_budget_s, progress)
     except Exception as exc:  # noqa: BLE001 — every failure of the request is the job's answer

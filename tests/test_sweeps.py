@@ -334,3 +334,30 @@ def test_the_cli_and_the_client_run_sweeps_against_a_live_service(tmp_path, dask
             assert [d["point"] for d in docs] == list(range(6)) and all(d["status"] == "done" for d in docs)
             assert "6 points: 6 done" in run.stderr.decode() and "100%" in run.stderr.decode()
             assert len(list(csv.DictReader(table_path.open()))) == 6
+
+
+def test_a_large_sweep_is_validated_on_the_workers_with_the_same_refusal(tmp_path, dask_scheduler):
+    """From 64 points a running engine's workers validate the sweep: the refusal is the one the
+    service itself gives (the lowest bad point, the endpoint's own error), and it uses the app's
+    settings, not the workers' environment."""
+    from zeromode.service.sweeps import SweepRefused, points, validate_points
+
+    template = {"dim": 2, "cells": [4, 4]}
+    grid = {"poisson_ratio": [-0.3 - 0.001 * i for i in range(100)]}
+    grid["poisson_ratio"][70], grid["poisson_ratio"][90] = 0.0, 0.0
+    with app_client(tmp_path, dask_scheduler, max_sweep_points=500) as client:
+        finish(client.get, submit(client, {"endpoint": "/v1/design/auxetic", "template": AUXETIC, "grid": GRID})["id"])
+        assert client.app.state.jobs.engine.started
+        r = client.post("/v1/sweeps", json={"endpoint": "/v1/design/auxetic", "template": template, "grid": grid})
+        assert r.status_code == 422, r.text
+        with pytest.raises(SweepRefused) as local:
+            validate_points("/v1/design/auxetic", points(template, grid, None, 500))
+        assert r.json()["detail"] == local.value.detail and local.value.detail["point"] == 70
+    two = {"frame": {"dim": 2, "positions": [[0, 0], [1, 0]], "edges": [[0, 1]]}}
+    with app_client(tmp_path, dask_scheduler, max_nodes=2) as client:
+        finish(client.get, submit(client, {"endpoint": "/v1/analyze", "template": two})["id"])
+        three = {"frame": {**two["frame"], "positions": [[0, 0], [1, 0], [0, 1]]}}
+        r = client.post("/v1/sweeps", json={"endpoint": "/v1/analyze", "template": three,
+                                            "grid": {"options.bases": [True, False] * 40}})
+        assert r.status_code == 422 and r.json()["detail"]["point"] == 0, r.text
+        assert "max_nodes" in r.json()["detail"]["message"]

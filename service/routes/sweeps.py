@@ -23,6 +23,9 @@ from zeromode.service.schemas.jobs import SweepAccepted, SweepRequest, SweepStat
 router = APIRouter(prefix="/v1", tags=["sweeps"])
 # Results of one GET: a page, so a poll of a 10 000-point sweep stays small.
 PAGE_DEFAULT, PAGE_MAX = 100, 1000
+# From this many points a running engine's workers validate a sweep (a round trip costs more
+# than checking a few points here).
+VALIDATE_ON_WORKERS_FROM = 64
 
 
 @router.post("/sweeps", status_code=202, response_model=SweepAccepted,
@@ -34,7 +37,11 @@ def submit_sweep(spec: SweepRequest, request: Request) -> JSONResponse:
     settings = request.app.state.settings
     try:
         points = sweeps.points(spec.template, spec.grid, spec.requests, settings.max_sweep_points)
-        sweeps.validate_points(spec.endpoint, points)
+        jobs = request.app.state.jobs
+        if jobs is not None and jobs.engine.started and len(points) >= VALIDATE_ON_WORKERS_FROM:
+            jobs.engine.validate_points(spec.endpoint, points)
+        else:
+            sweeps.validate_points(spec.endpoint, points)
     except sweeps.SweepRefused as exc:
         raise HTTPException(422, detail=exc.detail) from exc
     record = accepted_or_refused(
