@@ -89,18 +89,24 @@ def main() -> None:
     args = parser.parse_args()
     report = {"machine": {"cores": os.cpu_count()}}
     for offload in ("true", "false"):
-        proc, url = start_service_with({"ZEROMODE_OFFLOAD": offload, "ZEROMODE_TIME_BUDGET_S": str(BUDGET_S)})
-        try:
-            deadline = time.monotonic() + 60
-            while offload == "true" and httpx.get(url + "/health").json()["engine"] != "running":
-                assert time.monotonic() < deadline
-                time.sleep(0.2)
-            load = heavy_load(url)
-            del load["latencies"]
-            report[offload] = {"load": load, "overruns": overruns(url)}
-        finally:
-            proc.terminate()
-            proc.wait(timeout=60)
+        report[offload] = {}
+        # The load under the default budget (60 s); the overruns under a 2 s one.
+        for part, budget in (("load", 60.0), ("overruns", BUDGET_S)):
+            proc, url = start_service_with({"ZEROMODE_OFFLOAD": offload, "ZEROMODE_TIME_BUDGET_S": str(budget)})
+            try:
+                deadline = time.monotonic() + 60
+                while offload == "true" and httpx.get(url + "/health").json()["engine"] != "running":
+                    assert time.monotonic() < deadline
+                    time.sleep(0.2)
+                if part == "load":
+                    load = heavy_load(url)
+                    del load["latencies"]
+                    report[offload]["load"] = load
+                else:
+                    report[offload]["overruns"] = overruns(url)
+            finally:
+                proc.terminate()
+                proc.wait(timeout=60)
     report["machine"]["load_average"] = os.getloadavg()
     print(json.dumps(report, indent=2))
     write_markdown(report, Path(args.out))
@@ -118,13 +124,16 @@ def write_markdown(r: dict, out: Path) -> None:
     for key, name in (("true", "on (Dask workers)"), ("false", "off (service threads)")):
         h, load = r[key]["load"]["health"], r[key]["load"]
         lines.append(f"| {name} | {h['p50_ms']:.1f} / {h['p99_ms']:.1f} / {h['max_ms']:.1f} | {load['wall_s']:.1f} | {load['statuses']} |")
-    lines += ["", f"| offload | analysis of 10⁵ nodes under a {BUDGET_S:g} s budget: answer, time past the budget (net of the upload) |",
+    lines += ["", f"| offload | analysis of 10⁵ nodes under a {BUDGET_S:g} s budget, three times: answer, wall time, and the time to send and parse the same body alone |",
               "|---|---|"]
     for key, name in (("true", "on"), ("false", "off")):
-        cells = ", ".join(f"{o['code'] or o['status']} {100 * o['over_budget']:+.0f} %" for o in r[key]["overruns"])
+        cells = ", ".join(f"{o['code'] or o['status']} after {o['elapsed_s']:.2f} s (upload {o['upload_s']:.2f} s)"
+                          for o in r[key]["overruns"])
         lines.append(f"| {name} | {cells} |")
     worst = max(100 * o["over_budget"] for o in r["true"]["overruns"])
-    lines += ["", f"With offloading the worst answer came {worst:+.0f} % past the budget (the floor: within 10 %)."]
+    lines += ["", (f"With offloading the worst answer came {worst:+.0f} % past the budget net of the upload (the floor: within "
+              "10 %); the upload is measured separately and varies by ±50 % on this shared machine, so that figure is "
+              "rough.")]
     out.write_text("\n".join(lines) + "\n")
 
 
