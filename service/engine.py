@@ -27,6 +27,7 @@ import uuid
 from collections.abc import Iterable
 from typing import Any
 
+from zeromode.service.offload import OVERRUN_SLACK
 from zeromode.service.settings import Settings
 from zeromode.service.store import Store, Submission
 from zeromode.service.tasks import PROGRESS_TOPIC, execute_chunk, execute_request
@@ -154,6 +155,9 @@ class Engine:
         self._chunks: dict[str, list[str]] = {}
         self._chunk_of: dict[str, str] = {}
         self._events: queue.SimpleQueue = queue.SimpleQueue()
+        # When (monotonic, as its start event arrived) each running task of one job began: the
+        # watchdog stops it past the job time budget.
+        self._since: dict[str, float] = {}
         self._lock = threading.Lock()
         self._closing = threading.Event()
         self._threads: list[threading.Thread] = []
@@ -172,7 +176,7 @@ class Engine:
             self.store.touch(self.instance)
             self._client, self._cluster = _in_own_thread(dask_client, self.settings)
             self._client.subscribe_topic(PROGRESS_TOPIC, self._on_progress)
-            for target, name in ((self._record, "recorder"), (self._keep_lease, "lease")):
+            for target, name in ((self._record, "recorder"), (self._keep_lease, "lease"), (self._watch, "watchdog")):
                 thread = threading.Thread(target=target, name=f"zeromode-engine-{name}", daemon=True)
                 thread.start()
                 self._threads.append(thread)
@@ -275,6 +279,8 @@ class Engine:
 
     def _on_progress(self, event) -> None:
         _, message = event
+        if len(message["ids"]) == 1:  # a task of one job (a chunk of several has no watchdog)
+            self._since.setdefault(message["ids"][0], time.monotonic())
         for job_id in message["ids"]:
             self._events.put(("progress", job_id, message))
 
@@ -320,6 +326,7 @@ class Engine:
                 self._futures.pop(key, None)
                 for job_id in ids:
                     self._chunk_of.pop(job_id, None)
+                    self._since.pop(job_id, None)
             if not (future.cancelled() and self._closing.is_set()):
                 outcomes += _outcomes(ids, future)
         ended = {job_id for job_id, *_ in outcomes}
@@ -347,6 +354,35 @@ class Engine:
             used += 0 if result is None else len(result)
             kept.append((job_id, status, result, error))
         return kept
+
+    # --- stopping running jobs ---------------------------------------------------------------------
+
+    def _watch(self) -> None:
+        """The watchdog: a task of one job still running ``OVERRUN_SLACK`` of the job time budget
+        past it (the job checks its budget between steps, so only a long library call gets here)
+        is recorded failed ``too_expensive`` and stopped (``stop_job``)."""
+        budget = self.settings.job_time_budget_s
+        while not self._closing.wait(min(1.0, max(budget * OVERRUN_SLACK / 4, 0.01))):
+            late = time.monotonic() - budget * (1 + OVERRUN_SLACK)
+            for job_id in [i for i, since in list(self._since.items()) if since < late]:
+                self.stop_job(job_id, "failed", {
+                    "code": "too_expensive",
+                    "message": f"the job needs more than its time budget of {budget:g} s and was stopped; "
+                    "ask for a smaller problem or a larger ZEROMODE_JOB_TIME_BUDGET_S.",
+                })
+
+    def stop_job(self, job_id: str, status: str, error: dict[str, Any]) -> bool:
+        """Record a running job of this instance as ended (``status``, ``error``), then stop its
+        task: cancelled and its worker restarted, in the background (``stop_request``). Whether
+        the job was running here alone in its task (else nothing is done)."""
+        with self._lock:
+            key = self._chunk_of.get(job_id)
+            future = None if key is None or self._chunks[key] != [job_id] else self._futures[key]
+        if future is None or self._since.pop(job_id, None) is None:
+            return False
+        self.store.finish_all([(job_id, status, None, error)], time.time())
+        threading.Thread(target=self.stop_request, args=(future,), name="zeromode-stop", daemon=True).start()
+        return True
 
     # --- lease ---------------------------------------------------------------------------------
 

@@ -120,11 +120,13 @@ class Jobs:
         return sweep
 
     def cancel_job(self, job_id: str) -> bool:
-        """Cancel the job if it has not started; whether it was."""
+        """Cancel the job if it has not finished: a queued one is dropped, one running on this
+        instance's engine stopped (its worker restarted); whether it was cancelled."""
         cancelled = self.store.cancel_queued([job_id], time.time())
         if cancelled and self.engine.started:
             self.engine.cancel(cancelled)
-        return bool(cancelled)
+        return bool(cancelled) or (self.engine.started and self.engine.stop_job(
+            job_id, "cancelled", {"code": "cancelled", "message": "cancelled while it ran; its worker was stopped."}))
 
     def cancel_sweep(self, sweep_id: str) -> int:
         """Cancel the sweep's points that have not started; how many."""

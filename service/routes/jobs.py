@@ -99,7 +99,7 @@ def get_job(job_id: str, request: Request) -> Response:
 
 @router.delete("/jobs/{job_id}", response_model=JobStatus, responses={**UNKNOWN, **UNAVAILABLE})
 def cancel_job(job_id: str, request: Request) -> dict:
-    """Cancel a job that has not started (a running one finishes); its status after."""
+    """Cancel a job that has not finished (a running one is stopped); its status after."""
     jobs = jobs_of(request)
     record = jobs.store.job(job_id, with_result=False)
     if record is None or record["sweep_id"] is not None:  # a sweep's points are the sweep's
