@@ -192,7 +192,7 @@ def auxetic_body(result, timings_ms: dict) -> dict:
             "secant_poisson_ratios": held.secant_ratios.tolist(),
             "max_deviation": held.max_deviation,
             "max_relative_bar_error": held.max_relative_bar_error,
-            "module": {"family": "trammel", "stretch": held.stretch, "coordinates": list(held.coordinates)},
+            "module": {"family": held.family, "parameter": held.parameter, "coordinates": list(held.coordinates)},
         }
     return body
 

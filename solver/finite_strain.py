@@ -29,9 +29,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import casadi as ca
 import numpy as np
 from scipy.optimize import minimize_scalar
 
+from zeromode.solver.budget import check_budget, remaining
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame
 from zeromode.solver.lattice import (
@@ -41,17 +43,25 @@ from zeromode.solver.lattice import (
     closest_unjoined,
     measured_lattice,
 )
-from zeromode.solver.progress import progress_stage, report_progress, report_steps
+from zeromode.solver.progress import progress_stage, report_steps
+from zeromode.solver.refine import ipopt_solver
 from zeromode.solver.rigidity import analyze
 from zeromode.solver.sheet_module import (
     SymmetricModule,
+    cardan_trammel,
     sheet_edges,
     sheet_positions,
     sheet_velocities,
     trammel_coordinates,
     trammel_module,
 )
-from zeromode.solver.strain_range import PROXIMITY_FRACTION, StrainRange, module_range, needed_reach
+from zeromode.solver.strain_range import (
+    PROXIMITY_FRACTION,
+    StrainRange,
+    _Patch,
+    module_range,
+    needed_reach,
+)
 
 # The stretches s searched (geometric grid: the deviation falls like 1/s², the size grows like s).
 STRETCHES = np.geomspace(0.5, 20.0, 48)
@@ -63,6 +73,8 @@ SIGN = 1.0
 WINDOW_XTOL = 1e-3
 WINDOW_EVALUATIONS = 16
 WINDOW_SEARCHES = 3
+# The Cardan trammels searched: c = f·(w + h²/w) for f on this grid (e = h + w(w − c)/h > 0).
+CARDAN_FRACTIONS = np.linspace(0.05, 0.95, 19)
 # The search compares candidates' ranges: their events are located to this strain (the chosen
 # module's range is then scanned to round-off).
 COVER_XTOL = 1e-5
@@ -76,6 +88,21 @@ ESTIMATE_STEP = 0.01
 VERIFY_SAMPLES = 9
 # A bar of the verified sheet may change its length by at most this much (relative).
 BAR_RTOL = 1e-9
+# IPOPT refinement of a module (refine_module): samples of the motion over the requested range,
+# the weight of the reference's departure from the warm start, IPOPT's tol and iterations.
+REFINE_SAMPLES = 20
+REFINE_REGULARISER = 1e-4
+REFINE_TOL = 1e-8
+REFINE_MAX_ITER = 300
+REFINE_ROUNDS = 4
+# IPOPT's time limit per solve of a module's refinement (the request's budget bounds it too).
+REFINE_TIME_S = 3.0
+# The NLP keeps watched pairs SEPARATION times the proximity threshold apart (a margin for the
+# motion between samples); pairs are watched when they come within WATCH_DISTANCE shortest bars
+# along the warm start's motion, and nodes against these points of bars (fractions along them).
+SEPARATION = 1.05
+WATCH_DISTANCE = 1.0
+BAR_POINTS = (0.25, 0.5, 0.75)
 
 
 @dataclass(frozen=True, eq=False)
@@ -85,9 +112,9 @@ class FiniteStrainSheet:
     full sheet: strains (S,), secant ν (S,) measured there, max |ν_s − ν|, max bar error."""
 
     lattice: Lattice
-    stretch: float
-    sign: float
-    coordinates: tuple[float, float]
+    family: str
+    parameter: float | None
+    coordinates: tuple[float, ...]
     strains: np.ndarray
     secant_ratios: np.ndarray
     max_deviation: float
@@ -150,8 +177,10 @@ def finite_strain_sheet(
     cell: tuple[float, float] = (1.0, 1.0),
 ) -> FiniteStrainSheet:
     """An n_x × n_y sheet whose secant Poisson ratio stays within ``tolerance`` of ``poisson``
-    for ε_x over ``strain_range`` (lo < 0 < hi), see the module docstring.  Raises
-    FiniteStrainUnreachable (422 with the best figures) when no member of the family does."""
+    for ε_x over ``strain_range`` (lo < 0 < hi), see the module docstring: the families searched
+    (the trammel by its stretch s; the Cardan trammel by c when |ν + 1| ≤ tolerance), then, when
+    no member holds the range, the IPOPT refinement of the best member.  Raises
+    FiniteStrainUnreachable (422 with the best figures) when none does."""
     check_finite_strain_request(nx, ny, strain_range, tolerance, cell)
     lo, hi = (float(v) for v in strain_range)
     w, h = cell
@@ -161,52 +190,116 @@ def finite_strain_sheet(
     # a (MAX_REACH + 1)² sheet); the full sheet's closest pairs are checked in _verified_sheet.
     scan_cells = (min(nx, MAX_REACH + 1), min(ny, MAX_REACH + 1))
 
-    def member(stretch: float):
-        c, e = trammel_coordinates(w, h, beta, float(stretch), SIGN)
-        return trammel_module(w, h, c, e)
-
     def cover(module) -> float:
-        """min(ε_max/hi, ε_min/lo) of the range scanned no further than [lo, hi] (1: contains it);
-        0 for a module whose nodes reach past MAX_REACH neighbours at the reference."""
+        """min(ε_max/hi, ε_min/lo) of the range scanned no further than [lo, hi] (1: contains it,
+        confirmed by a scan locating its events to round-off: an event located to COVER_XTOL
+        can be dismissed, e.g. a node passing a bar's end); 0 for a module whose nodes reach past
+        MAX_REACH neighbours at the reference."""
         shortest = float(np.sqrt(np.min(module.squared_lengths)))
         if max(needed_reach(module, module.reference, shortest, (MAX_REACH + 1,) * 2)) > MAX_REACH:
             return 0.0
         usable = module_range(module, scan_cells, limits=(lo, hi), xtol=COVER_XTOL).range
+        if usable.contains(lo) and usable.contains(hi):  # confirmed with its events located to round-off
+            usable = module_range(module, scan_cells, limits=(lo, hi)).range
         return min(usable.upper.strain / hi, usable.lower.strain / lo)
 
+    def trammel(stretch: float):
+        c, e = trammel_coordinates(w, h, beta, float(stretch), SIGN)
+        return trammel_module(w, h, c, e)
+
+    def cardan(fraction: float):
+        return cardan_trammel(w, h, float(fraction) * (w + h * h / w))
+
+    families = [("trammel", STRETCHES, trammel)]
+    if abs(poisson + 1.0) <= tolerance:
+        families.insert(0, ("cardan", CARDAN_FRACTIONS, cardan))
+    best_dev, best_cover, warm, chosen = None, -np.inf, None, None
+    share = 0.75 / len(families)
+    for f, (family, grid, member) in enumerate(families):
+        with progress_stage(f * share, (f + 1) * share, f"the {family} family"):
+            found = _search_family(grid, member, cover, poisson, lo, hi, tolerance)
+        if best_dev is None or found.best_deviation[0] < best_dev["max_deviation"]:
+            best_dev = {"max_deviation": found.best_deviation[0], "family": family, "parameter": found.best_deviation[1]}
+        if found.best_cover > best_cover or warm is None:
+            best_cover, warm = found.best_cover, found.warm_start
+        if found.chosen is not None:
+            chosen = (family, found.chosen, member(found.chosen))
+            break
+    refined = None
+    if chosen is None and warm is not None:
+        with progress_stage(0.75, 0.8, "IPOPT refinement of the best module"):
+            refined = _refined(warm, cover, poisson, lo, hi, tolerance, scan_cells)
+        if refined is not None and refined[1] <= tolerance and refined[2] >= 1.0:
+            chosen = ("refined", None, refined[0].module)
+    if chosen is None:
+        if best_cover == -np.inf:
+            why = f"the best secant deviation over the range is {best_dev['max_deviation']:.3g}"
+        else:
+            why = (
+                f"every module within the tolerance collides or locks inside it; the best reaches "
+                f"{best_cover:.3g} of the requested range"
+            )
+        best = {"best_deviation": best_dev, "best_cover": None if best_cover == -np.inf else float(best_cover)}
+        if refined is not None:
+            best["refinement"] = {
+                "max_deviation": refined[1], "cover": refined[2], "ipopt_status": refined[0].status,
+                "coordinates": refined[0].module.reference[2:].tolist(),
+            }
+            why += f"; IPOPT's refinement of the best module holds {refined[1]:.3g} over {refined[2]:.3g} of it"
+        raise FiniteStrainUnreachable(
+            f"no module holds ν = {poisson:g} within ±{tolerance:g} over ε_x ∈ [{lo:g}, {hi:g}]: {why}.", best
+        )
+    family, parameter, module = chosen
+    with progress_stage(0.8, 0.85, "the chosen module's usable range", detail=True):
+        usable = module_range(module, scan_cells).range  # the whole usable range, for the report
+    with progress_stage(0.85, 1.0, "the tiled sheet"):
+        return _verified_sheet(module, nx, ny, poisson, (lo, hi), tolerance, usable, family, parameter)
+
+
+@dataclass(frozen=True)
+class _FamilySearch:
+    """What _search_family found: the chosen parameter (None: no member holds the range), the
+    smallest deviation (value, parameter), the best cover among members within the tolerance
+    (−inf: none) and the module to start IPOPT from (best cover within the tolerance, else the
+    smallest deviation; None if no member reaches both ends)."""
+
+    chosen: float | None
+    best_deviation: tuple[float, float]
+    best_cover: float
+    warm_start: SymmetricModule | None
+
+
+def _search_family(grid: np.ndarray, member, cover, poisson: float, lo: float, hi: float, tolerance: float) -> _FamilySearch:
+    """The member of a one-parameter family (``member(t)``, t over ``grid`` ascending) whose
+    secant deviation is within the tolerance and whose usable range covers [lo, hi]: deviations
+    on the grid, covers of the members within the tolerance (smallest parameter first), then
+    Brent's bounded search of the cover around the best grid points."""
     devs = []
-    with progress_stage(0.0, 0.2, "the module family"):
-        searched = report_steps(len(STRETCHES), "secant ratios of a member", step=0.05)
-        for k, stretch in enumerate(STRETCHES):
+    with progress_stage(0.0, 0.3, "secant ratios"):
+        searched = report_steps(len(grid), "secant ratios of a member", step=0.05)
+        for k, t in enumerate(grid):
             try:
-                devs.append(_deviation(member(stretch), poisson, lo, hi))
+                devs.append(_deviation(member(t), poisson, lo, hi))
             except (DomainError, np.linalg.LinAlgError):
                 devs.append(np.inf)
             searched(k)
     devs = np.array(devs)
-    if not np.isfinite(devs).any():
-        raise FiniteStrainUnreachable(
-            f"no trammel module of linear ratio {poisson:g} reaches both ends of [{lo:g}, {hi:g}].", {}
-        )
     k_best = int(np.argmin(devs))
-    best_dev = {"max_deviation": float(devs[k_best]), "stretch": float(STRETCHES[k_best])}
+    best_dev = (float(devs[k_best]), float(grid[k_best]))
+    if not np.isfinite(devs).any():
+        return _FamilySearch(None, best_dev, -np.inf, None)
     within = np.flatnonzero(devs <= tolerance)
     covers = {}
-    chosen = None
-    # The smallest stretch first: the axis nodes sit nearest the module's centre there,
-    # farthest from the neighbours' bars.
     for i, k in enumerate(within):
-        with progress_stage(0.2 + 0.4 * i / len(within), 0.2 + 0.4 * (i + 1) / len(within), "a module's usable range", detail=True):
-            covers[k] = cover(member(STRETCHES[k]))
+        with progress_stage(0.3 + 0.4 * i / len(within), 0.3 + 0.4 * (i + 1) / len(within), "a module's usable range", detail=True):
+            covers[k] = cover(member(grid[k]))
         if covers[k] >= 1.0:
-            chosen = float(STRETCHES[k])
-            break
-    # The usable window of s can fall between grid points (it is ±1.5 % of s wide for ν = −0.5
-    # over ±10 % on a square cell, and the cover is rugged in s): maximise the cover around the
-    # best grid points, best first.
+            return _FamilySearch(float(grid[k]), best_dev, covers[k], None)
+    # The usable window of the parameter can fall between grid points (it is ±1.5 % of s wide
+    # for ν = −0.5 over ±10 % on a square cell, and the cover is rugged in s): maximise the
+    # cover around the best grid points, best first.
     best_cover = max(covers.values(), default=-np.inf)
-    report_progress(0.6, "scanned the modules within the tolerance")
-    # Progress of the window searches: one report per cover evaluated (at most all of them).
+    warm = member(grid[max(covers, key=covers.get)] if covers else grid[k_best])
     evaluated = report_steps(WINDOW_SEARCHES * WINDOW_EVALUATIONS, "searching between grid points", step=0.05)
     counted = iter(range(WINDOW_SEARCHES * WINDOW_EVALUATIONS))
 
@@ -214,38 +307,31 @@ def finite_strain_sheet(
         evaluated(next(counted, WINDOW_SEARCHES * WINDOW_EVALUATIONS - 1))
         return cover(member(t))
 
-    with progress_stage(0.6, 0.75):
-        for k in sorted(covers, key=covers.get, reverse=True)[:WINDOW_SEARCHES] if chosen is None else ():
-            bounds = (STRETCHES[max(k - 1, 0)], STRETCHES[min(k + 1, len(STRETCHES) - 1)])
+    with progress_stage(0.7, 1.0):
+        for k in sorted(covers, key=covers.get, reverse=True)[:WINDOW_SEARCHES]:
+            bounds = (grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)])
             found = minimize_scalar(
                 lambda t: -window_cover(t), bounds=bounds, method="bounded",
                 options={"xatol": WINDOW_XTOL * bounds[0], "maxiter": WINDOW_EVALUATIONS},
             )
-            best_cover = max(best_cover, -found.fun)
+            if -found.fun > best_cover:
+                best_cover, warm = -found.fun, member(found.x)
             if -found.fun >= 1.0 and _deviation(member(found.x), poisson, lo, hi) <= tolerance:
-                chosen = float(found.x)
-                break
-    if chosen is None:
-        if not covers:
-            why = f"the best secant deviation over the range is {best_dev['max_deviation']:.3g}"
-        else:
-            why = (
-                f"every module within the tolerance collides or locks inside it; the best reaches "
-                f"{best_cover:.3g} of the requested range"
-            )
-        raise FiniteStrainUnreachable(
-            f"no module holds ν = {poisson:g} within ±{tolerance:g} over ε_x ∈ [{lo:g}, {hi:g}]: {why}.",
-            {"best_deviation": best_dev, "best_cover": None if not covers else float(best_cover)},
-        )
-    module = member(chosen)
-    s, sign = chosen, SIGN
-    with progress_stage(0.75, 0.8, "the chosen module's usable range", detail=True):
-        usable = module_range(module, scan_cells).range  # the whole usable range, for the report
-    with progress_stage(0.8, 1.0, "the tiled sheet"):
-        return _verified_sheet(module, nx, ny, poisson, (lo, hi), tolerance, usable, s, sign)
+                return _FamilySearch(float(found.x), best_dev, best_cover, None)
+    return _FamilySearch(None, best_dev, best_cover, warm)
 
 
-def _verified_sheet(module, nx, ny, poisson, requested, tolerance, usable: StrainRange, s, sign) -> FiniteStrainSheet:
+def _refined(warm: SymmetricModule, cover, poisson, lo, hi, tolerance, scan_cells):
+    """refine_module from ``warm`` (REFINE_TIME_S at most): (refinement, its deviation by
+    continuation, its cover), or None when IPOPT could not start."""
+    result = refine_module(warm, poisson, lo, hi, scan_cells, REFINE_TIME_S)
+    if result is None:
+        return None
+    deviation = _deviation(result.module, poisson, lo, hi)
+    return result, float(deviation), float(cover(result.module)) if np.isfinite(deviation) else 0.0
+
+
+def _verified_sheet(module, nx, ny, poisson, requested, tolerance, usable: StrainRange, family: str, parameter) -> FiniteStrainSheet:
     """Tile ``module`` and verify the sheet on its own (module docstring); 422
     ``inaccurate_design`` if the full sheet misses what the module promised."""
     lo, hi = requested
@@ -300,9 +386,9 @@ def _verified_sheet(module, nx, ny, poisson, requested, tolerance, usable: Strai
         lattice = measured_lattice(frame, mode, analysis, boundary, states, usable, np.arange(n_corners))
     return FiniteStrainSheet(
         lattice=lattice,
-        stretch=s,
-        sign=sign,
-        coordinates=(float(q0[2]), float(q0[3])),
+        family=family,
+        parameter=parameter,
+        coordinates=tuple(float(v) for v in q0[2:]),
         strains=np.array([e for e, _ in ratios]),
         secant_ratios=secant,
         max_deviation=deviation,
@@ -310,3 +396,208 @@ def _verified_sheet(module, nx, ny, poisson, requested, tolerance, usable: Strai
         requested=(lo, hi),
         tolerance=tolerance,
     )
+
+
+# ----------------------------------------------------------------------------------------------
+# IPOPT refinement of a module
+
+
+@dataclass(frozen=True, eq=False)
+class ModuleRefinement:
+    """IPOPT's refined module and its figures: the module (reference q₀ refined), IPOPT's last
+    status, iterations and rounds (module docstring of refine_module), the sampled strains (K,)
+    and IPOPT's minimax deviation t over them (the deviation by continuation is _deviation's)."""
+
+    module: SymmetricModule
+    status: str
+    iterations: int
+    rounds: int
+    strains: np.ndarray
+    sampled_deviation: float
+
+
+def refinement_counts(module: SymmetricModule, samples: int) -> tuple[int, int]:
+    """(equalities, unknowns) of refine_module's NLP: n_o bar orbits at each of K samples against
+    the n_q − 2 reference coordinates, n_q − 1 per sample (b and the orbit coordinates; a is
+    the sample's strain) and the two scalars t and m."""
+    n_q, n_o = len(module.reference), len(module.bar_orbits)
+    return samples * n_o, (n_q - 2) + samples * (n_q - 1) + 2
+
+
+def _violations(module: SymmetricModule, patch, configs: np.ndarray, shortest: float, reach: float):
+    """Over the configurations (S, n_q) of a motion (the reference first, then outward in each
+    direction): the patch's node pairs closer than ``reach``·ℓ_min at some configuration (P, 2),
+    and its (node, bar) pairs whose node changes sides of the bar's line between consecutive
+    configurations while between the bar's ends, with the side at the reference (C, 3: node,
+    patch bar, sign ±1)."""
+    x = np.stack([patch.positions(module, q) for q in configs])  # (S, M, 2)
+    gap = np.min(np.linalg.norm(x[:, patch.pairs[:, 0]] - x[:, patch.pairs[:, 1]], axis=2), axis=0)
+    pairs = patch.pairs[gap <= reach * shortest]
+    p, b = patch.node_bar[:, 0], patch.node_bar[:, 1]
+    qa, qb = x[:, patch.bars[b, 0]], x[:, patch.bars[b, 1]]
+    along, rel = qb - qa, x[:, p] - qa
+    area = along[..., 0] * rel[..., 1] - along[..., 1] * rel[..., 0]  # (S, C)
+    t = np.sum(rel * along, axis=2) / np.sum(along * along, axis=2)
+    inside = (t >= 0) & (t <= 1)
+    flips = (np.sign(area[1:]) != np.sign(area[:-1])) & (inside[1:] | inside[:-1])
+    crossed = np.flatnonzero(flips.any(axis=0))
+    side = np.sign(area[0, crossed])
+    side[side == 0] = 1.0
+    return pairs, np.column_stack([p[crossed], b[crossed], side]).astype(int)
+
+
+def _motion_configs(module: SymmetricModule, strains: np.ndarray) -> np.ndarray | None:
+    """q at each strain (S, n_q), by continuation from the reference outward (None if the
+    module's motion does not reach one of them)."""
+    out = {0.0: module.reference}
+    for side in (strains[strains > 0], strains[strains < 0][::-1]):
+        q, at = module.reference, 0.0
+        for eps in side:
+            try:
+                q = module.configuration(eps, q + (eps - at) * module.tangent(q))
+            except np.linalg.LinAlgError:
+                return None
+            if q is None:
+                return None
+            at, out[eps] = eps, q
+    return np.array([out[e] for e in strains])
+
+
+def _scan_order(strains: np.ndarray) -> np.ndarray:
+    """Indices of 0 then each direction outward (consecutive entries are neighbours on the motion,
+    except where the second direction starts; _violations' flips there are spurious but only add
+    a constraint)."""
+    pos, neg = np.flatnonzero(strains > 0), np.flatnonzero(strains < 0)[::-1]
+    return np.concatenate([pos, neg])
+
+
+def refine_module(
+    module: SymmetricModule, poisson: float, lo: float, hi: float, cells: tuple[int, int], max_time_s: float
+) -> ModuleRefinement | None:
+    """Refine the module's unspecified coordinates with IPOPT so that its symmetric motion holds
+    the secant ratio ν over [lo, hi] without collisions (warm start: ``module`` itself).
+
+    At K = REFINE_SAMPLES strains ε_k (evenly over [lo, hi], 0 left out) the unknowns are the
+    configurations q_k = (w(1 + ε_k), b_k, orbit coordinates), with the reference's orbit
+    coordinates (a = w, b = h fixed: the cell) and two scalars t, m:
+        minimise    t + REFINE_REGULARISER·‖q₀ − q₀⁰‖²/‖q₀⁰‖²
+        subject to  |X_i(q_k) − X_j(q_k)|² = |X_i(q₀) − X_j(q₀)|²   for every bar orbit, every k
+                    |(b_k/h − 1)/ε_k + ν| ≤ t                        (secant ratio at each sample)
+                    m ≤ ℓ_o(q₀)²  for every bar orbit                 (m ≤ the shortest bar²)
+                    |X_p − X_q|² ≥ (SEPARATION·PROXIMITY_FRACTION)²·m at q₀ and every q_k
+                    for watched node pairs without a bar,
+                    σ·(X_r − X_q) × (X_p − X_q) ≥ 0 at q₀ and every q_k for watched nodes p and
+                    bars (q, r), σ the side at the reference,
+    pairs of the module and its neighbours (_Patch).  The mirror symmetry is built into the
+    unknowns (sheet_module: X = B·q), so the corners stay on (±a, ±b) and every refined module
+    tiles.  K·n_o equalities against (n_q − 2) + K(n_q − 1) + 2 unknowns (refinement_counts;
+    n_o = n_q − 1, so never more).  Watched pairs are found by rounds (at most REFINE_ROUNDS):
+    the node pairs within WATCH_DISTANCE·ℓ_min along the warm start's motion first, then after
+    each solve the pairs that come closer than the threshold or cross along the refined module's
+    motion (traced by continuation every ESTIMATE_STEP) are added and IPOPT restarts from its
+    solution.  The caller measures the refined module (_deviation, module_range).  None when
+    the time left is too short to start or the warm start's motion does not reach the samples."""
+    w, h = module.cell
+    strains = np.linspace(lo, hi, REFINE_SAMPLES + 1)
+    strains = strains[np.abs(strains) > 1e-12 * (hi - lo)]
+    equalities, unknowns = refinement_counts(module, len(strains))
+    if equalities > unknowns:  # a module with more bar orbits than n_q − 1 has no motion to shape
+        raise DomainError("too_few_unknowns", f"{module.name}: {equalities} equations for {unknowns} unknowns.")
+    fine = np.concatenate([[0.0], np.arange(ESTIMATE_STEP, hi + 1e-12, ESTIMATE_STEP), -np.arange(ESTIMATE_STEP, -lo + 1e-12, ESTIMATE_STEP)])
+    fine = np.unique(np.concatenate([fine, [lo, hi]]))
+    start = _motion_configs(module, strains)
+    watch = _motion_configs(module, fine)
+    if start is None or watch is None:
+        return None
+    shortest = float(np.sqrt(np.min(module.squared_lengths)))
+    reach = tuple(max(needed_reach(module, q, shortest, (MAX_REACH + 1,) * 2)[k] for q in watch) for k in (0, 1))
+    patch = _Patch.of(module, tuple(min(r, c - 1) for r, c in zip(reach, cells)))
+    order = np.concatenate([[int(np.flatnonzero(fine == 0.0)[0])], _scan_order(fine)])
+    pairs, crossings = _violations(module, patch, watch[order], shortest, WATCH_DISTANCE)
+
+    n_q = len(module.reference)
+    x_init = np.concatenate([
+        module.reference[2:], start[:, 1:].ravel(),
+        [float(np.max(np.abs((start[:, 1] / h - 1) / strains + poisson))), float(np.min(module.squared_lengths))],
+    ])
+    result, iterations = None, 0
+    for round_ in range(1, REFINE_ROUNDS + 1):
+        check_budget()
+        left = max_time_s if remaining() is None else min(max_time_s, remaining())
+        if left <= 0:
+            break
+        nlp, lbg, ubg = _module_nlp(module, patch, poisson, strains, pairs, crossings)
+        solver = ipopt_solver("finite_strain", nlp, REFINE_TOL, REFINE_MAX_ITER, left)
+        sol = solver(x0=x_init, lbg=lbg, ubg=ubg)
+        stats = solver.stats()
+        x_init = np.asarray(sol["x"]).ravel()
+        iterations += max(int(stats.get("iter_count", 0)), 0)
+        refined = module.with_reference(np.concatenate([[w, h], x_init[: n_q - 2]]))
+        result = ModuleRefinement(refined, str(stats.get("return_status")), iterations, round_, strains, float(x_init[-2]))
+        traced = _motion_configs(refined, fine)
+        if traced is None:
+            break
+        new_pairs, new_crossings = _violations(
+            refined, patch, traced[order], float(np.sqrt(np.min(refined.squared_lengths))), PROXIMITY_FRACTION * SEPARATION
+        )
+        new_pairs = _new_rows(new_pairs, pairs)
+        new_crossings = _new_rows(new_crossings, crossings, columns=2)
+        if not len(new_pairs) and not len(new_crossings):
+            break
+        pairs, crossings = np.vstack([pairs, new_pairs]), np.vstack([crossings, new_crossings])
+    return result
+
+
+def _new_rows(rows: np.ndarray, known: np.ndarray, columns: int | None = None) -> np.ndarray:
+    """The rows of ``rows`` whose first ``columns`` entries are not those of a row of ``known``."""
+    k = slice(None, columns)
+    seen = {tuple(r) for r in known[:, k].tolist()}
+    keep = [i for i, r in enumerate(rows[:, k].tolist()) if tuple(r) not in seen]
+    return rows[keep]
+
+
+def _module_nlp(module: SymmetricModule, patch, poisson: float, strains: np.ndarray, pairs, crossings):
+    """refine_module's NLP (its docstring) as casadi matrix expressions: (nlp, lbg, ubg) over
+    w = (q₀'s orbit coordinates, q_1[1:] … q_K[1:], t, m)."""
+    w, h = module.cell
+    n_q, n_k = len(module.reference), len(strains)
+    z = ca.SX.sym("w", (n_q - 2) + n_k * (n_q - 1) + 2)
+    t, m = z[-2], z[-1]
+    z_ref = z[: n_q - 2]
+    q_ref = ca.vertcat(w, h, z_ref)
+    rest = ca.reshape(z[n_q - 2 : -2], n_q - 1, n_k)
+    a_row = ca.DM(w * (1 + strains)).T
+    q_all = ca.horzcat(q_ref, ca.vertcat(a_row, rest))  # (n_q, K + 1): the reference, then the samples
+    reps = module.bar_orbits
+    scale = float(np.max(module.squared_lengths))
+
+    def squared(ops_x, ops_y):
+        """Σ over x, y of (D·q)² per row, for every column of q_all: (rows, K + 1)."""
+        dx, dy = ca.mtimes(ca.DM(ops_x), q_all), ca.mtimes(ca.DM(ops_y), q_all)
+        return dx * dx + dy * dy
+
+    bx, by = module.basis[:, 0, :], module.basis[:, 1, :]
+    lengths = squared(bx[reps[:, 0]] - bx[reps[:, 1]], by[reps[:, 0]] - by[reps[:, 1]]) / scale  # (n_o, K+1)
+    g_bars = ca.vec(lengths[:, 1:] - ca.repmat(lengths[:, 0], 1, n_k))
+    ratio = ((ca.vec(rest[0, :]) / h - 1) / ca.DM(strains) + poisson)
+    g_nu = ca.vertcat(ratio + t, t - ratio)
+    g_short = lengths[:, 0] - m / scale
+    # Patch positions are linear in q too: node n of the copy at offset o is B_n·q + 2o·(a, b).
+    px = module.basis[patch.node, 0, :].copy()
+    py = module.basis[patch.node, 1, :].copy()
+    px[:, 0] += 2 * patch.offset[:, 0]
+    py[:, 1] += 2 * patch.offset[:, 1]
+    threshold = (SEPARATION * PROXIMITY_FRACTION) ** 2
+    g_sep = ca.vec(squared(px[pairs[:, 0]] - px[pairs[:, 1]], py[pairs[:, 0]] - py[pairs[:, 1]]) / scale - threshold * m / scale)
+    node, bar, side = crossings[:, 0], crossings[:, 1], crossings[:, 2].astype(float)
+    qa, qb = patch.bars[bar, 0], patch.bars[bar, 1]
+    ax, ay = ca.mtimes(ca.DM(px[qb] - px[qa]), q_all), ca.mtimes(ca.DM(py[qb] - py[qa]), q_all)
+    rx, ry = ca.mtimes(ca.DM(px[node] - px[qa]), q_all), ca.mtimes(ca.DM(py[node] - py[qa]), q_all)
+    g_side = ca.vec(ca.repmat(ca.DM(side), 1, n_k + 1) * (ax * ry - ay * rx) / scale)
+    z_start = module.reference[2:]
+    objective = t + REFINE_REGULARISER * ca.sumsqr(z_ref - ca.DM(z_start)) / float(np.sum(z_start**2))
+    g = ca.vertcat(g_bars, g_nu, g_short, g_sep, g_side)
+    n_eq = g_bars.numel()
+    lbg = np.zeros(g.numel())
+    ubg = np.concatenate([np.zeros(n_eq), np.full(g.numel() - n_eq, np.inf)])
+    return {"x": z, "f": objective, "g": g}, lbg, ubg

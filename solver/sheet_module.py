@@ -38,6 +38,7 @@ Families (by the number n_U of unspecified nodes):
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -124,6 +125,13 @@ class SymmetricModule:
         d = x0[reps[:, 0]] - x0[reps[:, 1]]
         return cls(name, kinds, basis, np.asarray(orbit_of), reps, np.array(edges, dtype=int), q0, np.sum(d * d, axis=1))
 
+    def with_reference(self, q: np.ndarray) -> SymmetricModule:
+        """The module of the same topology whose reference is q (n_q,) (its bar lengths ℓ_k at q)."""
+        q = np.asarray(q, dtype=float)
+        x = self.basis @ q
+        d = x[self.bar_orbits[:, 0]] - x[self.bar_orbits[:, 1]]
+        return dataclasses.replace(self, reference=q, squared_lengths=np.sum(d * d, axis=1))
+
     @property
     def n_nodes(self) -> int:
         return int(self.basis.shape[0])
@@ -208,6 +216,32 @@ def trammel_module(w: float, h: float, c: float, e: float) -> SymmetricModule:
     (0, e) to (±w, h), and every x-axis node to every y-axis node."""
     return SymmetricModule.build(
         "trammel", ("x", "y"), (w, h, c, e), [((1, 0), (0, 0)), ((2, 0), (0, 0)), ((1, 0), (2, 0))]
+    )
+
+
+def cardan_trammel(w: float, h: float, c: float) -> SymmetricModule:
+    """The trammel whose corner lies on the circle with diameter the rod (c, 0)–(0, e):
+    (w − c)·w + (h − e)·h = 0, e = h + w(w − c)/h.  That circle rolls inside the circle of radius
+    ℓ about the centre (Cardan's circles), so the corner moves on a straight line through the
+    centre: a = w·t, b = h·t along the whole motion — secant Poisson ratio −1 exactly (the
+    ellipse of trammel_coordinates degenerates to this segment at β = 1)."""
+    return trammel_module(w, h, c, h + w * (w - c) / h)
+
+
+def dyad_module(w: float, h: float, c: float, e: float, p1, p2) -> SymmetricModule:
+    """A trammel rod (c, 0)–(0, e) carrying two generic quadruples P₁ = (x₁, y₁), P₂ = (x₂, y₂),
+    each joined to both rod ends (rigid with the rod); the corner (w, h) is joined to P₁ and to
+    the x-mirror image (−x₂, y₂) of P₂, which rides on the neighbouring rod (the module's mirror
+    half).  12 unspecified nodes; n_q = 8 coordinates, 7 bar orbits: one symmetric motion whose
+    corner path is the intersection of two circles about points moving on ellipses — no longer
+    a conic, with six shape coordinates (c, e, P₁, P₂) where the trammel has two.  P₁ → (c, 0),
+    P₂ → (0, e) is the trammel itself (finite_strain.py starts its refinement near it)."""
+    return SymmetricModule.build(
+        "dyad", ("x", "y", "generic", "generic"), (w, h, c, e, *p1, *p2),
+        [
+            ((1, 0), (2, 0)), ((3, 0), (1, 0)), ((3, 0), (2, 0)), ((4, 0), (1, 0)), ((4, 0), (2, 0)),
+            ((0, 0), (3, 0)), ((0, 0), (4, 1)),
+        ],
     )
 
 

@@ -111,3 +111,24 @@ def test_over_http(client):
         assert abs(abs(ex) - 0.1) <= 1e-12 and abs(-ey / ex + 0.5) <= 0.02
     report = body["report"]["finite_strain"]
     assert report["max_deviation"] <= 0.02 and report["module"]["family"] == "trammel"
+
+
+def test_minus_one_is_held_exactly_by_a_cardan_trammel():
+    """ν = −1 (out of the stretched trammels' reach): the corner rides a straight line through the
+    module's centre, so the secant ν of the full sheet's own motion is −1 to round-off."""
+    held = finite_strain_sheet(3, 2, poisson=-1.0, strain_range=(-0.1, 0.1), tolerance=0.02, cell=(1.0, 0.7))
+    assert held.family == "cardan"
+    lat = held.lattice
+    x, edges = lat.frame.positions, lat.frame.edges
+    zero_modes, _ = zero_modes_and_stresses(x, edges)
+    assert zero_modes == 4
+    sets = corner_sets(x, 3, 2)
+    path = trace_motion(lat.frame, lat.mode, amplitude=0.2, max_step=0.004)
+    assert relative_bar_error(path.positions, edges, x) <= 1e-9
+    seen = []
+    for config in path.positions:
+        ex, ey = boundary_strains(x, config, sets, finite=True)
+        if 1e-3 < abs(ex) <= 0.1:
+            seen.append(ex)
+            assert abs(-ey / ex + 1.0) <= 1e-9, ex
+    assert min(seen) < -0.09 and max(seen) > 0.09

@@ -83,7 +83,13 @@ class FiniteStrainReport(BaseModel):
     secant_poisson_ratios: list[float] = Field(description="Secant ν measured on the full sheet at each of them.")
     max_deviation: float = Field(description="max |ν_secant − poisson_ratio| over them (≤ tolerance).")
     max_relative_bar_error: float = Field(description="Largest relative bar-length change over them.")
-    module: dict = Field(description="The module chosen: family 'trammel', its stretch s and axis-node coordinates (c, e).")
+    module: dict = Field(
+        description=(
+            "The module chosen: family 'trammel' (parameter: its stretch s), 'cardan' (ν = −1 exactly; parameter: "
+            "c/(w + h²/w)) or 'refined' (IPOPT's refinement of the best member; parameter null), and its coordinates "
+            "after the cell's (w, h): the trammel's (c, e)."
+        )
+    )
 
 
 class LatticeState(BaseModel):
