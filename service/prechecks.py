@@ -7,8 +7,9 @@ Each check is the solver function the endpoint itself runs first (the pipelines 
 given the same arguments (service/documents.py builds them for both), so the rules exist once.
 What is decided here, and what only the run can decide:
 
-  /v1/analyze            the frame (Frame.build: shapes, finite numbers, edges, specified);
-                         nothing else is refused before the analysis.
+  /v1/analyze            the frame (Frame.build: shapes, finite numbers, edges, specified),
+                         the dense route's size (too_expensive).  Run time: the sparse route's
+                         null-space size (too_expensive).
   /v1/design             shapes, distinct specified nodes, non-rigid independent motions, the
                          motion count, n_unspecified, refinement of one motion.  Run time: the
                          stages' sizes (refine's unknowns, certificates, tolerances: the designed
@@ -59,6 +60,7 @@ from zeromode.solver.frame import Frame, check_extent
 from zeromode.solver.lattice import boundary_sets
 from zeromode.solver.pipeline import check_auxetic_request, check_design_request
 from zeromode.solver.refine import refinement_target
+from zeromode.solver.rigidity import check_dense_size
 
 
 def motion_frame(request: MotionRequest) -> Frame:
@@ -76,7 +78,7 @@ def motion_frame(request: MotionRequest) -> Frame:
 
 
 def _analyze(r: AnalyzeRequest) -> None:
-    frame_from_model(r.frame)
+    check_dense_size(frame_from_model(r.frame), r.options.method)
 
 
 def _design(r: DesignRequest) -> None:

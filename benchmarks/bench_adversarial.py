@@ -1,0 +1,370 @@
+"""The adversarial probe set of issue #18 against a live `zeromode serve`: figures for the README.
+
+Probes, each one HTTP request (raw bytes where a client library would correct them):
+
+- **size**: for every endpoint, requests whose size must be refused before any work (nodes,
+  bars, bars × degrees of freedom of a dense SVD, NLP unknowns, LMI size, relays, lattice cells,
+  samples, sweep points, jobs of each), answered 422 in ≤ 50 ms (``SIZE``, also
+  tests/test_refusal_speed.py);
+- **malformed**: unknown fields in every endpoint and inside ``options``, wrong types, NaN and
+  Infinity, ragged and oversized arrays, coordinates of 1e308, frames without bars or of a single
+  node, over-deep JSON, UTF-16 and other encodings, wrong content types, bodies past the limit
+  (chunked, a lying Content-Length, a gzip bomb), oversized headers, hostile request ids and
+  Host headers, CORS preflights;
+- **heavy**: requests that take longer than a short time budget (a dense SVD, a 10⁵-node analysis,
+  a long continuation, tiny relays), under ``--budget`` seconds: how long past the budget each
+  answer comes (an overrun is more than 10 %).
+
+Counted: probes, 4xx by code, 5xx (must be 0), overruns (must be 0), the size refusals' time.
+
+    python -m benchmarks.bench_adversarial [--out docs/benchmarks/adversarial.md] [--budget 2]
+"""
+
+from __future__ import annotations
+
+import gzip
+import json
+import socket
+import statistics
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import httpx
+
+from benchmarks.bench_offload import big_frame
+
+# The refusal-speed service: limits low enough that a frame past them is a small body (the
+# limits' values do not change the checks' code paths, only how many bytes a probe sends).
+SMALL_LIMITS = {"ZEROMODE_MAX_NODES": "1100", "ZEROMODE_MAX_EDGES": "3100"}
+REFUSAL_MS = 50.0
+TRIANGLE = {"dim": 2, "positions": [[0, 0], [1, 0], [0, 1]], "edges": [[0, 1], [1, 2], [0, 2]]}
+SITES = {"source": {"positions": [[0, 0], [1, 0], [0, 1]], "motion": [[0, 0], [0, 0], [1, 0]]},
+         "target": {"positions": [[12, 0], [13, 0], [12, 1]], "motion": [[0, 0], [0, 0], [-1, 0]]}}
+
+
+def chain(n: int, dim: int = 2) -> dict:
+    """A zig-zag chain of n nodes (each joined to the two before it): rigid, 2n − 3 bars."""
+    positions = [[float(i), float(i % 2)] + [0.0] * (dim - 2) for i in range(n)]
+    edges = [[i, i + 1] for i in range(n - 1)] + [[i, i + 2] for i in range(n - 2)]
+    return {"dim": dim, "positions": positions, "edges": edges}
+
+
+def scattered(n: int, dim: int = 2, bars_per_node: int = 0) -> dict:
+    """n distinct nodes, each joined to its next ``bars_per_node`` (cyclically)."""
+    positions = [[float(i % 97), float(i // 97)] + [float((i * 7) % 13)] * (dim - 2) for i in range(n)]
+    edges = [[i, (i + k) % n] for i in range(n) for k in range(1, bars_per_node + 1)]
+    return {"dim": dim, "positions": positions, "edges": edges}
+
+
+@dataclass(frozen=True)
+class Probe:
+    """One request and the answers that are right for it (status, and codes when a 4xx)."""
+
+    name: str
+    path: str
+    body: Any = None
+    method: str = "POST"
+    status: int = 422
+    codes: tuple[str, ...] = ()
+    headers: dict[str, str] = field(default_factory=dict)
+    raw: bytes | None = None  # sent as is on a socket (the request line and headers included)
+
+
+def _job(name: str, endpoint: str, request: dict, codes: tuple[str, ...]) -> Probe:
+    return Probe(f"job: {name}", "/v1/jobs", {"endpoint": endpoint, "request": request}, codes=codes)
+
+
+def size_probes() -> list[Probe]:
+    """Every expensive quantity past its limit, per endpoint, on a service with SMALL_LIMITS."""
+    too_many_nodes = scattered(1101)
+    too_many_bars = scattered(300, bars_per_node=11)
+    dense_3d = scattered(1001, dim=3, bars_per_node=3)  # C 3003 × 3003, past DENSE_MAX_SIDE
+    big_nlp = chain(200)  # K = 64: 63 · 200 · 2 = 25 200 unknowns
+    big_nlp["specified"] = [0, 1]
+    lmi = chain(900, dim=3)  # p = 2700 − 6 − 0 > 2 500
+    refine = {"frame": big_nlp, "motion": [[1, 0], [0, 1]], "options": {"K": 64}}
+    tiny_relays = {"dim": 2, **SITES, "options": {"relay_spacing": 1e-3, "relay_growth": 1.0}}
+    sheet = {"dim": 2, "cells": [51, 50], "poisson_ratio": -0.5}
+    chain_3d = {"dim": 3, "cells": [65], "poisson_ratio": -0.5}
+    toleranced_sheet = {"dim": 2, "cells": [10, 10], "poisson_ratio": -0.5, "tolerance": {}}
+    refined_sheet = {"dim": 2, "cells": [20, 20], "poisson_ratio": -0.5, "refine": {"K": 64}}
+    specified = [[float(i), float(i * i % 11)] for i in range(65)]
+    codes_nodes = ("invalid_request",)
+    return [
+        Probe("analyze: nodes", "/v1/analyze", {"frame": too_many_nodes}, codes=codes_nodes),
+        Probe("analyze: bars", "/v1/analyze", {"frame": too_many_bars}, codes=codes_nodes),
+        Probe("analyze: dense SVD size", "/v1/analyze", {"frame": dense_3d, "options": {"method": "dense"}},
+              codes=("too_expensive",)),
+        Probe("motion: nodes", "/v1/motion", {"frame": too_many_nodes}, codes=codes_nodes),
+        Probe("refine: NLP unknowns", "/v1/refine", refine, codes=("too_expensive",)),
+        Probe("certify: LMI size", "/v1/certify", {"frame": lmi}, codes=("too_expensive",)),
+        Probe("allosteric: relays", "/v1/design/allosteric", tiny_relays, codes=("too_expensive",)),
+        Probe("auxetic: sheet cells", "/v1/design/auxetic", sheet, codes=("invalid_size",)),
+        Probe("auxetic: chain blocks", "/v1/design/auxetic", chain_3d, codes=("invalid_size",)),
+        Probe("auxetic: tolerance size", "/v1/design/auxetic", toleranced_sheet, codes=("too_expensive",)),
+        Probe("auxetic: NLP unknowns", "/v1/design/auxetic", refined_sheet, codes=("too_expensive",)),
+        Probe("design: specified nodes", "/v1/design",
+              {"dim": 2, "positions": specified, "motions": [specified]}, codes=codes_nodes),
+        Probe("solution-space: samples", "/v1/solution-space",
+              {"dim": 2, "positions": [[0, 0], [1, 0]], "motions": [[0, 0], [0, 1]], "samples": 1001},
+              codes=codes_nodes),
+        Probe("two-configuration: specified", "/v1/design/two-configuration",
+              {"dim": 2, "initial": specified, "final": specified}, codes=codes_nodes),
+        Probe("allosteric network: nodes", "/v1/design/allosteric/network",
+              {"frame": too_many_nodes, "source": [0, 1], "target": [5, 6], "strain_ratio": 2.0}, codes=codes_nodes),
+        Probe("plot: nodes", "/v1/plot", {"frame": too_many_nodes}, codes=codes_nodes),
+        Probe("export: nodes", "/v1/export", {"format": "graphml", "frame": too_many_nodes}, codes=codes_nodes),
+        Probe("sweeps: points", "/v1/sweeps",
+              {"endpoint": "/v1/design/auxetic", "template": {"cells": [3, 3]},
+               "grid": {"poisson_ratio": [-0.1 - i / 1000 for i in range(101)], "seed": list(range(100))}},
+              codes=("too_many_points",)),
+        _job("relays", "/v1/design/allosteric", tiny_relays, ("too_expensive",)),
+        _job("NLP unknowns", "/v1/refine", refine, ("too_expensive",)),
+        _job("LMI size", "/v1/certify", {"frame": lmi}, ("too_expensive",)),
+        _job("sheet cells", "/v1/design/auxetic", sheet, ("invalid_size",)),
+        _job("dense SVD size", "/v1/analyze", {"frame": dense_3d, "options": {"method": "dense"}}, ("too_expensive",)),
+    ]
+
+
+def refusal_times(url: str, probes: list[Probe], repeats: int = 5) -> list[dict]:
+    """Each probe sent ``repeats`` times on one kept-alive connection (bodies encoded before the
+    clock starts): its statuses, codes and the median round trip in ms."""
+    rows = []
+    with httpx.Client(base_url=url, timeout=120) as http:
+        for probe in probes:
+            content = json.dumps(probe.body).encode()
+            times, answers = [], []
+            for _ in range(repeats):
+                t0 = time.perf_counter()
+                r = http.request(probe.method, probe.path, content=content, headers={"content-type": "application/json"})
+                times.append(1e3 * (time.perf_counter() - t0))
+                answers.append((r.status_code, _code(r)))
+            rows.append({"probe": probe.name, "bytes": len(content), "answers": sorted(set(answers)),
+                         "median_ms": statistics.median(times), "max_ms": max(times),
+                         "ok": all(s == probe.status and c in probe.codes for s, c in answers)})
+    return rows
+
+
+def _code(r: httpx.Response) -> str | None:
+    """The error code of a 4xx/5xx JSON body ({"detail": {"code": …}}), else None."""
+    try:
+        detail = r.json().get("detail")
+    except ValueError:
+        return None
+    return detail.get("code") if isinstance(detail, dict) else None
+
+
+# --- malformed input ------------------------------------------------------------------------
+
+VALID = {
+    "/v1/analyze": {"frame": TRIANGLE},
+    "/v1/design": {"dim": 2, "positions": [[1, 1], [-1, 1], [-1, -1], [1, -1]],
+                   "motions": [[[1, 1], [-1, 1], [-1, -1], [1, -1]]]},
+    "/v1/solution-space": {"dim": 2, "positions": [[0, 0], [1, 0]], "motions": [[0, 1], [0, -1]]},
+    "/v1/design/two-configuration": {"dim": 2, "initial": [[0, 0], [1, 0], [0, 1]], "final": [[0, 0], [1, 0.1], [0.1, 1]]},
+    "/v1/design/auxetic": {"dim": 2, "cells": [3, 3], "poisson_ratio": -0.5},
+    "/v1/design/allosteric": {"dim": 2, **SITES},
+    "/v1/design/allosteric/network": {"frame": chain(12), "source": [0, 1], "target": [10, 11], "strain_ratio": 2.0},
+    "/v1/motion": {"frame": {"dim": 2, "positions": [[0, 0], [1, 0], [1, 1], [0, 1]], "edges": [[0, 1], [1, 2], [2, 3], [3, 0]]},
+                   "amplitude": 0.1},
+    "/v1/refine": {"frame": {**TRIANGLE, "specified": [0, 1]}, "motion": [[0, 0], [1, 0]]},
+    "/v1/certify": {"frame": TRIANGLE},
+    "/v1/plot": {"frame": TRIANGLE},
+    "/v1/export": {"format": "graphml", "frame": TRIANGLE},
+    "/v1/jobs": {"endpoint": "/v1/analyze", "request": {"frame": TRIANGLE}},
+    "/v1/sweeps": {"endpoint": "/v1/design/auxetic", "template": {"cells": [3, 3]}, "grid": {"poisson_ratio": [-0.3, -0.5]}},
+}
+FRAME_ENDPOINTS = ("/v1/analyze", "/v1/motion", "/v1/certify", "/v1/plot", "/v1/export", "/v1/design/allosteric/network")
+HUGE = 1e308
+
+
+def _frames() -> dict[str, Any]:
+    """Hostile frames (each replaces a frame endpoint's valid frame)."""
+    return {
+        "ragged positions": {"dim": 2, "positions": [[0, 0], [1]], "edges": []},
+        "3 numbers per node in 2D": {"dim": 2, "positions": [[0, 0, 0], [1, 0, 0]], "edges": [[0, 1]]},
+        "edge out of range": {"dim": 2, "positions": [[0, 0], [1, 0]], "edges": [[0, 2]]},
+        "negative index": {"dim": 2, "positions": [[0, 0], [1, 0]], "edges": [[-1, 0]]},
+        "self-loop": {"dim": 2, "positions": [[0, 0], [1, 0]], "edges": [[0, 0]]},
+        "duplicate bar": {"dim": 2, "positions": [[0, 0], [1, 0]], "edges": [[0, 1], [1, 0]]},
+        "coincident nodes": {"dim": 2, "positions": [[0, 0], [0, 0], [1, 0]], "edges": [[0, 1], [1, 2]]},
+        "coordinates 1e308": {"dim": 2, "positions": [[0, 0], [HUGE, HUGE], [0, HUGE]], "edges": [[0, 1], [1, 2], [0, 2]]},
+        "coordinates 1e-308": {"dim": 2, "positions": [[0, 0], [1e-308, 0], [0, 1e-308]], "edges": [[0, 1], [1, 2], [0, 2]]},
+        "no bars": {"dim": 2, "positions": [[0, 0], [1, 0], [0, 1]], "edges": []},
+        "one node": {"dim": 2, "positions": [[0, 0]], "edges": []},
+        "no nodes": {"dim": 2, "positions": [], "edges": []},
+        "dim 4": {"dim": 4, "positions": [[0, 0, 0, 0]], "edges": []},
+        "strings": {"dim": 2, "positions": [["a", "b"]], "edges": []},
+        "specified out of range": {**TRIANGLE, "specified": [7]},
+        "1e4 nodes, no bars": scattered(10_000),
+    }
+
+
+def _json_probes() -> list[Probe]:
+    probes = []
+    for path, body in VALID.items():
+        probes += [
+            Probe(f"{path}: unknown field", path, {**body, "seeed": 3}, status=None),
+            Probe(f"{path}: body is a list", path, [body], status=None),
+            Probe(f"{path}: body is a number", path, 3, status=None),
+            Probe(f"{path}: empty object", path, {}, status=None),
+            Probe(f"{path}: options of the wrong type", path, {**body, "options": [1]}, status=None),
+            Probe(f"{path}: unknown option", path, {**body, "options": {"seeed": 3}}, status=None),
+        ]
+        for name, frame in _frames().items() if path in FRAME_ENDPOINTS else ():
+            probes.append(Probe(f"{path}: {name}", path, {**body, "frame": frame}, status=None))
+    for path in ("/v1/design", "/v1/solution-space", "/v1/design/auxetic", "/v1/design/allosteric"):
+        body = VALID[path]
+        probes.append(Probe(f"{path}: huge values", path, _scaled(body, HUGE), status=None))
+    probes += [
+        Probe("auxetic: poisson_ratio 1e308", "/v1/design/auxetic", {**VALID["/v1/design/auxetic"], "poisson_ratio": -HUGE}, status=None),
+        Probe("auxetic: cell 1e308", "/v1/design/auxetic", {**VALID["/v1/design/auxetic"], "cell": [HUGE, HUGE]}, status=None),
+        Probe("auxetic: 0 cells", "/v1/design/auxetic", {**VALID["/v1/design/auxetic"], "cells": [0, 5]}, status=None),
+        Probe("auxetic: 10^9 cells", "/v1/design/auxetic", {**VALID["/v1/design/auxetic"], "cells": [10**9, 10**9]}, status=None),
+        Probe("allosteric: relay_spacing 1e-300", "/v1/design/allosteric",
+              {**VALID["/v1/design/allosteric"], "options": {"relay_spacing": 1e-300}}, status=None),
+        Probe("allosteric: relay_spacing 1.5e-3", "/v1/design/allosteric",
+              {**VALID["/v1/design/allosteric"], "options": {"relay_spacing": 1.5e-3}}, status=None),
+        Probe("motion: amplitude 1e308", "/v1/motion", {**VALID["/v1/motion"], "amplitude": HUGE}, status=None),
+        Probe("motion: max_step 1e-300", "/v1/motion", {**VALID["/v1/motion"], "max_step": 1e-300}, status=None),
+        Probe("refine: K 10^6", "/v1/refine", {**VALID["/v1/refine"], "options": {"K": 10**6}}, status=None),
+        Probe("jobs: unknown endpoint", "/v1/jobs", {"endpoint": "/v1/plot", "request": {}}, status=None),
+        Probe("sweeps: grid into a list", "/v1/sweeps", {**VALID["/v1/sweeps"], "grid": {"cells.0": [3, 4]}}, status=None),
+        Probe("sweeps: 10^12 points", "/v1/sweeps",
+              {**VALID["/v1/sweeps"], "grid": {f"k{i}": list(range(10)) for i in range(12)}}, status=None),
+        Probe("jobs: unknown id", "/v1/jobs/" + "0" * 32, method="GET", status=None),
+        Probe("jobs: id of 10 kB", "/v1/jobs/" + "a" * 10_000, method="GET", status=None),
+        Probe("sweeps: after past int64", "/v1/sweeps/" + "0" * 32 + "?after=99999999999999999999", method="GET", status=None),
+    ]
+    return probes
+
+
+def _scaled(body: Any, factor: float) -> Any:
+    """Every number of ``body`` times ``factor`` (integers and booleans kept)."""
+    if isinstance(body, dict):
+        return {k: v if k in ("dim", "cells", "edges", "source", "target") else _scaled(v, factor) for k, v in body.items()}
+    if isinstance(body, list):
+        return [_scaled(v, factor) for v in body]
+    return body * factor if isinstance(body, float | int) and not isinstance(body, bool) and body != 0 else body
+
+
+def _raw_probes() -> list[Probe]:
+    """Transport-level probes, sent as bytes."""
+    triangle = json.dumps({"frame": TRIANGLE}).encode()
+
+    def post(body: bytes, *headers: str) -> bytes:
+        lines = ["POST /v1/analyze HTTP/1.1", "host: x", "connection: close", *headers]
+        return ("\r\n".join(lines) + "\r\n\r\n").encode() + body
+
+    def chunked(body: bytes) -> bytes:
+        return b"".join(b"%x\r\n%s\r\n" % (len(body[k:k + 4096]), body[k:k + 4096]) for k in range(0, len(body), 4096)) + b"0\r\n\r\n"
+
+    big = json.dumps({"frame": scattered(30_000)}).encode() * 40  # ~ 25 MB, past the 20 MB limit
+    bomb = gzip.compress(b"[" * 0 + b" " * 200_000_000)
+    deep = b"[" * 10_000 + b"]" * 10_000
+    return [
+        Probe("chunked past the limit", "/v1/analyze", raw=post(chunked(big), "content-type: application/json", "transfer-encoding: chunked"), status=None),
+        Probe("chunked with a lying Content-Length", "/v1/analyze",
+              raw=post(chunked(big), "content-type: application/json", "transfer-encoding: chunked", "content-length: 10"), status=None),
+        Probe("Content-Length past the limit", "/v1/analyze", raw=post(b"", "content-type: application/json", "content-length: 999999999"), status=None),
+        Probe("gzip bomb (200 MB of spaces)", "/v1/analyze",
+              raw=post(bomb, "content-type: application/json", "content-encoding: gzip", f"content-length: {len(bomb)}"), status=None),
+        Probe("brotli body", "/v1/analyze", raw=post(triangle, "content-type: application/json", "content-encoding: br", f"content-length: {len(triangle)}"), status=None),
+        Probe("text/plain", "/v1/analyze", raw=post(triangle, "content-type: text/plain", f"content-length: {len(triangle)}"), status=None),
+        Probe("no content type", "/v1/analyze", raw=post(triangle, f"content-length: {len(triangle)}"), status=None),
+        Probe("UTF-16 body", "/v1/analyze", raw=post(triangle.decode().encode("utf-16"), "content-type: application/json",
+                                                     f"content-length: {len(triangle.decode().encode('utf-16'))}"), status=None),
+        Probe("byte-order mark", "/v1/analyze", raw=post(b"\xef\xbb\xbf" + triangle, "content-type: application/json",
+                                                         f"content-length: {len(triangle) + 3}"), status=None),
+        Probe("invalid UTF-8", "/v1/analyze", raw=post(b'{"frame": "\xff\xfe"}', "content-type: application/json", "content-length: 15"), status=None),
+        Probe("10 000-deep JSON", "/v1/analyze", raw=post(deep, "content-type: application/json", f"content-length: {len(deep)}"), status=None),
+        Probe("NaN literal", "/v1/analyze", raw=post(b'{"frame": {"dim": 2, "positions": [[NaN, 0]], "edges": []}}',
+                                                     "content-type: application/json", "content-length: 59"), status=None),
+        Probe("Infinity literal", "/v1/analyze", raw=post(b'{"frame": {"dim": 2, "positions": [[Infinity, 0]], "edges": []}}',
+                                                          "content-type: application/json", "content-length: 64"), status=None),
+        Probe("truncated JSON", "/v1/analyze", raw=post(triangle[:-5], "content-type: application/json", f"content-length: {len(triangle) - 5}"), status=None),
+        Probe("100 kB header", "/v1/analyze", raw=post(triangle, "content-type: application/json", f"content-length: {len(triangle)}", "x-pad: " + "a" * 100_000), status=None),
+        Probe("request id of 10 kB", "/health", raw=b"GET /health HTTP/1.1\r\nhost: x\r\nconnection: close\r\nx-request-id: " + b"r" * 10_000 + b"\r\n\r\n", status=None),
+        Probe("Host evil.example on a slash URL", "/v1/jobs/", raw=b"GET /v1/jobs/ HTTP/1.1\r\nhost: evil.example\r\nconnection: close\r\n\r\n", status=None),
+        Probe("CORS preflight with x-api-key", "/v1/analyze",
+              raw=b"OPTIONS /v1/analyze HTTP/1.1\r\nhost: x\r\nconnection: close\r\norigin: https://lab.example\r\n"
+                  b"access-control-request-method: POST\r\naccess-control-request-headers: x-api-key, content-type\r\n\r\n", status=None),
+        Probe("GET on a POST route", "/v1/analyze", raw=b"GET /v1/analyze HTTP/1.1\r\nhost: x\r\nconnection: close\r\n\r\n", status=None),
+        Probe("unknown path", "/v1/nothing", raw=b"GET /v1/nothing HTTP/1.1\r\nhost: x\r\nconnection: close\r\n\r\n", status=None),
+    ]
+
+
+def malformed_probes() -> list[Probe]:
+    return _json_probes() + _raw_probes()
+
+
+def send(url: str, probe: Probe, timeout: float = 120.0) -> tuple[int, str | None, float, bool]:
+    """(status, code, seconds, whether the body is well formed: an error's {"detail": {"code",
+    "message"}}, JSON, SVG or a file) of one probe."""
+    t0 = time.perf_counter()
+    if probe.raw is None:
+        content = json.dumps(probe.body).encode() if probe.body is not None else None
+        r = httpx.request(probe.method, url + probe.path, content=content, timeout=timeout,
+                          headers={"content-type": "application/json", **probe.headers})
+        elapsed = time.perf_counter() - t0
+        code = _code(r)
+        shaped = r.status_code < 400 or (code is not None and isinstance(r.json()["detail"].get("message"), str))
+        return r.status_code, code, elapsed, shaped
+    status, body = _raw(url, probe.raw, timeout)
+    elapsed = time.perf_counter() - t0
+    try:
+        detail = json.loads(body).get("detail") if body else None
+    except (ValueError, AttributeError):
+        detail = None
+    code = detail.get("code") if isinstance(detail, dict) else None
+    return status, code, elapsed, status < 400 or code is not None
+
+
+def _raw(url: str, request: bytes, timeout: float) -> tuple[int, bytes]:
+    """Send bytes while reading the answer (a server that refuses early closes before the rest is
+    sent); its status and body (dechunked)."""
+    import threading
+
+    host, port = url.removeprefix("http://").split(":")
+    with socket.create_connection((host, int(port)), timeout=timeout) as conn:
+        def pump() -> None:
+            try:
+                for k in range(0, len(request), 65536):
+                    conn.sendall(request[k:k + 65536])
+            except OSError:
+                pass
+
+        sender = threading.Thread(target=pump, daemon=True)
+        sender.start()
+        data = b""
+        try:
+            while chunk := conn.recv(65536):
+                data += chunk
+        except (ConnectionResetError, TimeoutError):
+            pass
+        sender.join(timeout=5)
+    head, _, body = data.partition(b"\r\n\r\n")
+    if not head:
+        return 0, b""
+    if b"transfer-encoding: chunked" in head.lower():
+        body = b"".join(body.split(b"\r\n")[1::2])
+    return int(head.split()[1]), body
+
+
+# --- heavy requests under a short budget ------------------------------------------------------
+
+def heavy_probes() -> list[Probe]:
+    """Requests that take longer than a 2 s budget: one long LAPACK call, one long sparse
+    factorisation, a long continuation, a long chain of relays."""
+    sheet = {"dim": 2, "cells": [12, 12], "poisson_ratio": -0.5}
+    return [
+        Probe("analysis, dense SVD 3000 × 3000", "/v1/analyze", {"frame": big_frame(1_500), "options": {"method": "dense"}}, status=None),
+        Probe("analysis of 10⁵ nodes", "/v1/analyze", {"frame": big_frame(100_000), "options": {"bases": False}}, status=None),
+        Probe("allosteric, 300 relays", "/v1/design/allosteric",
+              {**VALID["/v1/design/allosteric"], "options": {"relay_spacing": 0.04, "relay_growth": 1.0}}, status=None),
+        Probe("auxetic 40 × 40 with finite strain", "/v1/design/auxetic",
+              {"dim": 2, "cells": [40, 40], "poisson_ratio": -0.5, "finite_strain": {"strain_range": [-0.05, 0.05]}}, status=None),
+        Probe("motion of a 12 × 12 sheet (designed first)", "/v1/export",
+              {"format": "svg_animation", "document": sheet}, status=None),
+    ]
