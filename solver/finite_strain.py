@@ -27,6 +27,7 @@ the boundary means of the full sheet.
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 
 import casadi as ca
@@ -95,7 +96,11 @@ REFINE_REGULARISER = 1e-4
 REFINE_TOL = 1e-8
 REFINE_MAX_ITER = 300
 REFINE_ROUNDS = 4
-# IPOPT's time limit per solve of a module's refinement (the request's budget bounds it too).
+# Weight of the separations' slacks (their shortfall, in squared fractions of the shortest bar)
+# against t: a warm start that collides inside the range is a feasible start.
+REFINE_SLACK_WEIGHT = 100.0
+BOX_GROWTH = 1.5
+# IPOPT's time limit for a module's refinement, all rounds (the request's budget bounds it too).
 REFINE_TIME_S = 3.0
 # The NLP keeps watched pairs SEPARATION times the proximity threshold apart (a margin for the
 # motion between samples); pairs are watched when they come within WATCH_DISTANCE shortest bars
@@ -196,11 +201,13 @@ def finite_strain_sheet(
         can be dismissed, e.g. a node passing a bar's end); 0 for a module whose nodes reach past
         MAX_REACH neighbours at the reference."""
         shortest = float(np.sqrt(np.min(module.squared_lengths)))
-        if max(needed_reach(module, module.reference, shortest, (MAX_REACH + 1,) * 2)) > MAX_REACH:
+        if max(needed_reach(module, module.reference, shortest, (MAX_REACH + 2,) * 2)) > MAX_REACH:
             return 0.0
         usable = module_range(module, scan_cells, limits=(lo, hi), xtol=COVER_XTOL).range
         if usable.contains(lo) and usable.contains(hi):  # confirmed with its events located to round-off
             usable = module_range(module, scan_cells, limits=(lo, hi)).range
+        if usable.lower.reason == usable.upper.reason == "search_limit":  # (the scan's ends carry round-off)
+            return 1.0
         return min(usable.upper.strain / hi, usable.lower.strain / lo)
 
     def trammel(stretch: float):
@@ -213,24 +220,48 @@ def finite_strain_sheet(
     families = [("trammel", STRETCHES, trammel)]
     if abs(poisson + 1.0) <= tolerance:
         families.insert(0, ("cardan", CARDAN_FRACTIONS, cardan))
-    best_dev, best_cover, warm, chosen = None, -np.inf, None, None
-    share = 0.75 / len(families)
+    # The families' grids first, then IPOPT from the best module found (a fraction of a second),
+    # then the searches between grid points, then IPOPT from their best if it is better.
+    best_dev, best_cover, warm, chosen, refined = None, -np.inf, None, None, None
+    searches = []
+    share = 0.4 / len(families)
     for f, (family, grid, member) in enumerate(families):
         with progress_stage(f * share, (f + 1) * share, f"the {family} family"):
             found = _search_family(grid, member, cover, poisson, lo, hi, tolerance)
+        searches.append((family, grid, member, found))
         if best_dev is None or found.best_deviation[0] < best_dev["max_deviation"]:
             best_dev = {"max_deviation": found.best_deviation[0], "family": family, "parameter": found.best_deviation[1]}
-        if found.best_cover > best_cover or warm is None:
-            best_cover, warm = found.best_cover, found.warm_start
         if found.chosen is not None:
             chosen = (family, found.chosen, member(found.chosen))
             break
-    refined = None
+        if found.warm_start is not None and (found.best_cover > best_cover or warm is None):
+            best_cover, warm = found.best_cover, found.warm_start
+
+    def refine_from(module, stage):
+        nonlocal refined
+        with progress_stage(*stage, "IPOPT refinement of the best module"):
+            attempt = _refined(module, cover, poisson, lo, hi, scan_cells)
+        if attempt is not None and (refined is None or (attempt[2], -attempt[1]) > (refined[2], -refined[1])):
+            refined = attempt
+        if attempt is not None and attempt[1] <= tolerance and attempt[2] >= 1.0:
+            return ("refined", None, attempt[0].module)
+        return None
+
     if chosen is None and warm is not None:
-        with progress_stage(0.75, 0.8, "IPOPT refinement of the best module"):
-            refined = _refined(warm, cover, poisson, lo, hi, tolerance, scan_cells)
-        if refined is not None and refined[1] <= tolerance and refined[2] >= 1.0:
-            chosen = ("refined", None, refined[0].module)
+        chosen = refine_from(warm, (0.4, 0.45))
+    if chosen is None and warm is not None:
+        first = warm
+        share = 0.3 / len(searches)
+        for f, (family, grid, member, found) in enumerate(searches):
+            with progress_stage(0.45 + f * share, 0.45 + (f + 1) * share, f"the {family} family between grid points"):
+                t, cover_t, module_t = _search_windows(grid, member, found.covers, cover, poisson, lo, hi, tolerance)
+            if t is not None:
+                chosen = (family, t, member(t))
+                break
+            best_cover = max(best_cover, cover_t)
+            warm = module_t if module_t is not None else warm
+        if chosen is None and warm is not first:
+            chosen = refine_from(warm, (0.75, 0.8))
     if chosen is None:
         if best_cover == -np.inf:
             why = f"the best secant deviation over the range is {best_dev['max_deviation']:.3g}"
@@ -258,22 +289,25 @@ def finite_strain_sheet(
 
 @dataclass(frozen=True)
 class _FamilySearch:
-    """What _search_family found: the chosen parameter (None: no member holds the range), the
-    smallest deviation (value, parameter), the best cover among members within the tolerance
-    (−inf: none) and the module to start IPOPT from (best cover within the tolerance, else the
-    smallest deviation; None if no member reaches both ends)."""
+    """What _search_family found on a grid: the chosen parameter (None: no member holds the
+    range), the smallest deviation (value, parameter), the covers of the members within the
+    tolerance (grid index → cover), the best of them (−inf: none) and the module to start IPOPT
+    from (best cover within the tolerance, else the smallest deviation; None if no member
+    reaches both ends)."""
 
     chosen: float | None
     best_deviation: tuple[float, float]
+    covers: dict
     best_cover: float
     warm_start: SymmetricModule | None
 
 
 def _search_family(grid: np.ndarray, member, cover, poisson: float, lo: float, hi: float, tolerance: float) -> _FamilySearch:
     """The member of a one-parameter family (``member(t)``, t over ``grid`` ascending) whose
-    secant deviation is within the tolerance and whose usable range covers [lo, hi]: deviations
-    on the grid, covers of the members within the tolerance (smallest parameter first), then
-    Brent's bounded search of the cover around the best grid points."""
+    secant deviation is within the tolerance and whose usable range covers [lo, hi], on the
+    grid: deviations, then covers of the members within the tolerance (smallest parameter
+    first: for the trammel its axis nodes sit nearest the module's centre there, farthest from
+    the neighbours' bars)."""
     devs = []
     with progress_stage(0.0, 0.3, "secant ratios"):
         searched = report_steps(len(grid), "secant ratios of a member", step=0.05)
@@ -287,19 +321,27 @@ def _search_family(grid: np.ndarray, member, cover, poisson: float, lo: float, h
     k_best = int(np.argmin(devs))
     best_dev = (float(devs[k_best]), float(grid[k_best]))
     if not np.isfinite(devs).any():
-        return _FamilySearch(None, best_dev, -np.inf, None)
+        return _FamilySearch(None, best_dev, {}, -np.inf, None)
     within = np.flatnonzero(devs <= tolerance)
     covers = {}
     for i, k in enumerate(within):
-        with progress_stage(0.3 + 0.4 * i / len(within), 0.3 + 0.4 * (i + 1) / len(within), "a module's usable range", detail=True):
+        with progress_stage(0.3 + 0.7 * i / len(within), 0.3 + 0.7 * (i + 1) / len(within), "a module's usable range", detail=True):
             covers[k] = cover(member(grid[k]))
         if covers[k] >= 1.0:
-            return _FamilySearch(float(grid[k]), best_dev, covers[k], None)
-    # The usable window of the parameter can fall between grid points (it is ±1.5 % of s wide
-    # for ν = −0.5 over ±10 % on a square cell, and the cover is rugged in s): maximise the
-    # cover around the best grid points, best first.
+            return _FamilySearch(float(grid[k]), best_dev, covers, covers[k], None)
     best_cover = max(covers.values(), default=-np.inf)
     warm = member(grid[max(covers, key=covers.get)] if covers else grid[k_best])
+    return _FamilySearch(None, best_dev, covers, best_cover, warm)
+
+
+def _search_windows(grid, member, covers: dict, cover, poisson, lo, hi, tolerance):
+    """Between grid points: the usable window of the parameter can fall between them (it is
+    ±1.5 % of s wide for ν = −0.5 over ±10 % on a square cell, and the cover is rugged in s), so
+    the cover is maximised by Brent's bounded search around the best grid points (``covers``),
+    best first.  Returns (the parameter found or None, the best cover of a member within the
+    tolerance, the module to start IPOPT from: the one with the best cover whatever its
+    deviation — collision-free over the most of the range, IPOPT then lowers its deviation)."""
+    best_cover, warm, warm_key = -np.inf, None, None
     evaluated = report_steps(WINDOW_SEARCHES * WINDOW_EVALUATIONS, "searching between grid points", step=0.05)
     counted = iter(range(WINDOW_SEARCHES * WINDOW_EVALUATIONS))
 
@@ -307,28 +349,30 @@ def _search_family(grid: np.ndarray, member, cover, poisson: float, lo: float, h
         evaluated(next(counted, WINDOW_SEARCHES * WINDOW_EVALUATIONS - 1))
         return cover(member(t))
 
-    with progress_stage(0.7, 1.0):
-        for k in sorted(covers, key=covers.get, reverse=True)[:WINDOW_SEARCHES]:
-            bounds = (grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)])
-            found = minimize_scalar(
-                lambda t: -window_cover(t), bounds=bounds, method="bounded",
-                options={"xatol": WINDOW_XTOL * bounds[0], "maxiter": WINDOW_EVALUATIONS},
-            )
-            if -found.fun > best_cover:
-                best_cover, warm = -found.fun, member(found.x)
-            if -found.fun >= 1.0 and _deviation(member(found.x), poisson, lo, hi) <= tolerance:
-                return _FamilySearch(float(found.x), best_dev, best_cover, None)
-    return _FamilySearch(None, best_dev, best_cover, warm)
+    for k in sorted(covers, key=covers.get, reverse=True)[:WINDOW_SEARCHES]:
+        bounds = (grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)])
+        found = minimize_scalar(
+            lambda t: -window_cover(t), bounds=bounds, method="bounded",
+            options={"xatol": WINDOW_XTOL * bounds[0], "maxiter": WINDOW_EVALUATIONS},
+        )
+        deviation = _deviation(member(found.x), poisson, lo, hi)
+        if deviation <= tolerance:
+            best_cover = max(best_cover, -found.fun)
+            if -found.fun >= 1.0:
+                return float(found.x), best_cover, None
+        if warm_key is None or (-found.fun, -deviation) > warm_key:
+            warm, warm_key = member(found.x), (-found.fun, -deviation)
+    return None, best_cover, warm
 
 
-def _refined(warm: SymmetricModule, cover, poisson, lo, hi, tolerance, scan_cells):
+def _refined(warm: SymmetricModule, cover, poisson, lo, hi, scan_cells):
     """refine_module from ``warm`` (REFINE_TIME_S at most): (refinement, its deviation by
     continuation, its cover), or None when IPOPT could not start."""
     result = refine_module(warm, poisson, lo, hi, scan_cells, REFINE_TIME_S)
     if result is None:
         return None
-    deviation = _deviation(result.module, poisson, lo, hi)
-    return result, float(deviation), float(cover(result.module)) if np.isfinite(deviation) else 0.0
+    deviation = float(_deviation(result.module, poisson, lo, hi))
+    return result, deviation, float(cover(result.module)) if np.isfinite(deviation) else 0.0
 
 
 def _verified_sheet(module, nx, ny, poisson, requested, tolerance, usable: StrainRange, family: str, parameter) -> FiniteStrainSheet:
@@ -414,14 +458,16 @@ class ModuleRefinement:
     rounds: int
     strains: np.ndarray
     sampled_deviation: float
+    slack: float
 
 
 def refinement_counts(module: SymmetricModule, samples: int) -> tuple[int, int]:
-    """(equalities, unknowns) of refine_module's NLP: n_o bar orbits at each of K samples against
-    the n_q − 2 reference coordinates, n_q − 1 per sample (b and the orbit coordinates; a is
-    the sample's strain) and the two scalars t and m."""
+    """(equalities, unknowns) of refine_module's NLP: n_o bar orbits at each of K samples and the
+    shortest bar's length against the n_q − 2 reference coordinates, n_q − 1 per sample (b and
+    the orbit coordinates; a is the sample's strain) and t (the slacks come with their own
+    inequalities)."""
     n_q, n_o = len(module.reference), len(module.bar_orbits)
-    return samples * n_o, (n_q - 2) + samples * (n_q - 1) + 2
+    return samples * n_o + 1, (n_q - 2) + samples * (n_q - 1) + 1
 
 
 def _violations(module: SymmetricModule, patch, configs: np.ndarray, shortest: float, reach: float):
@@ -478,25 +524,30 @@ def refine_module(
     the secant ratio ν over [lo, hi] without collisions (warm start: ``module`` itself).
 
     At K = REFINE_SAMPLES strains ε_k (evenly over [lo, hi], 0 left out) the unknowns are the
-    configurations q_k = (w(1 + ε_k), b_k, orbit coordinates), with the reference's orbit
-    coordinates (a = w, b = h fixed: the cell) and two scalars t, m:
-        minimise    t + REFINE_REGULARISER·‖q₀ − q₀⁰‖²/‖q₀⁰‖²
+    configurations q_k = (w(1 + ε_k), b_k, orbit coordinates), the reference's orbit coordinates
+    (a = w, b = h fixed: the cell), the deviation t and a slack s_j ≥ 0 per watched pair:
+        minimise    t + REFINE_SLACK_WEIGHT·Σ s_j + REFINE_REGULARISER·‖q₀ − q₀⁰‖²/‖q₀⁰‖²
         subject to  |X_i(q_k) − X_j(q_k)|² = |X_i(q₀) − X_j(q₀)|²   for every bar orbit, every k
                     |(b_k/h − 1)/ε_k + ν| ≤ t                        (secant ratio at each sample)
-                    m ≤ ℓ_o(q₀)²  for every bar orbit                 (m ≤ the shortest bar²)
-                    |X_p − X_q|² ≥ (SEPARATION·PROXIMITY_FRACTION)²·m at q₀ and every q_k
-                    for watched node pairs without a bar,
-                    σ·(X_r − X_q) × (X_p − X_q) ≥ 0 at q₀ and every q_k for watched nodes p and
-                    bars (q, r), σ the side at the reference,
-    pairs of the module and its neighbours (_Patch).  The mirror symmetry is built into the
-    unknowns (sheet_module: X = B·q), so the corners stay on (±a, ±b) and every refined module
-    tiles.  K·n_o equalities against (n_q − 2) + K(n_q − 1) + 2 unknowns (refinement_counts;
-    n_o = n_q − 1, so never more).  Watched pairs are found by rounds (at most REFINE_ROUNDS):
-    the node pairs within WATCH_DISTANCE·ℓ_min along the warm start's motion first, then after
-    each solve the pairs that come closer than the threshold or cross along the refined module's
-    motion (traced by continuation every ESTIMATE_STEP) are added and IPOPT restarts from its
-    solution.  The caller measures the refined module (_deviation, module_range).  None when
-    the time left is too short to start or the warm start's motion does not reach the samples."""
+                    ℓ_*(q₀)² = ℓ_*⁰², ℓ_o(q₀)² ≥ ℓ_*⁰²               (the warm start's shortest
+                                                                      bar orbit * stays shortest)
+                    |X_p − X_q|²/ℓ_*⁰² ≥ (SEPARATION·PROXIMITY_FRACTION)² − s_j  at q₀ and every
+                    q_k, for watched node pairs p, q without a bar,
+                    σ·(X_r − X_q) × (X_p − X_q)/ℓ_*⁰² ≥ (SEPARATION·PROXIMITY_FRACTION)² − s_j
+                    likewise for watched nodes p and bars (q, r), σ the side at the reference,
+                    |x|, |y| of every unspecified node within the box (BOX_GROWTH times the warm
+                    start's extent, no farther than MAX_REACH neighbours),
+    pairs of the module and its neighbours (_Patch).  The slacks make a warm start that collides
+    a feasible start.  The mirror symmetry is built into the unknowns (sheet_module: X = B·q),
+    so the corners stay on (±a, ±b) and every refined module tiles.  K·n_o + 1 equalities
+    against (n_q − 2) + K(n_q − 1) + 1 unknowns besides the slacks (refinement_counts; n_o =
+    n_q − 1, so never more).  Watched pairs are found by rounds (at most REFINE_ROUNDS): the node
+    pairs within WATCH_DISTANCE·ℓ_min along the warm start's motion and its crossings first, then
+    after each solve the pairs that come closer than the threshold or cross along the refined
+    module's motion (traced by continuation every ESTIMATE_STEP) are added and IPOPT restarts
+    from its solution.  The caller measures the refined module (_deviation, module_range).  None
+    when the time left is too short to start or the warm start's motion does not reach the
+    samples."""
     w, h = module.cell
     strains = np.linspace(lo, hi, REFINE_SAMPLES + 1)
     strains = strains[np.abs(strains) > 1e-12 * (hi - lo)]
@@ -510,30 +561,43 @@ def refine_module(
     if start is None or watch is None:
         return None
     shortest = float(np.sqrt(np.min(module.squared_lengths)))
-    reach = tuple(max(needed_reach(module, q, shortest, (MAX_REACH + 1,) * 2)[k] for q in watch) for k in (0, 1))
-    patch = _Patch.of(module, tuple(min(r, c - 1) for r, c in zip(reach, cells)))
+    # Every unspecified node stays inside the box the warm start's motion spans, grown by
+    # BOX_GROWTH (per axis) and no farther than MAX_REACH neighbours: the copies that can touch
+    # the module are those of the patch watched (needed_reach's rule for that box at the
+    # smallest cell of the range).
+    smallest = np.min(watch[:, :2], axis=0)
+    widest = (2 * (MAX_REACH + 1) * smallest - PROXIMITY_FRACTION * shortest) / 2 * (1 - 1e-9)
+    box = np.minimum(BOX_GROWTH * np.max(np.abs(module.positions(watch)[:, 4:]), axis=(0, 1)), widest)
+    reach = np.floor((2 * box + PROXIMITY_FRACTION * shortest) / (2 * smallest)).astype(int)
+    patch = _Patch.of(module, tuple(int(min(r, c - 1, MAX_REACH)) for r, c in zip(reach, cells)))
     order = np.concatenate([[int(np.flatnonzero(fine == 0.0)[0])], _scan_order(fine)])
     pairs, crossings = _violations(module, patch, watch[order], shortest, WATCH_DISTANCE)
 
     n_q = len(module.reference)
     x_init = np.concatenate([
         module.reference[2:], start[:, 1:].ravel(),
-        [float(np.max(np.abs((start[:, 1] / h - 1) / strains + poisson))), float(np.min(module.squared_lengths))],
+        [float(np.max(np.abs((start[:, 1] / h - 1) / strains + poisson)))],
     ])
     result, iterations = None, 0
+    deadline = time.monotonic() + max_time_s
     for round_ in range(1, REFINE_ROUNDS + 1):
         check_budget()
-        left = max_time_s if remaining() is None else min(max_time_s, remaining())
+        left = deadline - time.monotonic()
+        left = left if remaining() is None else min(left, remaining())
         if left <= 0:
             break
-        nlp, lbg, ubg = _module_nlp(module, patch, poisson, strains, pairs, crossings)
+        nlp, lbg, ubg, lbx, slack_start = _module_nlp(module, patch, poisson, strains, pairs, crossings, x_init, box)
         solver = ipopt_solver("finite_strain", nlp, REFINE_TOL, REFINE_MAX_ITER, left)
-        sol = solver(x0=x_init, lbg=lbg, ubg=ubg)
+        sol = solver(x0=np.concatenate([x_init, slack_start]), lbg=lbg, ubg=ubg, lbx=lbx)
         stats = solver.stats()
-        x_init = np.asarray(sol["x"]).ravel()
+        solution = np.asarray(sol["x"]).ravel()
+        x_init = solution[: len(x_init)]
         iterations += max(int(stats.get("iter_count", 0)), 0)
         refined = module.with_reference(np.concatenate([[w, h], x_init[: n_q - 2]]))
-        result = ModuleRefinement(refined, str(stats.get("return_status")), iterations, round_, strains, float(x_init[-2]))
+        result = ModuleRefinement(
+            refined, str(stats.get("return_status")), iterations, round_, strains, float(x_init[-1]),
+            float(np.sum(solution[len(x_init):])),
+        )
         traced = _motion_configs(refined, fine)
         if traced is None:
             break
@@ -556,18 +620,20 @@ def _new_rows(rows: np.ndarray, known: np.ndarray, columns: int | None = None) -
     return rows[keep]
 
 
-def _module_nlp(module: SymmetricModule, patch, poisson: float, strains: np.ndarray, pairs, crossings):
-    """refine_module's NLP (its docstring) as casadi matrix expressions: (nlp, lbg, ubg) over
-    w = (q₀'s orbit coordinates, q_1[1:] … q_K[1:], t, m)."""
+def _module_nlp(module: SymmetricModule, patch, poisson: float, strains: np.ndarray, pairs, crossings, start, box):
+    """refine_module's NLP (its docstring) as casadi matrix expressions over w = (q₀'s orbit
+    coordinates, q_1[1:] … q_K[1:], t, slacks): (nlp, lbg, ubg, lbx, the slacks at ``start``,
+    the other unknowns' values).  ``box`` (2,): the largest |x|, |y| of an unspecified node."""
     w, h = module.cell
     n_q, n_k = len(module.reference), len(strains)
-    z = ca.SX.sym("w", (n_q - 2) + n_k * (n_q - 1) + 2)
-    t, m = z[-2], z[-1]
+    n_main, n_slack = len(start), len(pairs) + len(crossings)
+    z = ca.SX.sym("w", n_main + n_slack)
+    t = z[n_main - 1]
+    slack = z[n_main:]
     z_ref = z[: n_q - 2]
     q_ref = ca.vertcat(w, h, z_ref)
-    rest = ca.reshape(z[n_q - 2 : -2], n_q - 1, n_k)
-    a_row = ca.DM(w * (1 + strains)).T
-    q_all = ca.horzcat(q_ref, ca.vertcat(a_row, rest))  # (n_q, K + 1): the reference, then the samples
+    rest = ca.reshape(z[n_q - 2 : n_main - 1], n_q - 1, n_k)
+    q_all = ca.horzcat(q_ref, ca.vertcat(ca.DM(w * (1 + strains)).T, rest))  # (n_q, K + 1): the reference, then the samples
     reps = module.bar_orbits
     scale = float(np.max(module.squared_lengths))
 
@@ -579,25 +645,39 @@ def _module_nlp(module: SymmetricModule, patch, poisson: float, strains: np.ndar
     bx, by = module.basis[:, 0, :], module.basis[:, 1, :]
     lengths = squared(bx[reps[:, 0]] - bx[reps[:, 1]], by[reps[:, 0]] - by[reps[:, 1]]) / scale  # (n_o, K+1)
     g_bars = ca.vec(lengths[:, 1:] - ca.repmat(lengths[:, 0], 1, n_k))
-    ratio = ((ca.vec(rest[0, :]) / h - 1) / ca.DM(strains) + poisson)
+    ratio = (ca.vec(rest[0, :]) / h - 1) / ca.DM(strains) + poisson
     g_nu = ca.vertcat(ratio + t, t - ratio)
+    # The shortest bar orbit keeps its length ℓ_min and the others stay longer: the proximity
+    # threshold PROXIMITY_FRACTION·ℓ_min is a constant of the NLP.
+    shortest = int(np.argmin(module.squared_lengths))
+    m = float(module.squared_lengths[shortest])
     g_short = lengths[:, 0] - m / scale
     # Patch positions are linear in q too: node n of the copy at offset o is B_n·q + 2o·(a, b).
     px = module.basis[patch.node, 0, :].copy()
     py = module.basis[patch.node, 1, :].copy()
     px[:, 0] += 2 * patch.offset[:, 0]
     py[:, 1] += 2 * patch.offset[:, 1]
-    threshold = (SEPARATION * PROXIMITY_FRACTION) ** 2
-    g_sep = ca.vec(squared(px[pairs[:, 0]] - px[pairs[:, 1]], py[pairs[:, 0]] - py[pairs[:, 1]]) / scale - threshold * m / scale)
+    floor = (SEPARATION * PROXIMITY_FRACTION) ** 2 * m / scale
+    gap = squared(px[pairs[:, 0]] - px[pairs[:, 1]], py[pairs[:, 0]] - py[pairs[:, 1]]) / scale - floor
     node, bar, side = crossings[:, 0], crossings[:, 1], crossings[:, 2].astype(float)
     qa, qb = patch.bars[bar, 0], patch.bars[bar, 1]
     ax, ay = ca.mtimes(ca.DM(px[qb] - px[qa]), q_all), ca.mtimes(ca.DM(py[qb] - py[qa]), q_all)
     rx, ry = ca.mtimes(ca.DM(px[node] - px[qa]), q_all), ca.mtimes(ca.DM(py[node] - py[qa]), q_all)
-    g_side = ca.vec(ca.repmat(ca.DM(side), 1, n_k + 1) * (ax * ry - ay * rx) / scale)
+    area = ca.repmat(ca.DM(side), 1, n_k + 1) * (ax * ry - ay * rx) / scale - floor
+    apart = ca.vertcat(gap, area)  # (pairs + crossings, K + 1), each ≥ −its slack
+    g_apart = ca.vec(apart + ca.repmat(slack, 1, n_k + 1))
     z_start = module.reference[2:]
-    objective = t + REFINE_REGULARISER * ca.sumsqr(z_ref - ca.DM(z_start)) / float(np.sum(z_start**2))
-    g = ca.vertcat(g_bars, g_nu, g_short, g_sep, g_side)
-    n_eq = g_bars.numel()
+    objective = (
+        t + REFINE_SLACK_WEIGHT * ca.sum1(slack)
+        + REFINE_REGULARISER * ca.sumsqr(z_ref - ca.DM(z_start)) / float(np.sum(z_start**2))
+    )
+    g_box = ca.vertcat(*[ca.vec(box[k] ** 2 - ca.mtimes(ca.DM(module.basis[4:, k, :]), q_all) ** 2) / scale for k in (0, 1)])
+    g = ca.vertcat(g_bars, g_short[shortest], g_nu, g_short, g_apart, g_box)
+    n_eq = g_bars.numel() + 1
     lbg = np.zeros(g.numel())
     ubg = np.concatenate([np.zeros(n_eq), np.full(g.numel() - n_eq, np.inf)])
-    return {"x": z, "f": objective, "g": g}, lbg, ubg
+    lbx = np.concatenate([np.full(n_main, -np.inf), np.zeros(n_slack)])
+    # Slacks at the start: the largest shortfall of each pair over the samples (0 if none).
+    values = np.asarray(ca.Function("apart", [z], [apart])(np.concatenate([start, np.zeros(n_slack)])))
+    slack_start = np.maximum(-values.min(axis=1), 0.0) + REFINE_TOL if n_slack else np.zeros(0)
+    return {"x": z, "f": objective, "g": g}, lbg, ubg, lbx, slack_start
