@@ -228,23 +228,6 @@ def cardan_trammel(w: float, h: float, c: float) -> SymmetricModule:
     return trammel_module(w, h, c, h + w * (w - c) / h)
 
 
-def dyad_module(w: float, h: float, c: float, e: float, p1, p2) -> SymmetricModule:
-    """A trammel rod (c, 0)–(0, e) carrying two generic quadruples P₁ = (x₁, y₁), P₂ = (x₂, y₂),
-    each joined to both rod ends (rigid with the rod); the corner (w, h) is joined to P₁ and to
-    the x-mirror image (−x₂, y₂) of P₂, which rides on the neighbouring rod (the module's mirror
-    half).  12 unspecified nodes; n_q = 8 coordinates, 7 bar orbits: one symmetric motion whose
-    corner path is the intersection of two circles about points moving on ellipses — no longer
-    a conic, with six shape coordinates (c, e, P₁, P₂) where the trammel has two.  P₁ → (c, 0),
-    P₂ → (0, e) is the trammel itself (finite_strain.py starts its refinement near it)."""
-    return SymmetricModule.build(
-        "dyad", ("x", "y", "generic", "generic"), (w, h, c, e, *p1, *p2),
-        [
-            ((1, 0), (2, 0)), ((3, 0), (1, 0)), ((3, 0), (2, 0)), ((4, 0), (1, 0)), ((4, 0), (2, 0)),
-            ((0, 0), (3, 0)), ((0, 0), (4, 1)),
-        ],
-    )
-
-
 def trammel_coordinates(w: float, h: float, beta: float, stretch: float, sign: float) -> tuple[float, float]:
     """(c, e) of the trammel whose corner traces the ellipse with conjugate semi-diameters
     p = (w, h) and q = stretch·(w, βh): through the reference corner, tangent there to the affine
