@@ -313,12 +313,12 @@ def closest_unjoined(x: np.ndarray, edges: np.ndarray) -> float:
     degree = np.bincount(edges.ravel(), minlength=n)
     k = min(n, int(degree.max()) + 2)
     dist, idx = cKDTree(x).query(x, k=k)
-    joined = np.zeros((n, k), dtype=bool)
-    nbr = {tuple(e) for e in np.sort(edges, axis=1).tolist()}
+    bars = np.sort(edges, axis=1)
     rows = np.repeat(np.arange(n), k)
     pairs = np.sort(np.column_stack([rows, idx.ravel()]), axis=1)
-    joined = np.array([p == q or (p, q) in nbr for p, q in pairs.tolist()]).reshape(n, k)
-    return float(np.min(np.where(joined, np.inf, dist)))
+    # A pair (p, q), p ≤ q, as the integer p·n + q: joined when it is a bar's (or p = q).
+    joined = (pairs[:, 0] == pairs[:, 1]) | np.isin(pairs[:, 0] * n + pairs[:, 1], bars[:, 0] * n + bars[:, 1])
+    return float(np.min(np.where(joined.reshape(n, k), np.inf, dist)))
 
 
 def _block_targets(w: float, h: float, l: float, beta: float, gamma: float) -> tuple[np.ndarray, np.ndarray]:
