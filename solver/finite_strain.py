@@ -581,12 +581,12 @@ def refine_module(
     result, iterations = None, 0
     deadline = time.monotonic() + max_time_s
     for round_ in range(1, REFINE_ROUNDS + 1):
-        check_budget()
+        nlp, lbg, ubg, lbx, slack_start = _module_nlp(module, patch, poisson, strains, pairs, crossings, x_init, box)
+        check_budget()  # the NLP's construction counts against the request's budget and ours
         left = deadline - time.monotonic()
         left = left if remaining() is None else min(left, remaining())
         if left <= 0:
             break
-        nlp, lbg, ubg, lbx, slack_start = _module_nlp(module, patch, poisson, strains, pairs, crossings, x_init, box)
         solver = ipopt_solver("finite_strain", nlp, REFINE_TOL, REFINE_MAX_ITER, left)
         sol = solver(x0=np.concatenate([x_init, slack_start]), lbg=lbg, ubg=ubg, lbx=lbx)
         stats = solver.stats()
