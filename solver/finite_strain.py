@@ -15,8 +15,15 @@ family (s > 0, and the two trammels ±, not mirror images of each other) — eve
 linear ratio exactly ν — for the member whose secant ratio stays within the tolerance over the
 requested range [ε_lo, ε_hi] and whose usable range (strain_range.module_range: no singular
 point, no node closer than PROXIMITY_FRACTION of the shortest bar, no bar crossing, neighbours
-included) contains it.  Everything is computed on one module, so the cost of the design does not
-grow with the number of cells.
+included) contains it.  For ν = −1 (within the tolerance) the Cardan trammels come first
+(sheet_module.cardan_trammel, searched by c): their corner moves on a straight line through the
+module's centre, a secant ratio of −1 to round-off over the whole motion.  When no member holds
+the range, IPOPT refines the module with the best cover (refine_module: the module's orbit
+coordinates and its configurations at samples of the range as unknowns, bars at their lengths,
+secant ratios within t minimised, pairs of the module and its neighbours kept apart), after the
+grids and again after Brent's searches between grid points; a refined module counts only once
+its own continuation (_deviation) and usable range (module_range) hold the range.  Everything is
+computed on one module, so the cost of the design does not grow with the number of cells.
 
 The tiled sheet is then verified on its own: the rank analysis of the full frame (exactly one
 nontrivial zero mode), and at VERIFY_SAMPLES strains across the range the sheet's positions
@@ -104,17 +111,17 @@ BOX_GROWTH = 1.5
 REFINE_TIME_S = 3.0
 # The NLP keeps watched pairs SEPARATION times the proximity threshold apart (a margin for the
 # motion between samples); pairs are watched when they come within WATCH_DISTANCE shortest bars
-# along the warm start's motion, and nodes against these points of bars (fractions along them).
+# along the warm start's motion (and node–bar pairs when the node crosses the bar's line there).
 SEPARATION = 1.05
 WATCH_DISTANCE = 1.0
-BAR_POINTS = (0.25, 0.5, 0.75)
 
 
 @dataclass(frozen=True, eq=False)
 class FiniteStrainSheet:
     """A sheet holding its secant ratio: the lattice (states at the ends of the requested range),
-    the module chosen (stretch s, trammel sign, coordinates (c, e)), and the verification on the
-    full sheet: strains (S,), secant ν (S,) measured there, max |ν_s − ν|, max bar error."""
+    the module chosen (family "trammel" with parameter s, "cardan" with c/(w + h²/w), or
+    "refined" by IPOPT with None; its orbit coordinates after (w, h)), and the verification on
+    the full sheet: strains (S,), secant ν (S,) measured there, max |ν_s − ν|, max bar error."""
 
     lattice: Lattice
     family: str
@@ -129,9 +136,10 @@ class FiniteStrainSheet:
 
 
 class FiniteStrainUnreachable(DomainError):
-    """No module of the family holds ν within the tolerance over the range; ``best`` holds the
-    best figures found: the smallest deviation over the requested range (with its usable range)
-    and the widest usable range among members within the tolerance."""
+    """No module holds ν within the tolerance over the range; ``best`` holds the best figures
+    found: the smallest deviation over the requested range (family, parameter), the widest cover
+    of the range among members within the tolerance, and IPOPT's refinement (its deviation,
+    cover, status, coordinates) when it ran."""
 
     def __init__(self, message: str, best: dict):
         super().__init__("finite_strain_unreachable", message)
@@ -449,8 +457,9 @@ def _verified_sheet(module, nx, ny, poisson, requested, tolerance, usable: Strai
 @dataclass(frozen=True, eq=False)
 class ModuleRefinement:
     """IPOPT's refined module and its figures: the module (reference q₀ refined), IPOPT's last
-    status, iterations and rounds (module docstring of refine_module), the sampled strains (K,)
-    and IPOPT's minimax deviation t over them (the deviation by continuation is _deviation's)."""
+    status, iterations (all rounds) and rounds (refine_module), the sampled strains (K,), IPOPT's
+    minimax deviation t over them (the deviation by continuation is _deviation's) and the sum of
+    the separations' slacks (≈ 0: every watched pair kept apart at the samples)."""
 
     module: SymmetricModule
     status: str
@@ -470,12 +479,12 @@ def refinement_counts(module: SymmetricModule, samples: int) -> tuple[int, int]:
     return samples * n_o + 1, (n_q - 2) + samples * (n_q - 1) + 1
 
 
-def _violations(module: SymmetricModule, patch, configs: np.ndarray, shortest: float, reach: float):
-    """Over the configurations (S, n_q) of a motion (the reference first, then outward in each
-    direction): the patch's node pairs closer than ``reach``·ℓ_min at some configuration (P, 2),
-    and its (node, bar) pairs whose node changes sides of the bar's line between consecutive
-    configurations while between the bar's ends, with the side at the reference (C, 3: node,
-    patch bar, sign ±1)."""
+def _violations(module: SymmetricModule, patch, configs: np.ndarray, reference: int, shortest: float, reach: float):
+    """Over the configurations (S, n_q) of a motion in the order of their strains (the reference
+    is configs[reference]): the patch's node pairs closer than ``reach``·ℓ_min at some
+    configuration (P, 2), and its (node, bar) pairs whose node changes sides of the bar's line
+    between consecutive configurations while between the bar's ends, with the side at the
+    reference (C, 3: node, patch bar, sign ±1)."""
     x = np.stack([patch.positions(module, q) for q in configs])  # (S, M, 2)
     gap = np.min(np.linalg.norm(x[:, patch.pairs[:, 0]] - x[:, patch.pairs[:, 1]], axis=2), axis=0)
     pairs = patch.pairs[gap <= reach * shortest]
@@ -487,7 +496,7 @@ def _violations(module: SymmetricModule, patch, configs: np.ndarray, shortest: f
     inside = (t >= 0) & (t <= 1)
     flips = (np.sign(area[1:]) != np.sign(area[:-1])) & (inside[1:] | inside[:-1])
     crossed = np.flatnonzero(flips.any(axis=0))
-    side = np.sign(area[0, crossed])
+    side = np.sign(area[reference, crossed])
     side[side == 0] = 1.0
     return pairs, np.column_stack([p[crossed], b[crossed], side]).astype(int)
 
@@ -507,14 +516,6 @@ def _motion_configs(module: SymmetricModule, strains: np.ndarray) -> np.ndarray 
                 return None
             at, out[eps] = eps, q
     return np.array([out[e] for e in strains])
-
-
-def _scan_order(strains: np.ndarray) -> np.ndarray:
-    """Indices of 0 then each direction outward (consecutive entries are neighbours on the motion,
-    except where the second direction starts; _violations' flips there are spurious but only add
-    a constraint)."""
-    pos, neg = np.flatnonzero(strains > 0), np.flatnonzero(strains < 0)[::-1]
-    return np.concatenate([pos, neg])
 
 
 def refine_module(
@@ -570,8 +571,8 @@ def refine_module(
     box = np.minimum(BOX_GROWTH * np.max(np.abs(module.positions(watch)[:, 4:]), axis=(0, 1)), widest)
     reach = np.floor((2 * box + PROXIMITY_FRACTION * shortest) / (2 * smallest)).astype(int)
     patch = _Patch.of(module, tuple(int(min(r, c - 1, MAX_REACH)) for r, c in zip(reach, cells)))
-    order = np.concatenate([[int(np.flatnonzero(fine == 0.0)[0])], _scan_order(fine)])
-    pairs, crossings = _violations(module, patch, watch[order], shortest, WATCH_DISTANCE)
+    reference = int(np.flatnonzero(fine == 0.0)[0])
+    pairs, crossings = _violations(module, patch, watch, reference, shortest, WATCH_DISTANCE)
 
     n_q = len(module.reference)
     x_init = np.concatenate([
@@ -602,7 +603,7 @@ def refine_module(
         if traced is None:
             break
         new_pairs, new_crossings = _violations(
-            refined, patch, traced[order], float(np.sqrt(np.min(refined.squared_lengths))), PROXIMITY_FRACTION * SEPARATION
+            refined, patch, traced, reference, float(np.sqrt(np.min(refined.squared_lengths))), PROXIMITY_FRACTION * SEPARATION
         )
         new_pairs = _new_rows(new_pairs, pairs)
         new_crossings = _new_rows(new_crossings, crossings, columns=2)
