@@ -246,9 +246,10 @@ class Engine:
 
     # --- heavy requests (service/offload.py) ---------------------------------------------------
 
-    def run_request(self, endpoint: str, request: dict[str, Any], budget_s: float):
-        """A Dask future of the request's (status, body), ahead of every job in the queue."""
-        return self._client.submit(execute_request, endpoint, request, self._settings_json, budget_s,
+    def run_request(self, endpoint: str, request: dict[str, Any], budget_s: float, task=execute_request):
+        """A Dask future of the request's answer by ``task`` (default: its (status, body)), ahead of
+        every job in the queue."""
+        return self._client.submit(task, endpoint, request, self._settings_json, budget_s,
                                    key=f"zeromode-request-{uuid.uuid4().hex}", pure=False, priority=REQUEST_PRIORITY)
 
     @staticmethod

@@ -13,6 +13,13 @@ once) and several requests use several cores. Two things only a separate process
 
 Everything else (an invalid request, a cheap one, an engine not started yet or unavailable)
 goes to the route as usual, so answers and error bodies are the endpoint's own either way.
+
+Which requests are heavy (``heavy``) is decided from their sizes, by what was measured inline on
+a loaded 2-core machine (load 5-8): every request left inline answers in a few seconds at most
+(its time budget, checked between its steps, is then never overrun by more than a step), e.g. an
+auxetic sheet of 400 cells 0.5 s, a design of 32 nodes × 2 motions 3 s, an analysis of 300 2D
+nodes 2.8 s at most; while an analysis of 1 000 floppy 2D nodes took 37 s, a 3D auxetic chain of 8 blocks took 60 s, a two-configuration
+design of 64 nodes 60 s, a plot or a GraphML export of 10⁵ nodes 20 s.
 """
 
 from __future__ import annotations
@@ -21,25 +28,49 @@ import asyncio
 import json
 import logging
 import threading
+from collections.abc import Callable
+from functools import cache
 from typing import Any
 
+from fastapi.responses import Response
+from fastapi.routing import APIRoute
+from pydantic import ValidationError
 from starlette.types import ASGIApp, Receive, Scope, Send
 
 from zeromode.service.body import replay
 from zeromode.service.errors import error_body
-from zeromode.service.settings import Settings
-from zeromode.service.tasks import RequestRefused, validated
-from zeromode.solver.budget import remaining
+from zeromode.service.settings import Settings, settings_scope
+from zeromode.service.tasks import (
+    RUNNABLE,
+    RequestRefused,
+    error_detail,
+    error_status,
+    execute_request,
+    settings_of,
+    validated,
+)
+from zeromode.solver.budget import remaining, time_budget
 
 log = logging.getLogger("zeromode")
 
 # The worker answers too_expensive itself at the budget; this much later it is stopped.
 OVERRUN_SLACK = 0.05
 # Requests whose answer can take long, by endpoint: the rest are cheap enough to answer inline.
-ALWAYS = frozenset({"/v1/motion", "/v1/refine", "/v1/certify", "/v1/design/allosteric"})
-# Above these sizes an analysis or an auxetic design is heavy (both take well under 0.1 s below).
+ALWAYS = frozenset({"/v1/motion", "/v1/refine", "/v1/certify", "/v1/design/allosteric", "/v1/design/two-configuration"})
+# Above these sizes a frame's plot or export (nodes or bars), its analysis or a network's tuning
+# (degrees of freedom dN or bars: a floppy frame's null-space bases cost seconds, 300 2D nodes up
+# to 2.8 s, 1 000 up to 37 s), an auxetic sheet and a design (specified nodes × motions) are heavy.
 HEAVY_NODES = 2_000
+HEAVY_EDGES = 10_000
+HEAVY_DOF = 600
 HEAVY_CELLS = 400
+HEAVY_DESIGN = 32
+# The dense analysis asked for by name is heavy past this many rows or columns of C (≈ 0.5 s).
+HEAVY_DENSE_SIDE = 1_000
+# Routes that are not job endpoints (service/tasks.py RUNNABLE) answered by a worker when heavy,
+# through ``execute_route`` (their answer may be a file).
+ROUTES = frozenset({"/v1/design/two-configuration", "/v1/design/allosteric/network", "/v1/plot", "/v1/export"})
+JSON_HEADERS = [("content-type", "application/json")]
 
 
 def heavy(endpoint: str, request: dict[str, Any]) -> bool:
@@ -47,17 +78,67 @@ def heavy(endpoint: str, request: dict[str, Any]) -> bool:
     if endpoint in ALWAYS:
         return True
     options = request.get("options") or {}
+    frame = request.get("frame") or {}
+    nodes = len(frame.get("positions") or [])
+    edges = len(frame.get("edges") or [])
+    large = nodes > HEAVY_NODES or edges > HEAVY_EDGES
+    analysis = nodes * int(frame.get("dim") or 2) > HEAVY_DOF or edges > HEAVY_EDGES
     if endpoint == "/v1/design":
-        return any(options.get(stage) for stage in ("refine", "certify", "tolerance"))
+        return (len(request.get("positions") or []) * len(request.get("motions") or []) > HEAVY_DESIGN
+                or any(options.get(stage) for stage in ("refine", "certify", "tolerance")))
     if endpoint == "/v1/design/auxetic":
         cells = request.get("cells") or [1]
         count = 1
         for c in cells:
             count *= int(c)
-        return count > HEAVY_CELLS or any(request.get(k) for k in ("refine", "certify", "finite_strain", "tolerance"))
+        return (request.get("dim") == 3 or count > HEAVY_CELLS
+                or any(request.get(k) for k in ("refine", "certify", "finite_strain", "tolerance")))
     if endpoint == "/v1/analyze":
-        return len((request.get("frame") or {}).get("positions") or []) > HEAVY_NODES
-    return False
+        dense = options.get("method") == "dense" and max(edges, nodes * int(frame.get("dim") or 2)) > HEAVY_DENSE_SIDE
+        return analysis or dense
+    if endpoint == "/v1/export":
+        from zeromode.export import FORMATS
+
+        fmt = FORMATS.get(request.get("format"))
+        # a document may be a request (designed first); a motion format without a path is traced
+        return bool(request.get("document") or request.get("tolerance")) or large or (
+            fmt is not None and fmt.motion and request.get("path") is None)
+    if endpoint == "/v1/design/allosteric/network":
+        return analysis
+    return large  # /v1/plot
+
+
+@cache
+def _route(path: str) -> APIRoute:
+    """The POST route of ``path`` among ROUTES."""
+    from zeromode.service.routes import design, export, lattice, plot
+
+    return next(r for module in (design, export, lattice, plot) for r in module.router.routes
+                if isinstance(r, APIRoute) and r.path == path and "POST" in r.methods)
+
+
+def _body_model(route: APIRoute):
+    (param,) = route.dependant.body_params
+    return param.field_info.annotation
+
+
+def execute_route(path: str, request: dict[str, Any], settings_json: str,
+                  budget_s: float) -> tuple[int, bytes, list[tuple[str, str]]]:
+    """The Dask task of a heavy request to one of ROUTES: (HTTP status, body, headers) as the
+    route answers, under the request's time budget (as tasks.execute_request for the job
+    endpoints; the answer may be a file, e.g. an export)."""
+    try:
+        settings = settings_of(settings_json)
+        route = _route(path)
+        with settings_scope(settings), time_budget(budget_s, settings.time_budget_s):
+            out = route.endpoint(_body_model(route).model_validate(request))
+            if isinstance(out, Response):
+                kept = [(k, v) for k, v in out.headers.items() if k in ("content-type", "content-disposition")]
+                return out.status_code, bytes(out.body), kept
+            data = route.response_model.model_validate(out).model_dump(mode="json")
+            return 200, json.dumps(data, allow_nan=False, separators=(",", ":")).encode(), JSON_HEADERS
+    except Exception as exc:  # noqa: BLE001 — every failure is the route's error answer
+        return error_status(exc), json.dumps({"detail": error_detail(exc)}, separators=(",", ":")).encode(), JSON_HEADERS
 
 
 class Offload:
@@ -91,15 +172,13 @@ class Offload:
             # the route answers, rather than a request waiting for a cluster to start.
             await self.app(scope, receive, send)
             return
-        outcome = await self._run(engine, path, plan, receive)
+        outcome = await self._run(engine, path, *plan, receive)
         if outcome is not None:
-            await _send_json(send, *outcome)
+            await _send(send, *outcome)
 
-    def _plan(self, scope: Scope, path: str, body: bytes) -> dict[str, Any] | None:
-        """The request to offload, or None to answer it inline."""
-        from zeromode.service.tasks import RUNNABLE
-
-        if path not in RUNNABLE:
+    def _plan(self, scope: Scope, path: str, body: bytes) -> tuple[dict[str, Any], Callable] | None:
+        """The request to offload and the task that answers it, or None to answer it inline."""
+        if path not in RUNNABLE and path not in ROUTES:
             return None
         try:
             request = json.loads(body)
@@ -111,29 +190,33 @@ class Offload:
         except (TypeError, ValueError, AttributeError, OverflowError):
             return None  # fields of the wrong type: the route answers with its validation error
         try:
-            validated(path, request)
-        except RequestRefused:
+            if path in RUNNABLE:
+                validated(path, request)
+                return request, execute_request
+            _body_model(_route(path)).model_validate(request)
+            return request, execute_route
+        except (RequestRefused, ValidationError):
             return None  # the route answers with its own error body
-        return request
 
-    async def _run(self, engine, endpoint: str, request: dict[str, Any], receive: Receive) -> tuple[int, bytes] | None:
-        """(status, body) of the request run on a worker; None when the client left."""
+    async def _run(self, engine, endpoint: str, request: dict[str, Any], task: Callable,
+                   receive: Receive) -> tuple | None:
+        """(status, body[, headers]) of the request run on a worker; None when the client left."""
         budget = self.settings.time_budget_s
         # The request's own budget, started when its body was read (LimitsAndAuth): what is
         # left of it after validation and submission is the worker's.
         left_s = remaining()
         left_s = budget if left_s is None else left_s
-        task = await asyncio.to_thread(engine.run_request, endpoint, request, left_s)
+        future = await asyncio.to_thread(engine.run_request, endpoint, request, left_s, task)
         done = asyncio.get_running_loop().create_future()
-        task.add_done_callback(lambda _: done.get_loop().call_soon_threadsafe(_settle, done))
+        future.add_done_callback(lambda _: done.get_loop().call_soon_threadsafe(_settle, done))
         left = asyncio.ensure_future(_disconnected(receive))
         finished, _ = await asyncio.wait({done, left}, timeout=left_s + OVERRUN_SLACK * budget,
                                          return_when=asyncio.FIRST_COMPLETED)
         left.cancel()
         if done in finished:
-            return engine.request_outcome(task)
+            return engine.request_outcome(future)
         # Stopped in the background: the answer does not wait for a worker to restart.
-        threading.Thread(target=engine.stop_request, args=(task,), name="zeromode-stop", daemon=True).start()
+        threading.Thread(target=engine.stop_request, args=(future,), name="zeromode-stop", daemon=True).start()
         if left in finished:
             return None
         return 422, json.dumps(error_body(
@@ -154,7 +237,8 @@ async def _disconnected(receive: Receive) -> None:
         pass
 
 
-async def _send_json(send: Send, status: int, content: bytes) -> None:
+async def _send(send: Send, status: int, content: bytes, headers: list[tuple[str, str]] = JSON_HEADERS) -> None:
+    raw = [(k.encode("latin-1"), v.encode("latin-1")) for k, v in headers]
     await send({"type": "http.response.start", "status": status,
-                "headers": [(b"content-type", b"application/json"), (b"content-length", str(len(content)).encode())]})
+                "headers": [*raw, (b"content-length", str(len(content)).encode())]})
     await send({"type": "http.response.body", "body": content})
