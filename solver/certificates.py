@@ -43,9 +43,10 @@ Size: the SDPs have one LMI of size f (prestress) or p (margin). Clarabel factor
 block of size n(n+1)/2 for an n × n LMI, so its time grows like n⁶: SDP_MAX_DIM caps n.
 Beyond it: the prestress SDP is reduced exactly to the stresses that matter (prestress_program:
 m̃ ≤ f(f+1)/2 variables however many self-stresses), its LMI stays f × f and is refused past
-SDP_MAX_DIM; the optimal-stiffness margin goes to the spectral bundle route (stiffness.py, up
-to OPTIMAL_MAX_DIM), with the same verified bracket; the uniform margin is one shift-invert
-eigen-solve (eigen.py). Sizes are checked from the request before any analysis (check_size).
+SDP_MAX_DIM; the optimal-stiffness margin goes to the interior-point route of stiffness.py (up
+to OPTIMAL_MAX_DIM: the LMI reduced by the frame's reflection symmetries to orbit variables and
+one block per character, solved by a primal–dual method written for its rank-one terms), with
+the same verified bracket; the uniform margin is one shift-invert eigen-solve (eigen.py). Sizes are checked from the request before any analysis (check_size).
 """
 
 from __future__ import annotations
@@ -79,7 +80,7 @@ from zeromode.solver.tolerances import GIVEN_MODE_RTOL
 SOLVERS = ("clarabel", "scs")
 # Largest LMI (f or p) handed to a solver. Measured with Clarabel on the shared 2-core machine:
 # 1–4 s at n = 37, 3–7 s at n = 47, 10–20 s at n = 57 (growing like n⁶). Larger complements
-# go to the spectral bundle route (stiffness.py), prestress LMIs beyond it are refused.
+# go to the interior-point route (stiffness.py), prestress LMIs beyond it are refused.
 SDP_MAX_DIM = 48
 
 
@@ -90,9 +91,9 @@ def sdp_expected_s(n: int) -> float:
 # Largest frame certified (d·N): the analysis, the prestress projections and the uniform margin
 # are sparse (a few seconds at dN = 15 000, the 50 × 50 auxetic sheet).
 MAX_DOF = 60_000
-# Largest complement p = dN − ρ − M for the optimal-stiffness margin (spectral bundle route:
-# each iteration factorises a dN × dN stiffness matrix and solves a master problem with one
-# variable per bar; the 20 × 20 auxetic sheet has p = 2478).
+# Largest complement p = dN − ρ − M for the optimal-stiffness margin (interior-point route:
+# each iteration costs Σ_χ (m² p_χ + m p_χ² + p_χ³) for m bar orbits and blocks p_χ; the
+# 20 × 20 auxetic sheet, p = 2478, reduces to 4 blocks of 620 and 800 orbits).
 OPTIMAL_MAX_DIM = 2_500
 # t* ≤ PRESTRESS_TOL counts as zero. t* is dimensionless (unit stress, unit flexes); Clarabel
 # brackets it to ~1e-9, SCS to ~1e-6, stable frames of interest have t* ≳ 1e-4.
@@ -509,14 +510,14 @@ def rigidity_margin(
         uniform = float(smallest_eigenpairs(sp.csc_matrix(c.T @ c), 1, deflate=span).values[0])
         if not stiffness:
             return RigidityMargin(m, p, 0, uniform)
-        return _bundle_margin(m, p, uniform, c, span)
+        return _large_margin(frame, m, p, uniform, c, span)
     complement, _, _ = nullspace(span.T)
     a = c @ complement  # (N_B, p): rows a_e = Pᵀ c_e
     uniform = float(np.linalg.svd(a, compute_uv=False)[-1] ** 2) if a.shape[0] >= p else 0.0
     if not stiffness:
         return RigidityMargin(m, p, 0, uniform)
     if p > SDP_MAX_DIM:
-        return _bundle_margin(m, p, uniform, c, span)
+        return _large_margin(frame, m, p, uniform, c, span)
     solution = solve_lmi(
         stiffness_program(a),
         solver,
@@ -529,12 +530,13 @@ def rigidity_margin(
     return RigidityMargin(m, p, 0, uniform, solution.lower, solution.upper, stiffness=solution.x, sdp=solution)
 
 
-def _bundle_margin(m: int, p: int, uniform: float, c, span) -> RigidityMargin:
-    """The optimal margin of a complement beyond SDP_MAX_DIM: the spectral bundle route
-    (stiffness.py), its verified bracket recorded like an SDP solution (solver
-    "spectral_bundle", status "optimal" or "gap_not_closed")."""
-    result = optimal_stiffness(c, span, uniform)
-    run = SolverRun("spectral_bundle", result.status, result.time_ms)
+def _large_margin(frame: Frame, m: int, p: int, uniform: float, c, span) -> RigidityMargin:
+    """The optimal margin of a complement beyond SDP_MAX_DIM: the interior-point route
+    (stiffness.py, reduced by the symmetries of the normalised frame), its verified bracket
+    recorded like an SDP solution (solver "interior_point", status "optimal" or
+    "gap_not_closed")."""
+    result = optimal_stiffness(c, span, uniform, frame.normalised_positions(), frame.edges)
+    run = SolverRun("interior_point", result.status, result.time_ms)
     record = LmiSolution(
         result.stiffness, result.lower, result.upper, run.solver, run.status, run.time_ms, (run,)
     )

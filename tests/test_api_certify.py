@@ -116,12 +116,12 @@ def test_solver_failure_is_422_certificate_failed(client):
 
 
 def test_a_sheet_with_default_options_gets_its_optimal_margin_with_a_verified_bracket(client):
-    # A 3 × 3 auxetic sheet: p = 2N − 3 − 1 = 64 > SDP_MAX_DIM, so the spectral bundle route.
+    # A 3 × 3 auxetic sheet: p = 2N − 3 − 1 = 64 > SDP_MAX_DIM, so the interior-point route.
     lattice = auxetic_sheet(3, 3, poisson=-0.5)
     frame = {"dim": 2, "positions": lattice.frame.positions.tolist(), "edges": lattice.frame.edges.tolist()}
     body = ok(certify(client, frame, modes=[lattice.mode.tolist()]))
     rm = body["rigidity_margin"]
-    assert rm["complement_dim"] == 64 and rm["sdp"]["solver"] == "spectral_bundle"
+    assert rm["complement_dim"] == 64 and rm["sdp"]["solver"] == "interior_point"
     assert rm["sdp"]["status"] == "optimal"
     assert rm["uniform"] <= rm["optimal"] <= rm["optimal_upper_bound"]
     assert rm["optimal_upper_bound"] - rm["optimal"] <= 1e-3 * rm["optimal_upper_bound"]

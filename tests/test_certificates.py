@@ -391,10 +391,10 @@ def triangulated_strip(n: int):
     return x, e
 
 
-def test_large_allocation_goes_to_the_spectral_bundle_with_a_verified_bracket():
+def test_large_allocation_goes_to_the_interior_point_route_with_a_verified_bracket():
     x, e = triangulated_strip(SDP_MAX_DIM // 2 + 4)  # p = 2N − 3 > SDP_MAX_DIM
     got = certify(Frame.build(x, e)).rigidity_margin
-    assert got.complement_dim > SDP_MAX_DIM and got.sdp.solver == "spectral_bundle"
+    assert got.complement_dim > SDP_MAX_DIM and got.sdp.solver == "interior_point"
     k = got.stiffness
     assert np.all(k >= 0) and k.sum() == pytest.approx(len(e))
     # The lower bound is attained: λ_min at the returned allocation, from scratch.
@@ -410,7 +410,7 @@ def test_large_allocation_goes_to_the_spectral_bundle_with_a_verified_bracket():
         assert got.optimal_upper_bound - got.optimal <= 1e-3 * got.optimal_upper_bound
 
 
-def test_spectral_bundle_and_the_sdp_bracket_the_same_optimum():
+def test_interior_point_route_and_the_sdp_bracket_the_same_optimum():
     """Below SDP_MAX_DIM both routes apply: each verified bracket must contain the other's."""
     frame = outward_square()
     xn = normalised(frame.positions)
@@ -419,12 +419,12 @@ def test_spectral_bundle_and_the_sdp_bracket_the_same_optimum():
     p = kernel(fixed.T)
     sdp = solve_lmi(stiffness_program(c @ p))
     uniform = float(np.linalg.eigvalsh(p.T @ c.T @ c @ p)[0])
-    bundle = optimal_stiffness(sp.csr_matrix(c), fixed, uniform)
-    assert bundle.status == "optimal"
-    assert bundle.lower <= sdp.upper * (1 + 1e-9) and sdp.lower <= bundle.upper * (1 + 1e-9)
-    assert bundle.lower == pytest.approx(sdp.lower, rel=2e-3)
-    k = bundle.stiffness
-    assert float(np.linalg.eigvalsh(p.T @ c.T @ np.diag(k) @ c @ p)[0]) >= bundle.lower
+    large = optimal_stiffness(sp.csr_matrix(c), fixed, uniform)
+    assert large.status == "optimal"
+    assert large.lower <= sdp.upper * (1 + 1e-9) and sdp.lower <= large.upper * (1 + 1e-9)
+    assert large.lower == pytest.approx(sdp.lower, rel=2e-3)
+    k = large.stiffness
+    assert float(np.linalg.eigvalsh(p.T @ c.T @ np.diag(k) @ c @ p)[0]) >= large.lower
 
 
 def test_sizes_beyond_the_limits_are_refused_with_the_limit_named():
