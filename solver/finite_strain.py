@@ -20,8 +20,9 @@ included) contains it.  For ν = −1 (within the tolerance) the Cardan trammels
 module's centre, a secant ratio of −1 to round-off over the whole motion.  When no member holds
 the range, IPOPT refines the module with the best cover (refine_module: the module's orbit
 coordinates and its configurations at samples of the range as unknowns, bars at their lengths,
-secant ratios within t minimised, pairs of the module and its neighbours kept apart), after the
-grids and again after Brent's searches between grid points; a refined module counts only once
+secant ratios within t minimised, pairs of the module and its neighbours kept apart), after
+Brent's searches between grid points (family members keep the linear ratio exactly ν, a refined
+module only within the tolerance, so they come first); a refined module counts only once
 its own continuation (_deviation) and usable range (module_range) hold the range.  Everything is
 computed on one module, so the cost of the design does not grow with the number of cells.
 
@@ -228,8 +229,9 @@ def finite_strain_sheet(
     families = [("trammel", STRETCHES, trammel)]
     if abs(poisson + 1.0) <= tolerance:
         families.insert(0, ("cardan", CARDAN_FRACTIONS, cardan))
-    # The families' grids first, then IPOPT from the best module found (a fraction of a second),
-    # then the searches between grid points, then IPOPT from their best if it is better.
+    # The families' grids first, then the searches between grid points, then IPOPT from the best
+    # module found.  Members of a family keep the linear ratio exactly ν; a refined module trades
+    # it within the tolerance, so the families come first.
     best_dev, best_cover, warm, chosen, refined = None, -np.inf, None, None, None
     searches = []
     share = 0.4 / len(families)
@@ -245,31 +247,21 @@ def finite_strain_sheet(
         if found.warm_start is not None and (found.best_cover > best_cover or warm is None):
             best_cover, warm = found.best_cover, found.warm_start
 
-    def refine_from(module, stage):
-        nonlocal refined
-        with progress_stage(*stage, "IPOPT refinement of the best module"):
-            attempt = _refined(module, cover, poisson, lo, hi, scan_cells)
-        if attempt is not None and (refined is None or (attempt[2], -attempt[1]) > (refined[2], -refined[1])):
-            refined = attempt
-        if attempt is not None and attempt[1] <= tolerance and attempt[2] >= 1.0:
-            return ("refined", None, attempt[0].module)
-        return None
-
     if chosen is None and warm is not None:
-        chosen = refine_from(warm, (0.4, 0.45))
-    if chosen is None and warm is not None:
-        first = warm
-        share = 0.3 / len(searches)
+        share = 0.35 / len(searches)
         for f, (family, grid, member, found) in enumerate(searches):
-            with progress_stage(0.45 + f * share, 0.45 + (f + 1) * share, f"the {family} family between grid points"):
+            with progress_stage(0.4 + f * share, 0.4 + (f + 1) * share, f"the {family} family between grid points"):
                 t, cover_t, module_t = _search_windows(grid, member, found.covers, cover, poisson, lo, hi, tolerance)
             if t is not None:
                 chosen = (family, t, member(t))
                 break
             best_cover = max(best_cover, cover_t)
             warm = module_t if module_t is not None else warm
-        if chosen is None and warm is not first:
-            chosen = refine_from(warm, (0.75, 0.8))
+        if chosen is None:
+            with progress_stage(0.75, 0.8, "IPOPT refinement of the best module"):
+                refined = _refined(warm, cover, poisson, lo, hi, scan_cells)
+            if refined is not None and refined[1] <= tolerance and refined[2] >= 1.0:
+                chosen = ("refined", None, refined[0].module)
     if chosen is None:
         if best_cover == -np.inf:
             why = f"the best secant deviation over the range is {best_dev['max_deviation']:.3g}"
