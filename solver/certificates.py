@@ -45,8 +45,8 @@ Beyond it: the prestress SDP is reduced exactly to the stresses that matter (pre
 m̃ ≤ f(f+1)/2 variables however many self-stresses), its LMI stays f × f and is refused past
 SDP_MAX_DIM; the optimal-stiffness margin goes to the interior-point route of stiffness.py (up
 to OPTIMAL_MAX_DIM: the LMI reduced by the frame's reflection symmetries to orbit variables and
-one block per character, solved by a primal–dual method written for its rank-one terms), with
-the same verified bracket; the uniform margin is one shift-invert eigen-solve (eigen.py). Sizes are checked from the request before any analysis (check_size).
+one block per character, solved by a primal–dual method written for its rank-one terms; a
+spectral bundle method when the blocks stay too large), with the same verified bracket; the uniform margin is one shift-invert eigen-solve (eigen.py). Sizes are checked from the request before any analysis (check_size).
 """
 
 from __future__ import annotations
@@ -533,10 +533,10 @@ def rigidity_margin(
 def _large_margin(frame: Frame, m: int, p: int, uniform: float, c, span) -> RigidityMargin:
     """The optimal margin of a complement beyond SDP_MAX_DIM: the interior-point route
     (stiffness.py, reduced by the symmetries of the normalised frame), its verified bracket
-    recorded like an SDP solution (solver "interior_point", status "optimal" or
-    "gap_not_closed")."""
+    recorded like an SDP solution (solver "interior_point", or "spectral_bundle" for a frame
+    whose reduced blocks stay too large; status "optimal" or "gap_not_closed")."""
     result = optimal_stiffness(c, span, uniform, frame.normalised_positions(), frame.edges)
-    run = SolverRun("interior_point", result.status, result.time_ms)
+    run = SolverRun(result.method, result.status, result.time_ms)
     record = LmiSolution(
         result.stiffness, result.lower, result.upper, run.solver, run.status, run.time_ms, (run,)
     )

@@ -1,4 +1,4 @@
-"""The optimal-stiffness margin of a large frame, by a symmetry-reduced interior-point method, with a verified bracket.
+"""The optimal-stiffness margin of a large frame, by a symmetry-reduced interior-point method (or a spectral bundle method), with a verified bracket.
 
     λ* = max { φ(k) : k ∈ Δ },   φ(k) = λ_min(Pᵀ K(k) P),   K(k) = Cᵀ diag(k) C = Σ_e k_e c_e c_eᵀ,
     Δ = { k ≥ 0, Σ_e k_e = N_B },   P an orthonormal basis of span^⊥ (span = rigid ⊕ designed),
@@ -34,9 +34,27 @@ The certificate is verified outside the method, on the full frame and every bar:
     upper = U(Y) = N_B · max_e c_eᵀ Y c_e with Y = V Vᵀ / ‖V‖_F², V = ⊕_χ Q_χ X_χ^½ projected
             ⟂ span: for every k ∈ Δ, φ(k) ≤ ⟨K(k), Y⟩ = Σ k_e c_eᵀYc_e ≤ U(Y) (weak duality),
             whatever the iterate's accuracy or feasibility.
-It stops when (upper − lower)/upper ≤ GAP_RTOL, or after TIME_S seconds (or 80 % of the
-request's budget): the bracket is verified either way, and the status says whether the target
-gap was met.  Without symmetry (G = {I}) the method is the same with one block of size p.
+Without symmetry (G = {I}) the method is the same with one block of size p.
+
+Frames whose reduced LMI keeps a large block (no symmetry: the 3D chains, p ≈ 2100 in one
+block) would spend tens of seconds per interior-point iteration; when one iteration would cost
+more than IPM_MAX_FLOPS the route is instead a spectral bundle method (Helmberg & Rendl 2000,
+proximal form, maximising), first-order: the model
+    φ̂(k) = min( λ_min(Vᵀ K(k) V), ḡᵀ k ) ≥ φ(k)
+uses a bundle V (orthonormal, ⟂ span) of eigenvectors met so far and an aggregate ḡ = g(W̄) of
+the dropped ones (g_e(W) = c_eᵀ W c_e, the supergradients of φ).  Each iteration solves the
+master problem (Clarabel, one variable per bar)
+    max_{k ∈ Δ ∩ [k̂/ρ, ρ k̂]}  φ̂(k) − (u/2)‖k − k̂‖²
+whose dual (Z ⪰ 0 on the bundle, α ≥ 0 on the aggregate) is a Y for U; evaluates φ at the new
+k by sparse shift-invert Lanczos (a serious step moves k̂ there when it realises a fraction of
+the predicted increase; a null step enlarges the bundle), and keeps the bundle small: the
+dominant part of Z, plus the new point's smallest eigenvectors.  The multiplicative trust region
+[k̂/ρ, ρ k̂] keeps every bar alive, so a step cannot make the frame floppy.  Its bracket is
+φ(k̂) (the smallest Ritz value minus its residual) ≤ λ* ≤ U(Y), Y = (V Z Vᵀ + α W̄)/(tr Z + α).
+
+Both routes scale the problem so that φ(1) = 1, and stop when (upper − lower)/upper ≤ GAP_RTOL
+or after TIME_S seconds (or 80 % of the request's budget): the bracket is verified either way,
+and the status says whether the target gap was met.
 """
 
 from __future__ import annotations
@@ -52,7 +70,7 @@ from scipy.spatial import cKDTree
 from zeromode.solver.budget import check_budget, remaining
 from zeromode.solver.eigen import smallest_eigenpairs
 from zeromode.solver.progress import report_progress
-from zeromode.solver.rank import nullspace
+from zeromode.solver.rank import nullspace, orthonormal_range
 
 # Relative gap (U − L)/U at which the bracket is closed.
 GAP_RTOL = 1e-3
@@ -72,6 +90,25 @@ INNER_FRACTION = 0.25
 MAX_ITERATIONS = 80
 STEP_FRACTION = 0.95
 BACKTRACK = 0.5
+# The interior-point route runs when one iteration costs at most this many flops (the 20 × 20
+# sheet reduced: 3e10, ~2 s on one loaded core); beyond it, the spectral bundle route.
+IPM_MAX_FLOPS = 1e11
+# Smallest eigenpairs evaluated per point (the new cuts) and the bundle's largest size.
+BUNDLE_CUTS = 4
+BUNDLE_MAX = 10
+# Multiplicative trust region of the master: each stiffness within a factor ρ of k̂'s.
+TRUST_RATIO = 2.0
+# A step is serious when φ rises by this fraction of the model's predicted rise; the proximal
+# weight halves after a step that realises VERY_GOOD of it, and doubles after a null step.
+SERIOUS = 0.1
+VERY_GOOD = 0.7
+# Eigenvectors of the master's dual Z below this fraction of its largest weight go to the aggregate.
+KEEP_RTOL = 1e-3
+# Bundle directions whose energy at k̂ exceeds this (in units of φ(1)) cannot matter to λ_min and
+# would only scale the master badly (Lanczos noise orthonormalised into a stiff direction).
+SOFT_MAX = 100.0
+# Every this many iterations the bound U is also taken from the master without proximal term.
+BOUND_EVERY = 10
 
 
 @dataclass(frozen=True, eq=False)
@@ -80,26 +117,41 @@ class Reduction:
 
     signs (|G|, d) and perms (|G|, N): the group elements T and their node permutations π;
     bases: one Q_χ (dN × p_χ, orthonormal, ⟂ span) per character with p_χ > 0; orbit (N_B,):
-    each bar's orbit index; sizes (m,): |o|; rows: B_χ (m × p_χ), row o = b_oχ = Q_χᵀ c_{e_o}."""
+    each bar's orbit index; sizes (m,): |o|; representatives (m,): one bar e_o per orbit."""
 
     signs: np.ndarray
     perms: np.ndarray
     bases: tuple[np.ndarray, ...]
     orbit: np.ndarray
     sizes: np.ndarray
-    rows: tuple[np.ndarray, ...]
+    representatives: np.ndarray
+
+    def rows(self, c) -> tuple[np.ndarray, ...]:
+        """B_χ (m × p_χ), row o = b_oχ = Q_χᵀ c_{e_o}, for C (N_B × dN, sparse)."""
+        lead = c[self.representatives]
+        return tuple(np.asarray(lead @ q) for q in self.bases)
+
+    def iteration_flops(self) -> float:
+        """Floating-point operations of one interior-point iteration on this reduction,
+        Σ_χ (2m²p_χ + 6mp_χ² + 20p_χ³): Schur complement, products with B_χ, factorisations
+        and step lengths of the p_χ × p_χ blocks."""
+        m = float(len(self.sizes))
+        return sum(2 * m * m * p + 6 * m * p * p + 20 * p**3 for p in (float(q.shape[1]) for q in self.bases))
 
 
 @dataclass(frozen=True, eq=False)
 class StiffnessResult:
     """lower ≤ λ* ≤ upper (verified); stiffness: k̂ (N_B, Σ = N_B) attaining ``lower``;
-    dual: V (dN × r, ⟂ span) with U = N_B·max_e ‖(C V)_e‖²/‖V‖_F² = upper; status "optimal"
-    (gap ≤ GAP_RTOL) or "gap_not_closed"; iterations; time_ms; group_order |G|; blocks: p_χ."""
+    method "interior_point" or "spectral_bundle"; dual: for the interior-point route V (dN × r,
+    ⟂ span) with upper = N_B·max_e ‖(C V)_e‖²/‖V‖_F² (C scaled back), None for the bundle's;
+    status "optimal" (gap ≤ GAP_RTOL) or "gap_not_closed"; iterations; time_ms; group_order
+    |G| and blocks p_χ of the reduction (1 and (p,) for the bundle route)."""
 
     lower: float
     upper: float
     stiffness: np.ndarray
-    dual: np.ndarray
+    method: str
+    dual: np.ndarray | None
     status: str
     iterations: int
     time_ms: float
@@ -157,9 +209,9 @@ def isotypic_basis(signs: np.ndarray, perms: np.ndarray, character: np.ndarray) 
     return sp.csc_matrix((values, (rows, cols)), shape=(n * d, column))
 
 
-def reduce_lmi(c, positions: np.ndarray, edges: np.ndarray, span: np.ndarray) -> Reduction:
-    """Steps 1–2 of the module docstring for C (N_B × dN, sparse), the frame's ``positions``
-    (N, d) and ``edges`` (N_B, 2) in the coordinates of C, and span (dN × q, orthonormal)."""
+def reduce_lmi(positions: np.ndarray, edges: np.ndarray, span: np.ndarray) -> Reduction:
+    """Steps 1–2 of the module docstring for the frame's ``positions`` (N, d) and ``edges``
+    (N_B, 2) (in the coordinates of its C) and span (dN × q, orthonormal)."""
     signs, perms = sign_symmetries(positions, edges, span)
     d = signs.shape[1]
     characters = {tuple(np.prod(signs[:, [a for a in range(d) if subset >> a & 1]], axis=1)) for subset in range(2**d)}
@@ -179,9 +231,7 @@ def reduce_lmi(c, positions: np.ndarray, edges: np.ndarray, span: np.ndarray) ->
             orbit[[index[tuple(e)] for e in images[:, b].tolist()]] = len(representatives)
             representatives.append(b)
     sizes = np.bincount(orbit).astype(float)
-    lead = c[representatives]
-    rows = tuple(np.asarray(lead @ q) for q in bases)
-    return Reduction(signs, perms, tuple(bases), orbit, sizes, rows)
+    return Reduction(signs, perms, tuple(bases), orbit, sizes, np.array(representatives))
 
 
 def optimal_stiffness(
@@ -195,16 +245,19 @@ def optimal_stiffness(
     """max_k λ_min(Pᵀ Cᵀ diag(k) C P) over Δ for the normalised C (N_B × dN, sparse) and span
     (dN × q orthonormal, P its complement); ``uniform`` = φ(1) > 0; positions (N, d) and edges
     (N_B, 2) of the frame C belongs to, for its symmetry (None: no reduction); at most
-    ``time_s`` seconds (and 80 % of what is left of the request's budget)."""
+    ``time_s`` seconds (and 80 % of what is left of the request's budget).  The interior-point
+    route when one of its iterations costs at most IPM_MAX_FLOPS, else the spectral bundle."""
     t0 = time.perf_counter()
     budget = time_s if remaining() is None else min(time_s, 0.8 * remaining())
     scaled = (sp.csr_matrix(c) / np.sqrt(uniform)).tocsr()  # φ(1) = 1 for the scaled rows
     if positions is None:
-        reduction = _trivial(scaled, span)
+        reduction = _trivial(scaled.shape[0], span)
     else:
-        reduction = reduce_lmi(scaled, np.asarray(positions, float), np.asarray(edges), span)
+        reduction = reduce_lmi(np.asarray(positions, float), np.asarray(edges), span)
+    if reduction.iteration_flops() > IPM_MAX_FLOPS:
+        return spectral_bundle(c, span, uniform, time_s)
     best = None
-    for y, x, iterations, inner_gap in _interior_point(reduction.rows, reduction.sizes, t0, budget):
+    for y, x, iterations in _interior_point(reduction.rows(scaled), reduction.sizes, t0, budget):
         result = _verify(scaled, span, reduction, y, x)
         best = result if best is None or result[1] - result[0] < best[1] - best[0] else best
         if best[1] - best[0] <= GAP_RTOL * best[1]:
@@ -214,6 +267,7 @@ def optimal_stiffness(
         lower=lower * uniform,
         upper=upper * uniform,
         stiffness=k,
+        method="interior_point",
         dual=dual,
         status="optimal" if upper - lower <= GAP_RTOL * upper else "gap_not_closed",
         iterations=iterations,
@@ -223,12 +277,10 @@ def optimal_stiffness(
     )
 
 
-def _trivial(scaled, span: np.ndarray) -> Reduction:
-    """The reduction by the trivial group: one block, every bar its own orbit."""
-    n_bars = scaled.shape[0]
-    q = nullspace(span.T)[0]
+def _trivial(n_bars: int, span: np.ndarray) -> Reduction:
+    """The reduction by the trivial group: one block P, every bar its own orbit."""
     return Reduction(
-        np.ones((1, 1)), np.arange(1)[None, :], (q,), np.arange(n_bars), np.ones(n_bars), (np.asarray(scaled @ q),)
+        np.ones((1, 1)), np.zeros((1, 0), int), (nullspace(span.T)[0],), np.arange(n_bars), np.ones(n_bars), np.arange(n_bars)
     )
 
 
@@ -237,8 +289,7 @@ def _verify(scaled, span, reduction: Reduction, y: np.ndarray, x: list[np.ndarra
     n_bars = scaled.shape[0]
     k = (y / reduction.sizes)[reduction.orbit]
     k *= n_bars / k.sum()
-    pairs = smallest_eigenpairs(sp.csc_matrix(scaled.T @ sp.diags(k) @ scaled), EIGENPAIRS, deflate=span)
-    lower = float(pairs.values[0] - pairs.residuals[0])
+    lower = lower_of(smallest_eigenpairs(sp.csc_matrix(scaled.T @ sp.diags(k) @ scaled), EIGENPAIRS, deflate=span))
     factors = []
     for q, xj in zip(reduction.bases, x):
         w, u = np.linalg.eigh((xj + xj.T) / 2)
@@ -253,7 +304,7 @@ def _verify(scaled, span, reduction: Reduction, y: np.ndarray, x: list[np.ndarra
 def _interior_point(rows: tuple[np.ndarray, ...], sizes: np.ndarray, t0: float, budget: float):
     """The primal–dual iteration of the module docstring on the blocks B_χ (m × p_χ), from the
     uniform allocation (y = |o|, scaled to S ⪰ I: ``sizes``); yields
-    (y, [X_χ], iterations, inner gap) whenever its duality gap is below INNER_FRACTION·GAP_RTOL
+    (y, [X_χ], iterations) whenever its duality gap is below INNER_FRACTION·GAP_RTOL
     (then below a quarter of that, and so on), and a last time when it stops: time, iteration
     cap, or no further progress in floating point."""
     m = rows[0].shape[0]
@@ -277,7 +328,7 @@ def _interior_point(rows: tuple[np.ndarray, ...], sizes: np.ndarray, t0: float, 
         elapsed = time.perf_counter() - t0
         report_progress(min(elapsed / budget, 1.0), "interior-point iterations")
         if gap <= target:
-            yield y, x, iterations, gap
+            yield y, x, iterations
             target *= INNER_FRACTION
         if elapsed > budget or iterations >= MAX_ITERATIONS:
             break
@@ -289,7 +340,7 @@ def _interior_point(rows: tuple[np.ndarray, ...], sizes: np.ndarray, t0: float, 
             break
         y, x, x_lp, s = step
         iterations += 1
-    yield y, x, iterations, gap
+    yield y, x, iterations
 
 
 def _newton_step(rows, y, x, x_lp, s, total):
@@ -375,3 +426,175 @@ def _definite(a: np.ndarray) -> bool:
     except la.LinAlgError:
         return False
     return True
+
+
+# ----------------------------------------------------------------------------- spectral bundle
+
+
+def spectral_bundle(c, span: np.ndarray, uniform: float, time_s: float = TIME_S) -> StiffnessResult:
+    """The spectral bundle route (module docstring) for the arguments of optimal_stiffness."""
+    t0 = time.perf_counter()
+    budget = time_s if remaining() is None else min(time_s, 0.8 * remaining())
+    n_bars = c.shape[0]
+    scaled = (c / np.sqrt(uniform)).tocsr()  # φ(1) = 1 for the scaled rows
+
+    def evaluate(k, guess=None):
+        pairs = smallest_eigenpairs(
+            sp.csc_matrix(scaled.T @ sp.diags(k) @ scaled), BUNDLE_CUTS, deflate=span, guess=guess
+        )
+        return pairs
+
+    k_hat = np.ones(n_bars)
+    at_hat = evaluate(k_hat)
+    bundle, aggregate = at_hat.vectors, None
+    u = 1.0 / n_bars
+    upper = np.inf
+    iterations = 0
+    while time.perf_counter() - t0 < budget:
+        check_budget()
+        report_progress((time.perf_counter() - t0) / budget, "spectral bundle iterations")
+        iterations += 1
+        bundle = _soft_part(scaled, bundle, k_hat)
+        a_v = scaled @ bundle
+        k, model, z, alpha = _master(a_v, aggregate, k_hat, u)
+        upper = min(upper, upper_bound(a_v, z, alpha, aggregate))
+        at_k = evaluate(k, bundle[:, 0])
+        value, best = at_k.values[0], at_hat.values[0]
+        predicted = model - best
+        if value - best >= SERIOUS * predicted:
+            if value - best >= VERY_GOOD * predicted:
+                u *= 0.5
+            k_hat, at_hat = k, at_k
+        else:
+            u *= 2.0
+        if (upper - lower_of(at_hat)) <= GAP_RTOL * upper:
+            break
+        bundle, aggregate = _next_bundle(bundle, a_v, z, alpha, aggregate, at_k.vectors, span)
+        if iterations % BOUND_EVERY == 0:
+            upper = min(upper, _model_bound(scaled, bundle, aggregate, at_hat, span))
+    upper = min(upper, _model_bound(scaled, bundle, aggregate, at_hat, span))
+    lower = lower_of(at_hat)
+    return StiffnessResult(
+        lower=lower * uniform,
+        upper=upper * uniform,
+        stiffness=k_hat,
+        method="spectral_bundle",
+        dual=None,
+        status="optimal" if upper - lower <= GAP_RTOL * upper else "gap_not_closed",
+        iterations=iterations,
+        time_ms=1e3 * (time.perf_counter() - t0),
+        group_order=1,
+        blocks=(c.shape[1] - span.shape[1],),
+    )
+
+
+def upper_bound(a_v: np.ndarray, z: np.ndarray, alpha: float, aggregate: np.ndarray | None) -> float:
+    """U(Y) = N_B · max_e c_eᵀ Y c_e for Y = (V Z Vᵀ + α W̄)/(tr Z + α), after projecting Z onto
+    the positive semidefinite cone; a_v = C V (N_B × r), ``aggregate`` = (c_eᵀ W̄ c_e)_e."""
+    w, u = np.linalg.eigh((z + z.T) / 2)
+    w = np.maximum(w, 0.0)
+    alpha = max(alpha, 0.0) if aggregate is not None else 0.0
+    total = w.sum() + alpha
+    if total <= 0:
+        return np.inf
+    energies = (a_v @ u) ** 2 @ w
+    if aggregate is not None:
+        energies = energies + alpha * aggregate
+    return float(a_v.shape[0] * energies.max() / total)
+
+
+def lower_of(pairs) -> float:
+    """A verified lower bound on λ_min from its Ritz pair: θ − ‖residual‖."""
+    return float(pairs.values[0] - pairs.residuals[0])
+
+
+def _master(a_v: np.ndarray, aggregate, k_hat: np.ndarray, u: float, trust: bool = True):
+    """The proximal master problem (module docstring) by Clarabel: (k, model value, Z, α).
+
+    Variables (k, λ); maximise λ − (u/2)‖k − k̂‖² subject to Σk = N_B, k̂/ρ ≤ k ≤ ρk̂ (with
+    ``trust``; else k ≥ 0), Σ_e k_e b_e b_eᵀ − λ I ⪰ 0 (b_e the rows of a_v) and λ ≤ ḡᵀk.
+    With u = 0 and no trust region its value is max_k φ̂(k) ≥ λ*, and its dual (Z, α) the best
+    Y the bundle and the aggregate can offer to the bound U."""
+    import clarabel
+
+    m, r = a_v.shape
+    rows, cols = np.triu_indices(r)
+    # Clarabel's PSD triangle: upper triangle by columns, off-diagonals scaled by √2.
+    order = np.lexsort((rows, cols))
+    rows, cols = rows[order], cols[order]
+    weight = np.where(rows == cols, 1.0, np.sqrt(2.0))
+    lmi = (a_v[:, rows] * a_v[:, cols] * weight).T  # (r(r+1)/2, m)
+    identity = np.where(rows == cols, 1.0, 0.0)
+    lower = k_hat / TRUST_RATIO if trust else np.zeros(m)
+    blocks = [
+        (sp.csr_matrix(np.append(np.ones(m), 0.0)), np.array([float(m)]), clarabel.ZeroConeT(1)),
+        (sp.hstack([-sp.identity(m), sp.csr_matrix((m, 1))]), -lower, clarabel.NonnegativeConeT(m)),
+    ]
+    if trust:
+        blocks.append(
+            (sp.hstack([sp.identity(m), sp.csr_matrix((m, 1))]), k_hat * TRUST_RATIO, clarabel.NonnegativeConeT(m))
+        )
+    aggregate_row = 1 + m * (2 if trust else 1)
+    if aggregate is not None:
+        blocks.append(
+            (sp.csr_matrix(np.append(-aggregate, 1.0)), np.zeros(1), clarabel.NonnegativeConeT(1))
+        )
+    blocks.append(
+        (sp.csr_matrix(-np.column_stack([lmi, -identity])), np.zeros(len(rows)), clarabel.PSDTriangleConeT(r))
+    )
+    a = sp.vstack([b[0] for b in blocks]).tocsc()
+    b = np.concatenate([b[1] for b in blocks])
+    p = sp.diags(np.append(np.full(m, u), 0.0)).tocsc()
+    q = np.append(-u * k_hat, -1.0)
+    settings = clarabel.DefaultSettings()
+    settings.verbose = False
+    solution = clarabel.DefaultSolver(p, q, a, b, [blk[2] for blk in blocks], settings).solve()
+    x, y = np.asarray(solution.x), np.asarray(solution.z)
+    k = np.clip(x[:m], lower, k_hat * TRUST_RATIO if trust else np.inf)
+    k *= m / k.sum()
+    dual = y[-len(rows) :] / weight
+    z = np.zeros((r, r))
+    z[rows, cols] = dual
+    z[cols, rows] = dual
+    alpha = float(y[aggregate_row]) if aggregate is not None else 0.0
+    model = float(np.linalg.eigvalsh((a_v * k[:, None]).T @ a_v)[0])
+    if aggregate is not None:
+        model = min(model, float(aggregate @ k))
+    return k, model, z, alpha
+
+
+def _model_bound(scaled, bundle, aggregate, at_hat, span) -> float:
+    """U from the best Y on the bundle, the aggregate and k̂'s smallest eigenvectors: the dual of
+    the master without proximal term or trust region."""
+    vectors = np.column_stack([bundle, at_hat.vectors])
+    vectors = orthonormal_range(vectors - span @ (span.T @ vectors), 1e-8)
+    a_v = scaled @ vectors
+    _, _, z, alpha = _master(a_v, aggregate, np.ones(a_v.shape[0]), 0.0, trust=False)
+    return upper_bound(a_v, z, alpha, aggregate)
+
+
+def _soft_part(scaled, bundle: np.ndarray, k_hat: np.ndarray) -> np.ndarray:
+    """The bundle rotated to its Ritz vectors at k̂, those with energy ≤ SOFT_MAX kept."""
+    a_v = scaled @ bundle
+    energy, rotation = np.linalg.eigh((a_v * k_hat[:, None]).T @ a_v)
+    keep = energy <= SOFT_MAX
+    keep[0] = True
+    return bundle @ rotation[:, keep]
+
+
+def _next_bundle(bundle, a_v, z, alpha, aggregate, new_vectors, span):
+    """The dominant eigenvectors of Z stay; the rest of Z (and the old aggregate, weighted by α)
+    becomes the new aggregate; the new point's smallest eigenvectors join (at most BUNDLE_MAX)."""
+    w, u = np.linalg.eigh((z + z.T) / 2)
+    w = np.maximum(w, 0.0)
+    keep = w > KEEP_RTOL * w.max() if w.max() > 0 else np.zeros(w.size, bool)
+    dropped = w[~keep].sum() + (alpha if aggregate is not None else 0.0)
+    if dropped > 0:
+        energies = (a_v @ u[:, ~keep]) ** 2 @ w[~keep]
+        if aggregate is not None:
+            energies = energies + alpha * aggregate
+        aggregate = energies / dropped
+    kept = bundle @ u[:, keep][:, ::-1]
+    stacked = np.column_stack([kept, new_vectors])[:, :BUNDLE_MAX]
+    stacked = stacked - span @ (span.T @ stacked)
+    return orthonormal_range(stacked, 1e-8), aggregate

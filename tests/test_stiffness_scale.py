@@ -16,7 +16,13 @@ from oracles.rigidity import compatibility_matrix, kernel, normalised, rigid_gen
 from zeromode.solver import Frame
 from zeromode.solver.certificates import SDP_MAX_DIM, certify, solve_lmi, stiffness_program
 from zeromode.solver.lattice import auxetic_sheet
-from zeromode.solver.stiffness import GAP_RTOL, optimal_stiffness, reduce_lmi, sign_symmetries
+from zeromode.solver.stiffness import (
+    GAP_RTOL,
+    optimal_stiffness,
+    reduce_lmi,
+    sign_symmetries,
+    spectral_bundle,
+)
 
 
 def problem(frame: Frame, modes):
@@ -73,7 +79,7 @@ def test_the_sheet_has_its_two_reflections_and_the_reduction_block_diagonalises_
     assert {tuple(s) for s in signs} == {(1, 1), (-1, 1), (1, -1), (-1, -1)}
     for s, perm in zip(signs, perms):  # checked on the positions: each flip permutes the nodes
         assert np.allclose(x[perm], x * s, atol=1e-12)
-    reduction = reduce_lmi(sp.csr_matrix(c), x, frame.edges, fixed)
+    reduction = reduce_lmi(x, frame.edges, fixed)
     q = np.column_stack(reduction.bases)
     assert q.shape == p.shape and np.allclose(q.T @ q, np.eye(p.shape[1]), atol=1e-10)
     assert np.linalg.norm(fixed.T @ q) <= 1e-10
@@ -153,3 +159,16 @@ def test_certify_takes_a_sheet_beyond_the_sdp_size_to_the_interior_point_route()
     assert got.optimal_upper_bound - got.optimal <= GAP_RTOL * got.optimal_upper_bound
     for trial in np.random.default_rng(5).dirichlet(np.ones(len(c)), size=50) * len(c):
         assert margin(c, p, trial) <= got.optimal_upper_bound
+
+
+def test_the_spectral_bundle_route_brackets_the_sdp_optimum():
+    """The route for frames whose reduced blocks stay large, on a small one where the SDP runs."""
+    frame = triangulated_strip(16)  # p = 29
+    _, c, fixed, p = problem(frame, [])
+    uniform = margin(c, p, np.ones(len(c)))
+    result = spectral_bundle(sp.csr_matrix(c), fixed, uniform)
+    assert result.method == "spectral_bundle" and result.status == "optimal"
+    assert result.upper - result.lower <= GAP_RTOL * result.upper
+    assert result.lower <= margin(c, p, result.stiffness) * (1 + 1e-9)
+    sdp = solve_lmi(stiffness_program(c @ p))
+    assert sdp.lower <= result.upper * (1 + 1e-9) and result.lower <= sdp.upper * (1 + 1e-9)

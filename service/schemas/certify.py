@@ -23,7 +23,8 @@ class CertifyOptions(RequestModel):
         description=(
             "Also compute the optimal-stiffness rigidity margin. Its LMI has size p = dN − ρ − M: "
             f"up to {SDP_MAX_DIM} it is solved as an SDP (Clarabel or SCS), up to {OPTIMAL_MAX_DIM} by "
-            "an interior-point method on the LMI reduced by the frame's reflection symmetries, both with a verified "
+            "an interior-point method on the LMI reduced by the frame's reflection symmetries (a spectral bundle "
+            "method when the reduced blocks stay large), all with a verified "
             f"bracket; beyond {OPTIMAL_MAX_DIM} the request is refused (422 too_expensive) before any "
             f"analysis. false gives the uniform margin alone, for frames up to {MAX_DOF} degrees "
             "of freedom."
@@ -51,12 +52,12 @@ class CertifyRequest(RequestModel):
 
 
 class SolverRunModel(BaseModel):
-    solver: Literal["clarabel", "scs", "interior_point"]
+    solver: Literal["clarabel", "scs", "interior_point", "spectral_bundle"]
     status: str = Field(
         description=(
             "cvxpy status (optimal, optimal_inaccurate, user_limit, solver_error, ...); "
             "'<status>_unverified' when the verified bounds did not decide the question; for "
-            f"interior_point 'optimal' (relative bracket ≤ {GAP_RTOL:g}) or 'gap_not_closed' (its "
+            f"interior_point and spectral_bundle 'optimal' (relative bracket ≤ {GAP_RTOL:g}) or 'gap_not_closed' (its "
             "time ran out: the bracket is still verified, only wider)."
         )
     )
@@ -66,11 +67,11 @@ class SolverRunModel(BaseModel):
 class SdpModel(BaseModel):
     """How an SDP was solved: the accepted attempt and every attempt in order."""
 
-    solver: Literal["clarabel", "scs", "interior_point"] = Field(
-        description="Solver of the accepted attempt (interior_point: the optimal margin beyond the SDP size)."
+    solver: Literal["clarabel", "scs", "interior_point", "spectral_bundle"] = Field(
+        description="Solver of the accepted attempt (interior_point or spectral_bundle: the optimal margin beyond the SDP size)."
     )
     status: str = Field(
-        description="Its status: optimal or optimal_inaccurate (cvxpy); optimal or gap_not_closed (interior_point)."
+        description="Its status: optimal or optimal_inaccurate (cvxpy); optimal or gap_not_closed (interior_point, spectral_bundle)."
     )
     time_ms: float = Field(description="Wall time of the accepted attempt.")
     size: int = Field(
