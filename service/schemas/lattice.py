@@ -62,7 +62,8 @@ class AuxeticRequest(RequestModel):
         default=None,
         description=(
             "2D only: hold the secant Poisson ratio within `tolerance` of `poisson_ratio` over `strain_range` "
-            "(a trammel module chosen on one module, then tiled and verified on the full sheet; report.finite_strain). "
+            "(a module chosen on one module — a trammel, a Cardan trammel for ν = −1, or the best of them refined by "
+            "IPOPT — then tiled and verified on the full sheet; report.finite_strain). "
             "The states are at the ends of the range (`strain` is unused). Out of reach: 422 "
             "`finite_strain_unreachable` with the best figures in detail.best."
         ),
