@@ -615,8 +615,9 @@ def _new_rows(rows: np.ndarray, known: np.ndarray, columns: int | None = None) -
 
 def _module_nlp(module: SymmetricModule, patch, poisson: float, strains: np.ndarray, pairs, crossings, start, box):
     """refine_module's NLP (its docstring) as casadi matrix expressions over w = (q₀'s orbit
-    coordinates, q_1[1:] … q_K[1:], t, slacks): (nlp, lbg, ubg, lbx, the slacks at ``start``,
-    the other unknowns' values).  ``box`` (2,): the largest |x|, |y| of an unspecified node."""
+    coordinates, q_1[1:] … q_K[1:], t, slacks): (nlp, lbg, ubg, lbx, the slacks' starting
+    values — each pair's largest shortfall when the other unknowns are ``start``).  ``box`` (2,):
+    the largest |x|, |y| of an unspecified node."""
     w, h = module.cell
     n_q, n_k = len(module.reference), len(strains)
     n_main, n_slack = len(start), len(pairs) + len(crossings)
