@@ -86,7 +86,7 @@ INVARIANT_RTOL = 1e-7
 # The interior-point iteration verifies its bracket once its own duality gap is below this
 # fraction of GAP_RTOL, stops after MAX_ITERATIONS, and steps this fraction of the way to the
 # boundary of the cones; a step whose Cholesky factor fails is shortened by BACKTRACK.
-INNER_FRACTION = 0.25
+INNER_FRACTION = 0.5
 MAX_ITERATIONS = 80
 STEP_FRACTION = 0.95
 BACKTRACK = 0.5
@@ -347,8 +347,7 @@ def _newton_step(rows, y, x, x_lp, s, total):
     """One Mehrotra predictor–corrector step (HKM direction) from a strictly feasible dual
     (y, S) and a positive primal (X, x_lp); returns the new iterate, or None when the step
     makes no progress."""
-    factors = [la.cho_factor(sj, lower=True) for sj in s]
-    s_inv = [la.cho_solve(f, np.eye(len(sj))) for f, sj in zip(factors, s)]
+    s_inv = [_inverse(sj) for sj in s]
     mu = (sum(np.vdot(xj, sj) for xj, sj in zip(x, s)) + x_lp @ y) / total
     bx = [b @ xj for b, xj in zip(rows, x)]
     bs = [b @ si for b, si in zip(rows, s_inv)]
@@ -360,7 +359,7 @@ def _newton_step(rows, y, x, x_lp, s, total):
     a_s = [np.sum(bsj * b, axis=1) for bsj, b in zip(bs, rows)]
     residual = a_x - 1.0  # R_p = 𝒜-residual of the primal equalities (−1 − (−𝒜(X)))
 
-    def direction(sigma, correction, correction_lp, a_correction):
+    def direction(sigma, correction, a_correction):
         # ΔX = σμS⁻¹ − X − corr − sym(X ΔS S⁻¹), ΔS = Σ Δy_o b_o b_oᵀ, M Δy = R_p − 𝒜(R_c).
         a_rc = sigma * mu * (sum(a_s) + 1.0 / y) - a_x - a_correction
         dy = la.cho_solve(schur_factor, -residual + a_rc)
@@ -369,7 +368,10 @@ def _newton_step(rows, y, x, x_lp, s, total):
         for xj, dsj, si, cj in zip(x, ds, s_inv, correction):
             t = xj @ dsj @ si
             dx.append(sigma * mu * si - xj - cj - 0.5 * (t + t.T))
-        dx_lp = sigma * mu / y - x_lp - correction_lp - x_lp * dy / y
+        # The slack's step from the primal equalities themselves (rather than from the
+        # linearised complementarity, equal in exact arithmetic): round-off in the Schur solve
+        # then cannot accumulate into a violation of Σ_χ b_oᵀX_χb_o ≤ 1, which U would pay for.
+        dx_lp = -residual - sum(np.sum((b @ dxj) * b, axis=1) for b, dxj in zip(rows, dx))
         return dy, ds, dx, dx_lp
 
     def lengths(dy, ds, dx, dx_lp):
@@ -378,7 +380,7 @@ def _newton_step(rows, y, x, x_lp, s, total):
         return primal, dual
 
     zero = [np.zeros_like(xj) for xj in x]
-    dy, ds, dx, dx_lp = direction(0.0, zero, np.zeros(len(y)), 0.0)
+    dy, ds, dx, dx_lp = direction(0.0, zero, 0.0)
     alpha_p, alpha_d = lengths(dy, ds, dx, dx_lp)
     affine = (
         sum(np.vdot(xj + alpha_p * dxj, sj + alpha_d * dsj) for xj, dxj, sj, dsj in zip(x, dx, s, ds))
@@ -391,8 +393,7 @@ def _newton_step(rows, y, x, x_lp, s, total):
         t = dxj @ dsj @ si
         correction.append(0.5 * (t + t.T))
         a_correction = a_correction + np.sum((b @ correction[-1]) * b, axis=1)
-    correction_lp = dx_lp * dy / y
-    dy, ds, dx, dx_lp = direction(sigma, correction, correction_lp, a_correction + correction_lp)
+    dy, ds, dx, dx_lp = direction(sigma, correction, a_correction + dx_lp * dy / y)
     alpha_p, alpha_d = lengths(dy, ds, dx, dx_lp)
     alpha_p, alpha_d = min(1.0, STEP_FRACTION * alpha_p), min(1.0, STEP_FRACTION * alpha_d)
     if alpha_p * alpha_d == 0.0:
@@ -412,6 +413,16 @@ def _boundary(a: np.ndarray, da: np.ndarray) -> float:
     eigenvalue of the pencil ΔA v = λ A v (+inf when ΔA keeps A definite)."""
     lowest = la.eigh(da, a, eigvals_only=True, subset_by_index=[0, 0], check_finite=False)[0]
     return np.inf if lowest >= 0 else -1.0 / lowest
+
+
+def _inverse(a: np.ndarray) -> np.ndarray:
+    """A⁻¹ for A ≻ 0, from its Cholesky factor (LAPACK potrf, potri)."""
+    factor, info = la.lapack.dpotrf(a, lower=True)
+    if info:
+        raise la.LinAlgError("not positive definite")
+    inverse, info = la.lapack.dpotri(factor, lower=True)
+    lower = np.tril(inverse)
+    return lower + np.tril(inverse, -1).T
 
 
 def _ratio(v: np.ndarray, dv: np.ndarray) -> float:
