@@ -30,7 +30,7 @@ from typing import Any
 from zeromode.service.offload import OVERRUN_SLACK
 from zeromode.service.settings import Settings
 from zeromode.service.store import Store, Submission
-from zeromode.service.tasks import PROGRESS_TOPIC, execute_chunk, execute_request
+from zeromode.service.tasks import PROGRESS_TOPIC, chunk_of, execute_chunk, execute_request
 
 log = logging.getLogger("zeromode")
 
@@ -48,6 +48,16 @@ REQUEST_PRIORITY = 100
 RECORD_INTERVAL_S = 0.25
 CONNECT_TIMEOUT_S = 10.0
 MAX_CHUNK = 16
+# Dask's diagnostics off in the embedded cluster: its statistical profiler samples every
+# worker's stack each 10 ms and its system monitor reads /proc twice a second, together ~5 % of
+# a worker's CPU on small designs (py-spy, 1000-point sweep), for a dashboard nobody opens here.
+# (An existing cluster keeps its own configuration.)
+LEAN_DASK_CONFIG = {
+    "distributed.worker.profile.enabled": False,
+    "distributed.admin.system-monitor.interval": "5s",
+    "distributed.admin.system-monitor.disk": False,
+    "distributed.admin.tick.interval": "200ms",
+}
 
 
 def _processing_on(dask_scheduler, key: str) -> str | None:
@@ -83,21 +93,23 @@ def _prepare_plugin(niceness: int):
 def local_cluster(settings: Settings):
     """The embedded cluster: ``dask_workers`` single-threaded worker processes (default: one per
     core), each limited to ``dask_worker_memory_bytes`` (Dask restarts a worker that passes it
-    and re-runs its task elsewhere)."""
+    and re-runs its task elsewhere), without Dask's diagnostics (``LEAN_DASK_CONFIG``)."""
+    import dask
     from distributed import LocalCluster
 
-    return LocalCluster(
-        n_workers=settings.dask_workers or os.cpu_count() or 1,
-        threads_per_worker=1,
-        processes=True,
-        host="127.0.0.1",  # the embedded cluster listens on loopback only
-        memory_limit=settings.dask_worker_memory_bytes or "auto",
-        # The scheduler's HTTP routes (and dashboard, if bokeh is installed) on a free port of
-        # loopback only: two services on one machine must not fight over Dask's default 8787.
-        dashboard_address="127.0.0.1:0",
-        silence_logs=logging.WARNING,
-        env=WORKER_ENV,
-    )
+    with dask.config.set(LEAN_DASK_CONFIG):  # the nannies hand this configuration to their workers
+        return LocalCluster(
+            n_workers=settings.dask_workers or os.cpu_count() or 1,
+            threads_per_worker=1,
+            processes=True,
+            host="127.0.0.1",  # the embedded cluster listens on loopback only
+            memory_limit=settings.dask_worker_memory_bytes or "auto",
+            # The scheduler's HTTP routes (and dashboard, if bokeh is installed) on a free port of
+            # loopback only: two services on one machine must not fight over Dask's default 8787.
+            dashboard_address="127.0.0.1:0",
+            silence_logs=logging.WARNING,
+            env=WORKER_ENV,
+        )
 
 
 def dask_client(settings: Settings, scheduler: str | None = None):
@@ -198,9 +210,11 @@ class Engine:
 
     # --- submitting ----------------------------------------------------------------------------
 
-    def submit(self, submissions: list[Submission], priority: int) -> None:
+    def submit(self, submissions: list[Submission], priority: int, prechecked: bool = False) -> None:
         """Send jobs already recorded as queued (and owned by this instance) to the cluster, in
-        chunks (``chunk_size``): one Dask task per chunk."""
+        chunks (``chunk_size``): one Dask task per chunk. ``prechecked``: their requests passed
+        their endpoint's up-front checks when they were accepted (work adopted from a stopped
+        instance is checked again)."""
         size = chunk_size(len(submissions), self._workers())
         chunks = [submissions[i : i + size] for i in range(0, len(submissions), size)]
         if not chunks:
@@ -208,8 +222,9 @@ class Engine:
         keys = [f"zeromode-{chunk[0].id}-{len(chunk)}" for chunk in chunks]
         futures = self._client.map(
             execute_chunk,
-            [[(s.id, s.endpoint, s.request) for s in chunk] for chunk in chunks],
+            [chunk_of([(s.id, s.endpoint, s.request) for s in chunk]) for chunk in chunks],
             [self._settings_json] * len(chunks),
+            [prechecked] * len(chunks),
             key=keys,
             pure=False,
             priority=priority,
@@ -223,11 +238,12 @@ class Engine:
         for future in futures:
             future.add_done_callback(self._on_done)
 
-    def validate_points(self, endpoint: str, sweep_points: list) -> None:
-        """A sweep's points validated on the cluster's workers (sweeps.validate_points_on)."""
-        from zeromode.service.sweeps import validate_points_on
+    def validation(self, endpoint: str, sweep_points: list):
+        """A sweep's points being validated on the cluster's workers: the call that waits for
+        the verdict (sweeps.validation_on)."""
+        from zeromode.service.sweeps import validation_on
 
-        validate_points_on(self._client, endpoint, sweep_points, self._settings_json, self._workers())
+        return validation_on(self._client, endpoint, sweep_points, self._settings_json, self._workers())
 
     def cancel(self, ids: Iterable[str]) -> None:
         """Drop the cluster's tasks whose jobs were all cancelled in the store (a chunk that

@@ -14,6 +14,7 @@ import json
 import threading
 import time
 import uuid
+from collections.abc import Callable
 from typing import Any
 
 from zeromode.service.engine import JOB_PRIORITY, SWEEP_PRIORITY, Engine
@@ -92,9 +93,22 @@ class Jobs:
         return record
 
     def submit_sweep(self, endpoint: str, spec: dict[str, Any], sweep_points: list[Point],
-                     client: str) -> dict[str, Any]:
-        """Record a sweep and its (validated) points as queued, and send them to the cluster."""
+                     client: str, verdict: Callable[[], None] | None = None) -> dict[str, Any]:
+        """Record a sweep and its validated points as queued, and send them to the cluster.
+        ``verdict``: the wait for a validation still running on the workers, called once the
+        records are built (while the workers check, this process builds them) and before
+        anything is stored; it raises SweepRefused for a bad point."""
         s = self.settings
+        sweep_id, now = uuid.uuid4().hex, time.time()
+        records = [
+            {**_record(uuid.uuid4().hex, endpoint, p.request, client, self.engine.instance, now),
+             "sweep_id": sweep_id, "point": p.index, "params": json.dumps(p.params)}
+            for p in sweep_points
+        ]
+        sweep = {"id": sweep_id, "endpoint": endpoint, "spec": json.dumps(spec), "client": client,
+                 "total": len(records), "finished_count": 0, "cancelled": False, "created": now}
+        if verdict is not None:
+            verdict()
         with self._lock:
             if (mine := self.store.active_sweeps(client)) >= s.max_sweeps_per_client:
                 raise JobRejected(
@@ -104,18 +118,11 @@ class Jobs:
                 )
             self._room()
             self.engine.start()
-            sweep_id, now = uuid.uuid4().hex, time.time()
-            records = [
-                {**_record(uuid.uuid4().hex, endpoint, p.request, client, self.engine.instance, now),
-                 "sweep_id": sweep_id, "point": p.index, "params": json.dumps(p.params)}
-                for p in sweep_points
-            ]
-            sweep = {"id": sweep_id, "endpoint": endpoint, "spec": json.dumps(spec), "client": client,
-                     "total": len(records), "finished_count": 0, "cancelled": False, "created": now}
             self.store.add_sweep(sweep, records)
         self.engine.submit(
             [Submission(r["id"], endpoint, p.request, sweep_id) for r, p in zip(records, sweep_points, strict=True)],
             SWEEP_PRIORITY,
+            prechecked=True,  # every point passed the endpoint's checks before the sweep was accepted
         )
         return sweep
 

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from zeromode.service.settings import Settings, current_settings
-from zeromode.service.tasks import RequestRefused, execute_chunk, validated
+from zeromode.service.tasks import RequestRefused, chunk_of, execute_chunk, validated
 
 
 class SweepRefused(Exception):
@@ -148,18 +148,23 @@ def first_refusal(endpoint: str, sweep_points: list[Point], settings_json: str) 
     return None
 
 
-def validate_points_on(client, endpoint: str, sweep_points: list[Point], settings_json: str, workers: int) -> None:
-    """``validate_points`` shared among the cluster's workers (the service's own process stays
-    free, and W workers check a 1000-point sweep W times sooner); the same refusal, the lowest
+def validation_on(client, endpoint: str, sweep_points: list[Point], settings_json: str,
+                  workers: int) -> Callable[[], None]:
+    """``validate_points`` started on the cluster's workers (the service's own process stays
+    free for recording the points meanwhile, and W workers check a 1000-point sweep W times
+    sooner); the call it returns waits for the verdict and raises the same refusal, the lowest
     bad point's."""
     size = max(len(sweep_points) // (2 * workers), 1)
     chunks = [sweep_points[i : i + size] for i in range(0, len(sweep_points), size)]
     futures = client.map(first_refusal, [endpoint] * len(chunks), chunks, [settings_json] * len(chunks),
                          key=[f"zeromode-validate-{uuid.uuid4().hex}" for _ in chunks], pure=False, priority=100)
-    refusals = [d for d in client.gather(futures) if d is not None]
-    if refusals:
-        detail = min(refusals, key=lambda d: d["point"])
-        raise SweepRefused(**detail)
+
+    def verdict() -> None:
+        refusals = [d for d in client.gather(futures) if d is not None]
+        if refusals:
+            raise SweepRefused(**min(refusals, key=lambda d: d["point"]))
+
+    return verdict
 
 
 # --- reading results back ------------------------------------------------------------------------
@@ -257,8 +262,9 @@ def run_sweep(
         chunks = [sweep_points[i : i + size] for i in range(0, len(sweep_points), size)]
         futures = client.map(
             execute_chunk,
-            [[(str(p.index), endpoint, p.request) for p in chunk] for chunk in chunks],
+            [chunk_of([(str(p.index), endpoint, p.request) for p in chunk]) for chunk in chunks],
             [settings.model_dump_json()] * len(chunks),
+            [True] * len(chunks),  # validated above
             key=[f"zeromode-sweep-{uuid.uuid4().hex}" for _ in chunks],
             pure=False,
         )

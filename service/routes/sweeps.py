@@ -39,14 +39,16 @@ def submit_sweep(spec: SweepRequest, request: Request) -> JSONResponse:
         points = sweeps.points(spec.template, spec.grid, spec.requests, settings.max_sweep_points)
         jobs = request.app.state.jobs
         if jobs is not None and jobs.engine.started and len(points) >= VALIDATE_ON_WORKERS_FROM:
-            jobs.engine.validate_points(spec.endpoint, points)
+            verdict = jobs.engine.validation(spec.endpoint, points)  # awaited once the points are recorded
         else:
             sweeps.validate_points(spec.endpoint, points)
+            verdict = None
+        record = accepted_or_refused(
+            lambda: jobs_of(request).submit_sweep(spec.endpoint, spec.model_dump(mode="json"), points,
+                                                  client_of(request), verdict)
+        )
     except sweeps.SweepRefused as exc:
         raise HTTPException(422, detail=exc.detail) from exc
-    record = accepted_or_refused(
-        lambda: jobs_of(request).submit_sweep(spec.endpoint, spec.model_dump(mode="json"), points, client_of(request))
-    )
     if isinstance(record, JSONResponse):
         return record
     return JSONResponse(
