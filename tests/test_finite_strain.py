@@ -114,6 +114,19 @@ def test_over_http(client):
         assert abs(abs(ex) - 0.1) <= 1e-12 and abs(-ey / ex + 0.5) <= 0.02
     report = body["report"]["finite_strain"]
     assert report["max_deviation"] <= 0.02 and report["module"]["family"] == "trammel"
+    # ν = −1: the Cardan trammel, its states at ±10 % with secant ν −1 to round-off.
+    response = client.post(
+        "/v1/design/auxetic",
+        json={"cells": [2, 3], "poisson_ratio": -1.0, "finite_strain": {"strain_range": [-0.1, 0.1], "tolerance": 1e-3}},
+    )
+    assert response.status_code == 200, response.text
+    body = response.json()
+    x = np.array(body["frame"]["positions"])
+    sets = corner_sets(x, 2, 3)
+    for state in body["states"]:
+        ex, ey = boundary_strains(x, np.array(state["positions"]), sets, finite=True)
+        assert abs(abs(ex) - 0.1) <= 1e-12 and abs(-ey / ex + 1.0) <= 1e-12
+    assert body["report"]["finite_strain"]["module"]["family"] == "cardan"
 
 
 def test_minus_one_is_held_exactly_by_a_cardan_trammel():
