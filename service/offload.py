@@ -54,7 +54,7 @@ from zeromode.solver.budget import remaining, time_budget
 log = logging.getLogger("zeromode")
 
 # The worker answers too_expensive itself at the budget; this much later it is stopped.
-OVERRUN_SLACK = 0.05
+OVERRUN_SLACK = 0.03
 # Requests whose answer can take long, by endpoint: the rest are cheap enough to answer inline.
 ALWAYS = frozenset({"/v1/motion", "/v1/refine", "/v1/certify", "/v1/design/allosteric", "/v1/design/two-configuration"})
 # Above these sizes a frame's plot or export (nodes or bars), its analysis or a network's tuning
@@ -203,27 +203,34 @@ class Offload:
         """(status, body[, headers]) of the request run on a worker; None when the client left."""
         budget = self.settings.time_budget_s
         # The request's own budget, started when its body was read (LimitsAndAuth): what is
-        # left of it after validation and submission is the worker's.
+        # left of it after validation is the worker's, and the answer comes by its end (plus
+        # OVERRUN_SLACK) however long the submission takes.
         left_s = remaining()
         left_s = budget if left_s is None else left_s
+        if left_s <= 0:  # reading and validating a large body took the whole budget
+            return _too_expensive(budget)
+        loop = asyncio.get_running_loop()
+        deadline = loop.time() + left_s + OVERRUN_SLACK * budget
         future = await asyncio.to_thread(engine.run_request, endpoint, request, left_s, task)
-        done = asyncio.get_running_loop().create_future()
+        done = loop.create_future()
         future.add_done_callback(lambda _: done.get_loop().call_soon_threadsafe(_settle, done))
         left = asyncio.ensure_future(_disconnected(receive))
-        finished, _ = await asyncio.wait({done, left}, timeout=left_s + OVERRUN_SLACK * budget,
+        finished, _ = await asyncio.wait({done, left}, timeout=max(deadline - loop.time(), 0.0),
                                          return_when=asyncio.FIRST_COMPLETED)
         left.cancel()
         if done in finished:
             return engine.request_outcome(future)
         # Stopped in the background: the answer does not wait for a worker to restart.
         threading.Thread(target=engine.stop_request, args=(future,), name="zeromode-stop", daemon=True).start()
-        if left in finished:
-            return None
-        return 422, json.dumps(error_body(
-            "too_expensive",
-            f"the computation needs more than its time budget of {budget:g} s and was stopped; "
-            "ask for a smaller problem, or run it as a job (POST /v1/jobs).",
-        )).encode()
+        return None if left in finished else _too_expensive(budget)
+
+
+def _too_expensive(budget: float) -> tuple[int, bytes]:
+    return 422, json.dumps(error_body(
+        "too_expensive",
+        f"the computation needs more than its time budget of {budget:g} s and was stopped; "
+        "ask for a smaller problem, or run it as a job (POST /v1/jobs).",
+    )).encode()
 
 
 def _settle(future: asyncio.Future) -> None:

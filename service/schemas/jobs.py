@@ -19,7 +19,7 @@ JobEndpoint = Literal[
 ]
 
 
-# queued → running → done | failed; cancelled before it ran (DELETE); interrupted when the
+# queued → running → done | failed; cancelled (DELETE, queued or running); interrupted when the
 # services running it stopped more often than ZEROMODE_JOB_MAX_ATTEMPTS allows.
 JobState = Literal["queued", "running", "done", "failed", "cancelled", "interrupted"]
 

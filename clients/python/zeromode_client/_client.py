@@ -226,7 +226,7 @@ class Client(_BaseClient):
 
 
     def cancel_job(self, job_id: str) -> JobStatus:
-        """DELETE /v1/jobs/{id}: cancel the job if it has not started; its status after."""
+        """DELETE /v1/jobs/{id}: cancel the job if it has not finished (a running one is stopped); its status after."""
         return self._send(ep.cancel_job(job_id))
 
     def submit_sweep(

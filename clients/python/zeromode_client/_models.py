@@ -256,7 +256,7 @@ class JobStatus:
 
     @property
     def finished_running(self) -> bool:
-        """Done, failed, cancelled before it ran, or interrupted (its service stopped too often)."""
+        """Done, failed, cancelled, or interrupted (its service stopped too often)."""
         return self.status in ("done", "failed", "cancelled", "interrupted")
 
     @classmethod
