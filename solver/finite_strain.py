@@ -98,7 +98,8 @@ VERIFY_SAMPLES = 9
 # A bar of the verified sheet may change its length by at most this much (relative).
 BAR_RTOL = 1e-9
 # IPOPT refinement of a module (refine_module): samples of the motion over the requested range,
-# the weight of the reference's departure from the warm start, IPOPT's tol and iterations.
+# the weight of the reference's departure from the warm start, IPOPT's tol and iterations per
+# solve, and the rounds of watched pairs.
 REFINE_SAMPLES = 20
 REFINE_REGULARISER = 1e-4
 REFINE_TOL = 1e-8
@@ -107,6 +108,8 @@ REFINE_ROUNDS = 4
 # Weight of the separations' slacks (their shortfall, in squared fractions of the shortest bar)
 # against t: a warm start that collides inside the range is a feasible start.
 REFINE_SLACK_WEIGHT = 100.0
+# The refined module's unspecified nodes stay within this many times the warm start's extent
+# (per axis, along its motion), and within MAX_REACH neighbours.
 BOX_GROWTH = 1.5
 # IPOPT's time limit for a module's refinement, all rounds (the request's budget bounds it too).
 REFINE_TIME_S = 3.0
