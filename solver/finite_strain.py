@@ -66,8 +66,8 @@ from zeromode.solver.sheet_module import (
 )
 from zeromode.solver.strain_range import (
     PROXIMITY_FRACTION,
+    Patch,
     StrainRange,
-    _Patch,
     module_range,
     needed_reach,
 )
@@ -533,7 +533,7 @@ def refine_module(
                     likewise for watched nodes p and bars (q, r), σ the side at the reference,
                     |x|, |y| of every unspecified node within the box (BOX_GROWTH times the warm
                     start's extent, no farther than MAX_REACH neighbours),
-    pairs of the module and its neighbours (_Patch).  The slacks make a warm start that collides
+    pairs of the module and its neighbours (Patch).  The slacks make a warm start that collides
     a feasible start.  The mirror symmetry is built into the unknowns (sheet_module: X = B·q),
     so the corners stay on (±a, ±b) and every refined module tiles.  K·n_o + 1 equalities
     against (n_q − 2) + K(n_q − 1) + 1 unknowns besides the slacks (refinement_counts; n_o =
@@ -565,7 +565,7 @@ def refine_module(
     widest = (2 * (MAX_REACH + 1) * smallest - PROXIMITY_FRACTION * shortest) / 2 * (1 - 1e-9)
     box = np.minimum(BOX_GROWTH * np.max(np.abs(module.positions(watch)[:, 4:]), axis=(0, 1)), widest)
     reach = np.floor((2 * box + PROXIMITY_FRACTION * shortest) / (2 * smallest)).astype(int)
-    patch = _Patch.of(module, tuple(int(min(r, c - 1, MAX_REACH)) for r, c in zip(reach, cells)))
+    patch = Patch.of(module, tuple(int(min(r, c - 1, MAX_REACH)) for r, c in zip(reach, cells)))
     reference = int(np.flatnonzero(fine == 0.0)[0])
     pairs, crossings = _violations(module, patch, watch, reference, shortest, WATCH_DISTANCE)
 

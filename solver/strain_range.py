@@ -62,7 +62,7 @@ STRAIN_XTOL = 1e-13
 # located by bisection on Newton's success; Newton's basin shrinks like √|ε − ε*| there, so the
 # fold is located to about this much.
 FOLD_XTOL = 1e-9
-# Patches by (module topology, reach): see _Patch.of.
+# Patches by (module topology, reach): see Patch.of.
 _PATCHES: dict = {}
 # Step of the 3D chain's continuation (finite_motion's path parameter) while the range is scanned.
 CHAIN_MAX_STEP = 0.01
@@ -111,7 +111,7 @@ class StrainRange:
 
 
 @dataclass(frozen=True, eq=False)
-class _Patch:
+class Patch:
     """The module at (0, 0) and the copies around it that can touch it: patch node n is module
     node ``node[n]`` of the copy at ``offset[n]`` (shared corners once); ``bars`` every bar of
     the patch; ``pairs`` node pairs to watch (one end in module (0, 0), no bar between them);
@@ -126,7 +126,7 @@ class _Patch:
     reach: tuple[int, int]
 
     @classmethod
-    def of(cls, module: SymmetricModule, reach: tuple[int, int]) -> _Patch:
+    def of(cls, module: SymmetricModule, reach: tuple[int, int]) -> Patch:
         """The patch of ``module`` with copies up to ``reach``; it depends on the module's
         topology only (corners are told apart on the normalised lattice), so it is cached."""
         key = (module.kinds, module.edges.tobytes(), module.orbit.tobytes(), reach)
@@ -135,7 +135,7 @@ class _Patch:
         return _PATCHES[key]
 
     @classmethod
-    def _build(cls, module: SymmetricModule, reach: tuple[int, int]) -> _Patch:
+    def _build(cls, module: SymmetricModule, reach: tuple[int, int]) -> Patch:
         offsets = [(0, 0)] + [
             (i, j) for i in range(-reach[0], reach[0] + 1) for j in range(-reach[1], reach[1] + 1) if (i, j) != (0, 0)
         ]
@@ -212,7 +212,7 @@ def _regularity(module: SymmetricModule, q: np.ndarray) -> tuple[float, float]:
     return float(np.linalg.det(np.vstack([c, np.array(gens) / np.sqrt(n)]))), float(np.linalg.det(jac_u))
 
 
-def _events(module: SymmetricModule, patch: _Patch, q: np.ndarray, shortest: float) -> dict[str, np.ndarray]:
+def _events(module: SymmetricModule, patch: Patch, q: np.ndarray, shortest: float) -> dict[str, np.ndarray]:
     """Every watched function at q (see the module docstring), by kind."""
     x = patch.positions(module, q)
     gap = np.linalg.norm(x[patch.pairs[:, 0]] - x[patch.pairs[:, 1]], axis=1) / shortest - PROXIMITY_FRACTION
@@ -225,7 +225,7 @@ def _events(module: SymmetricModule, patch: _Patch, q: np.ndarray, shortest: flo
     return {"singular_point": singular, "node_proximity": gap, "bar_crossing": area, "projection": (t >= 0) & (t <= 1)}
 
 
-def _event(module: SymmetricModule, patch: _Patch, q: np.ndarray, shortest: float, kind: str, k: int) -> float:
+def _event(module: SymmetricModule, patch: Patch, q: np.ndarray, shortest: float, kind: str, k: int) -> float:
     """Watched function k of ``kind`` at q alone (as _events, without the others)."""
     if kind == "singular_point":
         return _regularity(module, q)[k]
@@ -239,7 +239,7 @@ def _event(module: SymmetricModule, patch: _Patch, q: np.ndarray, shortest: floa
     return float((along[0] * rel[1] - along[1] * rel[0]) / np.dot(along, along))
 
 
-def _inside(module: SymmetricModule, patch: _Patch, q: np.ndarray, k: int) -> bool:
+def _inside(module: SymmetricModule, patch: Patch, q: np.ndarray, k: int) -> bool:
     """Whether node–bar pair k has its node between the bar's ends (projection in [0, 1])."""
     x = patch.positions(module, q)
     p, b = patch.node_bar[k]
@@ -285,7 +285,7 @@ def module_range(
 
     def patch_for(reach):
         if reach not in patches:
-            patches[reach] = _Patch.of(module, reach)
+            patches[reach] = Patch.of(module, reach)
         return patches[reach]
 
     ends, samples = [], {0.0: q0}
@@ -389,7 +389,7 @@ def _first_event(module, patch, prev, now, q, eps, target, shortest, xtol=STRAIN
     return RangeEnd(float(root), kind, _detail(module, patch, kind, k))
 
 
-def _detail(module: SymmetricModule, patch: _Patch, kind: str, k: int) -> str:
+def _detail(module: SymmetricModule, patch: Patch, kind: str, k: int) -> str:
     def name(n: int) -> str:
         o = patch.offset[n]
         where = "" if not o.any() else f" of the neighbour at ({int(o[0]):+d}, {int(o[1]):+d})"
