@@ -75,7 +75,7 @@ from zeromode.solver.rank import nullspace, orthonormal_range
 # Relative gap (U − L)/U at which the bracket is closed.
 GAP_RTOL = 1e-3
 # Wall time of one optimisation, within the request's budget (budget.py) when there is one.
-TIME_S = 40.0
+TIME_S = 60.0
 # Smallest eigenpairs evaluated for the verified lower bound (the optimum's λ_min is multiple).
 EIGENPAIRS = 6
 # A node maps onto a node when their normalised positions agree to this (exact symmetry only:
