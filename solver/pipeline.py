@@ -112,8 +112,9 @@ class PipelineResult:
 
 def stiffness_sdp_fits(frame: Frame, zero_modes: int) -> bool:
     """True when the stiffness-allocation LMI (p × p, p = dN − d(d+1)/2 − M, ``zero_modes`` =
-    d(d+1)/2 + M) is within SDP_MAX_DIM.  The spectral bundle route reaches p = OPTIMAL_MAX_DIM
-    but takes 46 s at p = 2478 (20 × 20 sheet) and 40 s for the 64-block chain
+    d(d+1)/2 + M) is within SDP_MAX_DIM.  The large-LMI routes (stiffness.py) reach
+    p = OPTIMAL_MAX_DIM but take 38–40 s at p = 2478 (20 × 20 sheet, interior point) and 60 s
+    for the 64-block chain (spectral bundle)
     (docs/benchmarks/certificates.md): past a pipeline stage's budget, so the pipeline keeps the
     LMI cap and /v1/certify serves the larger margins."""
     return frame.dim * frame.n_nodes - zero_modes <= SDP_MAX_DIM

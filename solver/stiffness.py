@@ -326,7 +326,7 @@ def _interior_point(rows: tuple[np.ndarray, ...], sizes: np.ndarray, t0: float, 
         primal, dual = sum(np.trace(xj) for xj in x), float(y.sum())
         gap = (dual - primal) / dual
         elapsed = time.perf_counter() - t0
-        report_progress(min(elapsed / budget, 1.0), "interior-point iterations")
+        report_progress(min(elapsed / budget, 1.0) if budget > 0 else 1.0, "interior-point iterations")
         if gap <= target:
             yield y, x, iterations
             target *= INNER_FRACTION

@@ -172,3 +172,16 @@ def test_the_spectral_bundle_route_brackets_the_sdp_optimum():
     assert result.lower <= margin(c, p, result.stiffness) * (1 + 1e-9)
     sdp = solve_lmi(stiffness_program(c @ p))
     assert sdp.lower <= result.upper * (1 + 1e-9) and result.lower <= sdp.upper * (1 + 1e-9)
+
+
+def test_a_spent_time_limit_still_returns_a_verified_bracket():
+    """Stopped before its first Newton step (time_s = 0), the route verifies its starting point:
+    the uniform allocation's margin below, its starting dual above, and says the gap is open."""
+    frame, modes = sheet(3)
+    x, c, fixed, p = problem(frame, modes)
+    uniform = margin(c, p, np.ones(len(c)))
+    result = optimal_stiffness(sp.csr_matrix(c), fixed, uniform, x, frame.edges, time_s=0.0)
+    assert result.method == "interior_point" and result.status == "gap_not_closed"
+    assert result.iterations == 0 and result.upper - result.lower > GAP_RTOL * result.upper
+    check_bracket(result, c, fixed, p)
+    assert result.lower == pytest.approx(uniform, rel=1e-6)
