@@ -515,11 +515,8 @@ def write_markdown(r: dict, out: Path) -> None:
         ("- A header block past 16 KiB that arrives in one piece is refused by uvicorn's h11 parser "
          "(`h11_max_incomplete_event_size`) with its own plain-text 400 before the app sees it (the app answers "
          "431 `headers_too_large` to a block it receives)."),
-        ("- A request's budget runs from the moment its body has been read. The service parses and validates a "
-         "heavy request's body (in a thread, one at a time) before a worker takes it, and that cannot be "
-         "interrupted: for the 6 MB body of 10⁵ nodes it took up to 1.2 s in three runs, so under a 2 s budget "
-         "that answer can come that much late. Under the default 60 s budget no accepted body (≤ 20 MB) comes "
-         "near it."),
+        ("- A request's budget runs from the moment its body has been read; a heavy body past 1 MB is parsed by "
+         "the service only to decide where it runs, and validated by the worker, inside the budget."),
     ]
     out.write_text("\n".join(lines) + "\n")
 

@@ -23,6 +23,15 @@ def _location(loc) -> str:
     return ".".join(parts) if parts else "body"
 
 
+def invalid_request_body(errors: list) -> dict:
+    """The 422 body of a request its schema refused (pydantic errors, locations from "body"):
+    the first error as the message, up to 20 listed."""
+    first = errors[0] if errors else {"loc": ("body",), "msg": "invalid request"}
+    message = f"{_location(first.get('loc', ()))}: {first.get('msg', 'invalid value')}."
+    slim = [{"loc": [str(p) for p in e.get("loc", ())], "msg": e.get("msg", "")} for e in errors[:20]]
+    return error_body("invalid_request", message, errors=slim)
+
+
 def install_error_handlers(app: FastAPI) -> None:
     @app.exception_handler(DomainError)
     async def domain_error(_: Request, exc: DomainError):
@@ -30,11 +39,7 @@ def install_error_handlers(app: FastAPI) -> None:
 
     @app.exception_handler(RequestValidationError)
     async def validation_error(_: Request, exc: RequestValidationError):
-        errors = exc.errors()
-        first = errors[0] if errors else {"loc": ("body",), "msg": "invalid request"}
-        message = f"{_location(first.get('loc', ()))}: {first.get('msg', 'invalid value')}."
-        slim = [{"loc": [str(p) for p in e.get("loc", ())], "msg": e.get("msg", "")} for e in errors[:20]]
-        return JSONResponse(status_code=422, content=error_body("invalid_request", message, errors=slim))
+        return JSONResponse(status_code=422, content=invalid_request_body(exc.errors()))
 
     @app.exception_handler(StarletteHTTPException)
     async def http_error(request: Request, exc: StarletteHTTPException):

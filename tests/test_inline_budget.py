@@ -12,13 +12,14 @@ check) under a 2 s budget is answered too_expensive within 10 % (net of the uplo
 
 from __future__ import annotations
 
+import json
 import time
 
 import httpx
 import numpy as np
 import pytest
 from fastapi.testclient import TestClient
-from test_offload import running_service, upload_time
+from test_offload import numbers_close, running_service, upload_time
 
 from benchmarks.bench_adversarial import chain, scattered
 from benchmarks.bench_offload import big_frame
@@ -30,6 +31,7 @@ from zeromode.service.offload import (
     HEAVY_DOF,
     HEAVY_EDGES,
     HEAVY_NODES,
+    VALIDATE_HERE_BYTES,
     heavy,
 )
 from zeromode.service.settings import Settings
@@ -86,17 +88,46 @@ def test_endpoints_without_a_cheap_class_are_always_heavy(endpoint):
     assert heavy(endpoint, {})
 
 
-def test_a_heavy_plot_is_stopped_at_the_budget(tmp_path):
-    env = {"ZEROMODE_DATABASE_URL": f"sqlite:///{tmp_path}/jobs.sqlite3", "ZEROMODE_OFFLOAD": "true",
+@pytest.fixture(scope="module")
+def short_budget(tmp_path_factory: pytest.TempPathFactory):
+    """`zeromode serve` with offloading on and a 2 s budget: (URL)."""
+    tmp = tmp_path_factory.mktemp("short-budget")
+    env = {"ZEROMODE_DATABASE_URL": f"sqlite:///{tmp}/jobs.sqlite3", "ZEROMODE_OFFLOAD": "true",
            "ZEROMODE_TIME_BUDGET_S": "2", "ZEROMODE_DASK_WORKERS": "1"}
+    with running_service(tmp, env, "short") as (url, _):
+        yield url
+
+
+def test_large_bodies_validated_on_a_worker_answer_as_the_route(short_budget, tmp_path):
+    """Bodies past VALIDATE_HERE_BYTES are validated by the worker (inside the budget): valid or
+    not, the answer is the route's own, compared with the app in process. (Before the plot test,
+    which restarts the worker.)"""
+    frame = big_frame(30_000)
+    ragged = {**frame, "positions": [*frame["positions"][:-1], [1.0]]}
+    out_of_range = {**frame, "edges": [*frame["edges"], [0, 30_000]]}
+    cases = [
+        ("/v1/analyze", {"frame": frame, "options": {"bases": False}}),
+        ("/v1/analyze", {"frame": ragged}),
+        ("/v1/analyze", {"frame": out_of_range}),
+        ("/v1/plot", {"frame": ragged}),
+    ]
+    inline = TestClient(create_app(Settings(offload=False, database_url=f"sqlite:///{tmp_path}/jobs.sqlite3")))
+    for path, body in cases:
+        assert len(json.dumps(body)) > VALIDATE_HERE_BYTES and heavy(path, body)
+        offloaded = httpx.post(short_budget + path, json=body, timeout=60)
+        direct = inline.post(path, json=body)
+        assert offloaded.status_code == direct.status_code, (path, offloaded.text)
+        numbers_close(offloaded.json(), direct.json())
+
+
+def test_a_heavy_plot_is_stopped_at_the_budget(short_budget):
     frame = big_frame(50_000)
-    with running_service(tmp_path, env, "plot") as (url, _):
-        t0 = time.perf_counter()
-        r = httpx.post(url + "/v1/plot", json={"frame": frame}, timeout=120)
-        elapsed = time.perf_counter() - t0
-        if r.status_code == 200:
-            pytest.skip(f"this machine drew 5·10⁴ nodes within the budget ({elapsed:.1f} s)")
-        assert r.status_code == 422 and r.json()["detail"]["code"] == "too_expensive", r.text
-        assert elapsed <= 2.0 * 1.1 + upload_time(url, frame), elapsed
-        # A small plot is answered on (inline: it is cheap).
-        assert httpx.post(url + "/v1/plot", json={"frame": big_frame(10)}, timeout=60).status_code == 200
+    t0 = time.perf_counter()
+    r = httpx.post(short_budget + "/v1/plot", json={"frame": frame}, timeout=120)
+    elapsed = time.perf_counter() - t0
+    if r.status_code == 200:
+        pytest.skip(f"this machine drew 5·10⁴ nodes within the budget ({elapsed:.1f} s)")
+    assert r.status_code == 422 and r.json()["detail"]["code"] == "too_expensive", r.text
+    assert elapsed <= 2.0 * 1.1 + upload_time(short_budget, frame), elapsed
+    # A small plot is answered on (inline: it is cheap).
+    assert httpx.post(short_budget + "/v1/plot", json={"frame": big_frame(10)}, timeout=60).status_code == 200
