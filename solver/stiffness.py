@@ -7,12 +7,15 @@ the problem of certificates.rigidity_margin when its LMI (p = dim span^⊥) is t
 general SDP solver.  Three exact steps make it small enough for a primal–dual interior-point
 method written for its structure (rank-one terms):
 
-1. Symmetry.  A sign flip T = diag(±1) of the (centred) coordinates that maps the nodes onto
-   themselves (permutation π), bars onto bars and span onto itself acts on motions by the
-   orthogonal R_T (u ↦ u', u'_{π(i)} = T u_i), with K(T·k) = R_T K(k) R_Tᵀ (T·k: k permuted
-   with the bars).  φ is concave and T-invariant, so averaging an optimal k over the group G of
-   such flips (an elementary abelian 2-group, |G| ≤ 2^d) keeps it optimal: k may be taken
-   constant on bar orbits, one variable y_o = Σ_{e∈o} k_e per orbit.
+1. Symmetry.  A reflection T = A diag(±1) Aᵀ in the principal axes A of the centred nodes
+   that maps the nodes onto themselves (permutation π), bars onto bars and span onto itself
+   acts on motions by the orthogonal R_T (u ↦ u', u'_{π(i)} = T u_i), with
+   K(T·k) = R_T K(k) R_Tᵀ (T·k: k permuted with the bars).  φ is concave and T-invariant, so
+   averaging an optimal k over the group G of such reflections (an elementary abelian 2-group,
+   |G| ≤ 2^d) keeps it optimal: k may be taken constant on bar orbits, one variable
+   y_o = Σ_{e∈o} k_e per orbit.  (Every orthogonal symmetry of the nodes commutes with their
+   second moment; when its eigenvalues are distinct it is such a T, so G is then the whole
+   point group.  With equal moments the coordinate axes are tried.)
 2. Block diagonalisation.  G's irreducible representations are its |G| characters χ (±1); the
    isotypic components E_χ = range (1/|G|) Σ_T χ(T) R_T are orthogonal, invariant under every
    K(k) with k constant on orbits and under span, so span^⊥ = ⊕_χ (E_χ ⊖ span) with bases Q_χ
@@ -87,6 +90,8 @@ EIGENPAIRS = 6
 # its image leaves it by at most this fraction.
 SYMMETRY_ATOL = 1e-9
 INVARIANT_RTOL = 1e-7
+# Second moments of the nodes closer than this (relative) leave their principal axes undecided.
+AXES_RTOL = 1e-6
 # The interior-point iteration verifies its bracket once its own duality gap is below this
 # fraction of GAP_RTOL, stops after MAX_ITERATIONS, and steps this fraction of the way to the
 # boundary of the cones; a step whose Cholesky factor fails is shortened by BACKTRACK.
@@ -167,12 +172,25 @@ class StiffnessResult:
     blocks: tuple[int, ...]
 
 
-def sign_symmetries(positions: np.ndarray, edges: np.ndarray, span: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The sign flips T = diag(s), s ∈ {±1}^d, of the centred ``positions`` (N, d) that map
-    nodes to nodes, bars to bars and span (dN × q, orthonormal) onto itself: (signs (|G|, d),
-    perms (|G|, N)), the identity first.  They form a group (products of symmetries are)."""
-    n, d = positions.shape
+def principal_axes(positions: np.ndarray) -> np.ndarray:
+    """Orthonormal axes (d × d, columns) of the centred ``positions`` (N, d): the eigenvectors
+    of their second moment, which every symmetry of the nodes preserves — or the coordinate
+    axes when two moments agree to AXES_RTOL (the axes are then not determined by the nodes)."""
     x = positions - positions.mean(axis=0)
+    moments, axes = np.linalg.eigh(x.T @ x)
+    if np.any(np.diff(moments) <= AXES_RTOL * max(moments[-1], 1e-300)):
+        return np.eye(positions.shape[1])
+    return axes
+
+
+def sign_symmetries(positions: np.ndarray, edges: np.ndarray, span: np.ndarray):
+    """The reflections T = A diag(s) Aᵀ, s ∈ {±1}^d, A the principal axes of the centred
+    ``positions`` (N, d), that map nodes to nodes, bars to bars and span (dN × q, orthonormal)
+    onto themselves: (A, signs (|G|, d), perms (|G|, N)), the identity first.  They form a group
+    (products of symmetries are)."""
+    n, d = positions.shape
+    axes = principal_axes(positions)
+    x = (positions - positions.mean(axis=0)) @ axes  # coordinates along the axes
     tree = cKDTree(x)
     bars = {tuple(e) for e in np.sort(edges, axis=1).tolist()}
     signs, perms = [], []
@@ -184,19 +202,20 @@ def sign_symmetries(positions: np.ndarray, edges: np.ndarray, span: np.ndarray) 
         if not all(tuple(e) in bars for e in np.sort(perm[edges], axis=1).tolist()):
             continue
         image = np.empty_like(span.reshape(n, d, -1))
-        image[perm] = span.reshape(n, d, -1) * s[None, :, None]
+        image[perm] = np.einsum("ab,nbq->naq", (axes * s) @ axes.T, span.reshape(n, d, -1))
         image = image.reshape(n * d, -1)
         if np.linalg.norm(image - span @ (span.T @ image)) > INVARIANT_RTOL * max(np.linalg.norm(span), 1.0):
             continue
         signs.append(s)
         perms.append(perm)
-    return np.array(signs), np.array(perms)
+    return axes, np.array(signs), np.array(perms)
 
 
-def isotypic_basis(signs: np.ndarray, perms: np.ndarray, character: np.ndarray) -> sp.csc_matrix:
+def isotypic_basis(axes: np.ndarray, signs: np.ndarray, perms: np.ndarray, character: np.ndarray) -> sp.csc_matrix:
     """Orthonormal basis (dN × n_χ, sparse) of E_χ = range (1/|G|) Σ_T χ(T) R_T: the
-    normalised nonzero vectors Σ_T χ(T) R_T e_{i,a} for one node i per node orbit and every
-    axis a (distinct orbits or axes give disjoint supports, hence orthogonal columns)."""
+    normalised nonzero vectors Σ_T χ(T) R_T (A_a at node i) for one node i per node orbit and
+    every axis A_a (R_T maps A_a at node j to s_a A_a at node π(j); distinct orbits or axes
+    give orthogonal columns)."""
     n, d = perms.shape[1], signs.shape[1]
     rows, cols, values = [], [], []
     column = 0
@@ -210,9 +229,9 @@ def isotypic_basis(signs: np.ndarray, perms: np.ndarray, character: np.ndarray) 
             np.add.at(vector, perms[:, i], character * signs[:, a])
             support = np.flatnonzero(np.abs(vector) > 0.5)  # sums of ±1: 0 or ≥ 1
             if support.size:
-                rows.extend(support * d + a)
-                cols.extend([column] * support.size)
-                values.extend(vector[support] / np.linalg.norm(vector[support]))
+                rows.extend((support[:, None] * d + np.arange(d)).ravel())
+                cols.extend([column] * (support.size * d))
+                values.extend(np.outer(vector[support] / np.linalg.norm(vector[support]), axes[:, a]).ravel())
                 column += 1
     return sp.csc_matrix((values, (rows, cols)), shape=(n * d, column))
 
@@ -220,12 +239,12 @@ def isotypic_basis(signs: np.ndarray, perms: np.ndarray, character: np.ndarray) 
 def reduce_lmi(positions: np.ndarray, edges: np.ndarray, span: np.ndarray) -> Reduction:
     """Steps 1–2 of the module docstring for the frame's ``positions`` (N, d) and ``edges``
     (N_B, 2) (in the coordinates of its C) and span (dN × q, orthonormal)."""
-    signs, perms = sign_symmetries(positions, edges, span)
+    axes, signs, perms = sign_symmetries(positions, edges, span)
     d = signs.shape[1]
     characters = {tuple(np.prod(signs[:, [a for a in range(d) if subset >> a & 1]], axis=1)) for subset in range(2**d)}
     bases = []
     for character in sorted(characters, reverse=True):
-        e = isotypic_basis(signs, perms, np.array(character))
+        e = isotypic_basis(axes, signs, perms, np.array(character))
         inside = np.asarray(e.T @ span)
         q = np.asarray(e @ nullspace(inside.T)[0])
         if q.shape[1]:

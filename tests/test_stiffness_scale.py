@@ -75,10 +75,12 @@ def check_bracket(result, c, fixed, p):
 def test_the_sheet_has_its_two_reflections_and_the_reduction_block_diagonalises_every_orbit_allocation():
     frame, modes = sheet(3)
     x, c, fixed, p = problem(frame, modes)
-    signs, perms = sign_symmetries(x, frame.edges, fixed)
+    axes, signs, perms = sign_symmetries(x, frame.edges, fixed)
     assert {tuple(s) for s in signs} == {(1, 1), (-1, 1), (1, -1), (-1, -1)}
-    for s, perm in zip(signs, perms):  # checked on the positions: each flip permutes the nodes
-        assert np.allclose(x[perm], x * s, atol=1e-12)
+    assert np.allclose(np.abs(axes).max(axis=0), 1.0, atol=1e-12)  # the sheet's axes: x and y
+    centred = x - x.mean(axis=0)
+    for s, perm in zip(signs, perms):  # checked on the positions: each reflection permutes the nodes
+        assert np.allclose(centred[perm], centred @ ((axes * s) @ axes.T).T, atol=1e-12)
     reduction = reduce_lmi(x, frame.edges, fixed)
     q = np.column_stack(reduction.bases)
     assert q.shape == p.shape and np.allclose(q.T @ q, np.eye(p.shape[1]), atol=1e-10)
@@ -110,8 +112,9 @@ def test_a_designed_mode_that_breaks_a_reflection_removes_it_from_the_group():
     lopsided = np.zeros_like(x)
     lopsided[:, 1] = x[:, 1] + 0.3 * x[:, 1] ** 2
     extended = span(np.column_stack([fixed, lopsided.ravel()]))
-    signs, _ = sign_symmetries(x, frame.edges, extended)
-    assert {tuple(s) for s in signs} == {(1, 1), (-1, 1)}
+    axes, signs, _ = sign_symmetries(x, frame.edges, extended)
+    kept = {tuple(np.round((axes * s) @ axes.T, 12).ravel()) for s in signs}
+    assert kept == {(1, 0, 0, 1), (-1, 0, 0, 1)}
 
 
 @pytest.mark.parametrize("n", [2, 3])
@@ -185,3 +188,19 @@ def test_a_spent_time_limit_still_returns_a_verified_bracket():
     assert result.iterations == 0 and result.upper - result.lower > GAP_RTOL * result.upper
     check_bracket(result, c, fixed, p)
     assert result.lower == pytest.approx(uniform, rel=1e-6)
+
+
+def test_a_rotated_sheet_is_reduced_along_its_own_axes_to_the_same_optimum():
+    frame, modes = sheet(3)
+    angle = 0.4
+    rotation = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+    turned = Frame.build(frame.positions @ rotation.T, frame.edges)
+    results = []
+    for f, m in ((frame, modes), (turned, [modes[0] @ rotation.T])):
+        x, c, fixed, p = problem(f, m)
+        uniform = margin(c, p, np.ones(len(c)))
+        result = optimal_stiffness(sp.csr_matrix(c), fixed, uniform, x, f.edges)
+        assert result.group_order == 4 and result.status == "optimal"
+        check_bracket(result, c, fixed, p)
+        results.append(result)
+    assert results[1].lower <= results[0].upper * (1 + 1e-9) and results[0].lower <= results[1].upper * (1 + 1e-9)
