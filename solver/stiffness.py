@@ -126,9 +126,11 @@ BOUND_EVERY = 10
 
 @dataclass(frozen=True, eq=False)
 class Reduction:
-    """The LMI of the module docstring reduced by the frame's sign-flip symmetry group.
+    """The LMI of the module docstring reduced by the frame's reflection group.
 
-    signs (|G|, d) and perms (|G|, N): the group elements T and their node permutations π;
+    signs (|G|, d) and perms (|G|, N): the group elements T (their signs along the principal
+    axes) and their node permutations π (no columns for the trivial reduction, built without
+    positions);
     bases: one Q_χ (dN × p_χ, orthonormal, ⟂ span) per character with p_χ > 0; orbit (N_B,):
     each bar's orbit index; sizes (m,): |o|; representatives (m,): one bar e_o per orbit."""
 
@@ -331,23 +333,23 @@ def _verify(scaled, span, reduction: Reduction, y: np.ndarray, x: list[np.ndarra
 def _interior_point(rows: tuple[np.ndarray, ...], sizes: np.ndarray, t0: float, budget: float):
     """The primal–dual iteration of the module docstring on the blocks B_χ (m × p_χ), from the
     uniform allocation (y = |o|, scaled to S ⪰ I: ``sizes``); yields
-    (y, [X_χ], iterations) whenever its duality gap is below INNER_FRACTION·GAP_RTOL
-    (then below a quarter of that, and so on), and a last time when it stops: time, iteration
-    cap, or no further progress in floating point."""
+    (y, [X_χ], iterations) whenever its duality gap is below INNER_FRACTION·GAP_RTOL (then
+    INNER_FRACTION times that, and so on), and a last time when it stops: time, iteration cap,
+    or no further progress in floating point."""
     m = rows[0].shape[0]
     identity = [np.eye(b.shape[1]) for b in rows]
     start = min(la.eigvalsh((b.T * sizes) @ b, subset_by_index=[0, 0])[0] for b in rows)
     y = 2.0 * sizes / start  # S_χ = Σ y_o b_o b_oᵀ − I ⪰ I: strictly feasible
     s = [(b.T * y) @ b - i for b, i in zip(rows, identity)]
     # X_χ = ξ S_χ⁻¹ (centred: X S = ξ I), ξ so that the primal is strictly feasible.
-    s_inv = [la.cho_solve(la.cho_factor(sj, lower=True), i) for sj, i in zip(s, identity)]
+    s_inv = [_inverse(sj) for sj in s]
     leverage = sum(np.sum((b @ si) * b, axis=1) for b, si in zip(rows, s_inv))
     xi = 0.5 / leverage.max()
     x = [xi * si for si in s_inv]
     x_lp = 1.0 - xi * leverage  # ≥ 1/2
     total = sum(b.shape[1] for b in rows) + m
     target = INNER_FRACTION * GAP_RTOL
-    iterations, gap = 0, np.inf
+    iterations = 0
     while True:
         check_budget()
         primal, dual = sum(np.trace(xj) for xj in x), float(y.sum())
