@@ -113,7 +113,7 @@ class PipelineResult:
 def stiffness_sdp_fits(frame: Frame, zero_modes: int) -> bool:
     """True when the stiffness-allocation LMI (p × p, p = dN − d(d+1)/2 − M, ``zero_modes`` =
     d(d+1)/2 + M) is within SDP_MAX_DIM.  The large-LMI routes (stiffness.py) reach
-    p = OPTIMAL_MAX_DIM but take 38–40 s at p = 2478 (20 × 20 sheet, interior point) and 60 s
+    p = OPTIMAL_MAX_DIM but take 26–40 s at p = 2478 (20 × 20 sheet, interior point) and 41 s
     for the 64-block chain (spectral bundle)
     (docs/benchmarks/certificates.md): past a pipeline stage's budget, so the pipeline keeps the
     LMI cap and /v1/certify serves the larger margins."""
