@@ -27,7 +27,7 @@ import uuid
 from collections.abc import Iterable
 from typing import Any
 
-from zeromode.service.offload import OVERRUN_SLACK
+from zeromode.service.offload import OVERRUN_SLACK, heavy
 from zeromode.service.settings import Settings
 from zeromode.service.store import Store, Submission
 from zeromode.service.tasks import PROGRESS_TOPIC, chunk_of, execute_chunk, execute_request
@@ -212,10 +212,13 @@ class Engine:
 
     def submit(self, submissions: list[Submission], priority: int, prechecked: bool = False) -> None:
         """Send jobs already recorded as queued (and owned by this instance) to the cluster, in
-        chunks (``chunk_size``): one Dask task per chunk. ``prechecked``: their requests passed
-        their endpoint's up-front checks when they were accepted (work adopted from a stopped
-        instance is checked again)."""
-        size = chunk_size(len(submissions), self._workers())
+        chunks (``chunk_size``): one Dask task per chunk. Heavy requests (offload.heavy) go one
+        per task, so the watchdog can stop one that overruns its budget inside a library call
+        without losing finished neighbours (a task's scheduling is negligible beside a heavy request).
+        ``prechecked``: their requests passed their endpoint's up-front checks when they were
+        accepted (work adopted from a stopped instance is checked again)."""
+        alone = any(heavy(s.endpoint, s.request) for s in submissions)
+        size = 1 if alone else chunk_size(len(submissions), self._workers())
         chunks = [submissions[i : i + size] for i in range(0, len(submissions), size)]
         if not chunks:
             return

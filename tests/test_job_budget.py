@@ -96,3 +96,25 @@ def test_delete_stops_a_running_job(tmp_path, dask_scheduler):
         time.sleep(1.0)
         assert client.get(f"/v1/jobs/{job_id}").json()["status"] == "cancelled"
         assert client.get("/v1/engine").json()["processing"] == 0
+
+
+def test_a_heavy_sweep_point_is_stopped_at_its_budget_and_its_neighbours_finish(tmp_path, dask_scheduler):
+    """Heavy sweep points run one per Dask task, so the watchdog stops the one that overruns
+    (failed too_expensive within 10 % of the budget) while the points around it are answered."""
+    small = {"frame": big_frame(20), "options": {"method": "dense"}}
+    with app_client(tmp_path, dask_scheduler, job_time_budget_s=BUDGET_S) as client:
+        r = client.post("/v1/sweeps", json={"endpoint": "/v1/analyze", "template": {},
+                                            "requests": [small, LONG, small]})
+        assert r.status_code == 202, r.text
+        sweep_id = r.json()["id"]
+        deadline = time.monotonic() + 120
+        while (status := client.get(f"/v1/sweeps/{sweep_id}").json())["status"] == "running":
+            assert time.monotonic() < deadline, status
+            time.sleep(0.1)
+        by_point = {p["point"]: p for p in status["results"]}
+        assert [by_point[i]["status"] for i in range(3)] == ["done", "failed", "done"], status
+        assert by_point[0]["result"]["nodes"] == by_point[2]["result"]["nodes"] == 20
+        assert by_point[1]["error"]["code"] == "too_expensive" and "was stopped" in by_point[1]["error"]["message"]
+        record = client.app.state.jobs.store.sweep_points(sweep_id, limit=10)
+        long_point = next(p for p in record if p["point"] == 1)
+        assert long_point["finished"] - long_point["started"] <= 1.1 * BUDGET_S, long_point
