@@ -103,9 +103,10 @@ BACKTRACK = 0.5
 # (13 % faster on the 20 × 20 sheet than LAPACK's partial eigen-solver).
 DENSE_STEP = 50
 LANCZOS_RTOL = 1e-4
-# The interior-point route runs when one iteration costs at most this many flops (the 20 × 20
-# sheet reduced: 3e10, ~2 s on one loaded core); beyond it, the spectral bundle route.
-IPM_MAX_FLOPS = 1e11
+# The interior-point route runs when one iteration costs at most this many flops, so that its
+# 15–20 iterations fit in TIME_S on a loaded core (the 20 × 20 sheet reduced: 3e10 flops,
+# 1.6 s at load 2, 16 iterations); beyond it, the spectral bundle route.
+IPM_MAX_FLOPS = 5e10
 # Smallest eigenpairs evaluated per point (the new cuts) and the bundle's largest size.
 BUNDLE_CUTS = 4
 BUNDLE_MAX = 10
