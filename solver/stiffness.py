@@ -248,8 +248,11 @@ def reduce_lmi(positions: np.ndarray, edges: np.ndarray, span: np.ndarray) -> Re
     bases = []
     for character in sorted(characters, reverse=True):
         e = isotypic_basis(axes, signs, perms, np.array(character))
-        inside = np.asarray(e.T @ span)
-        q = np.asarray(e @ nullspace(inside.T)[0])
+        # The singular values of Eᵀ span are the cosines of the angles between span and E_χ:
+        # 1 or 0 as span is invariant (a relative rank decision would misjudge a block that
+        # holds none of span, where they are all round-off).
+        _, cosines, vt = np.linalg.svd(np.asarray(e.T @ span).T, full_matrices=True)
+        q = np.asarray(e @ vt[int(np.sum(cosines > 0.5)) :].T)
         if q.shape[1]:
             bases.append(q - span @ (span.T @ q))
     index = {e: b for b, e in enumerate(map(tuple, np.sort(edges, axis=1).tolist()))}
