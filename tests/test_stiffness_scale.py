@@ -206,34 +206,35 @@ def test_a_rotated_sheet_is_reduced_along_its_own_axes_to_the_same_optimum():
     assert results[1].lower <= results[0].upper * (1 + 1e-9) and results[0].lower <= results[1].upper * (1 + 1e-9)
 
 
-def mirrored_frame(seed: int) -> Frame:
-    """Random points in the open quadrant x, y > 0 and their mirror images in both axes, with
-    the Delaunay edges of all of them and every mirror image of each edge: a frame that the
-    reflections x ↦ −x and y ↦ −y map onto itself, by construction."""
+def mirrored_frame(seed: int, dim: int = 2, per_orthant: int = 5) -> Frame:
+    """Random points in the open orthant x > 0 and their mirror images in every axis, with the
+    Delaunay edges of all of them and every mirror image of each edge: a frame that the
+    reflections in the coordinate planes map onto itself, by construction."""
+    from itertools import product
+
     from scipy.spatial import Delaunay
 
     rng = np.random.default_rng(seed)
-    quadrant = rng.uniform(0.1, 1.0, (5, 2))
-    signs = np.array([[1, 1], [-1, 1], [1, -1], [-1, -1]])
-    x = np.concatenate([quadrant * s for s in signs])  # node j of copy c: index 5c + j
-    image = {(c, t): int(np.flatnonzero((signs == signs[c] * signs[t]).all(axis=1))[0]) for c in range(4) for t in range(4)}
+    orthant = rng.uniform(0.1, 1.0, (per_orthant, dim))
+    signs = np.array(list(product([1, -1], repeat=dim)))
+    x = np.concatenate([orthant * s for s in signs])  # node j of copy c: index per_orthant·c + j
+    copy = {tuple(s): c for c, s in enumerate(signs.tolist())}
     edges = set()
     for simplex in Delaunay(x).simplices:
-        for a, b in ((0, 1), (1, 2), (0, 2)):
-            i, j = int(simplex[a]), int(simplex[b])
-            for t in range(4):
-                u, v = 5 * image[(i // 5, t)] + i % 5, 5 * image[(j // 5, t)] + j % 5
+        for i, j in ((int(a), int(b)) for a in simplex for b in simplex if a < b):
+            for t in signs:
+                u, v = (per_orthant * copy[tuple(signs[k // per_orthant] * t)] + k % per_orthant for k in (i, j))
                 edges.add((min(u, v), max(u, v)))
     return Frame.build(x, sorted(edges))
 
 
-@pytest.mark.parametrize("seed", [1, 2, 3])
-def test_random_mirrored_frames_agree_with_the_sdp(seed):
-    frame = mirrored_frame(seed)  # 20 nodes: p = 37
+@pytest.mark.parametrize(("seed", "dim", "per_orthant"), [(1, 2, 5), (2, 2, 5), (3, 2, 5), (4, 3, 2), (5, 3, 2)])
+def test_random_mirrored_frames_agree_with_the_sdp(seed, dim, per_orthant):
+    frame = mirrored_frame(seed, dim, per_orthant)  # 20 nodes in 2D (p = 37), 16 in 3D (p = 42)
     x, c, fixed, p = problem(frame, [])
     uniform = margin(c, p, np.ones(len(c)))
     result = optimal_stiffness(sp.csr_matrix(c), fixed, uniform, x, frame.edges)
-    assert result.group_order == 4 and result.status == "optimal"
+    assert result.group_order == 2**dim and len(result.blocks) == 2**dim and result.status == "optimal"
     check_bracket(result, c, fixed, p)
     sdp = solve_lmi(stiffness_program(c @ p))
     assert sdp.lower <= result.upper * (1 + 1e-9) and result.lower <= sdp.upper * (1 + 1e-9)
