@@ -46,7 +46,9 @@ m̃ ≤ f(f+1)/2 variables however many self-stresses), its LMI stays f × f and
 SDP_MAX_DIM; the optimal-stiffness margin goes to the interior-point route of stiffness.py (up
 to OPTIMAL_MAX_DIM: the LMI reduced by the frame's reflection symmetries to orbit variables and
 one block per character, solved by a primal–dual method written for its rank-one terms; a
-spectral bundle method when the blocks stay too large), with the same verified bracket; the uniform margin is one shift-invert eigen-solve (eigen.py). Sizes are checked from the request before any analysis (check_size).
+spectral bundle method when the blocks stay too large), with the same verified bracket; the
+uniform margin is one shift-invert eigen-solve (eigen.py). Sizes are checked from the request
+before any analysis (check_size).
 """
 
 from __future__ import annotations
@@ -80,7 +82,7 @@ from zeromode.solver.tolerances import GIVEN_MODE_RTOL
 SOLVERS = ("clarabel", "scs")
 # Largest LMI (f or p) handed to a solver. Measured with Clarabel on the shared 2-core machine:
 # 1–4 s at n = 37, 3–7 s at n = 47, 10–20 s at n = 57 (growing like n⁶). Larger complements
-# go to the interior-point route (stiffness.py), prestress LMIs beyond it are refused.
+# go to stiffness.py (interior point or spectral bundle), prestress LMIs beyond it are refused.
 SDP_MAX_DIM = 48
 
 
