@@ -250,7 +250,7 @@ def run_sweep(
     (SweepRefused names a bad one)."""
     from distributed import as_completed
 
-    from zeromode.service.engine import chunk_size, dask_client
+    from zeromode.service.engine import chunked, dask_client
 
     settings = current_settings() if settings is None else settings
     sweep_points = points(template or {}, grid, requests, settings.max_sweep_points)
@@ -258,8 +258,7 @@ def run_sweep(
     client, cluster = dask_client(settings, scheduler)
     try:
         workers = max(len(client.scheduler_info(n_workers=-1).get("workers", {})), 1)
-        size = chunk_size(len(sweep_points), workers)
-        chunks = [sweep_points[i : i + size] for i in range(0, len(sweep_points), size)]
+        chunks = chunked(sweep_points, workers)
         futures = client.map(
             execute_chunk,
             [chunk_of([(str(p.index), endpoint, p.request) for p in chunk]) for chunk in chunks],
