@@ -244,8 +244,8 @@ def million_table() -> list[str]:
     """Each 10⁶-node frame once, alone in a fresh process: CPU and wall seconds of the counts
     (frame built beforehand) and the child's peak resident memory (from wait4)."""
     rows = [
-        "| frame | N | N_B | rank | nontrivial zero modes | self-stresses | σ_r / σ_{r+1} "
-        "| counts (CPU) | counts (wall) | peak memory |",
+        ("| frame | N | N_B | rank | nontrivial zero modes | self-stresses | σ_r / σ_{r+1} "
+        "| counts (CPU) | counts (wall) | peak memory |"),
         "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for name in MILLION:

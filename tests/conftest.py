@@ -9,7 +9,7 @@ import os
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
-import tempfile  # noqa: E402
+import tempfile
 
 # Apps built with default settings keep their job records in this session's own SQLite file,
 # not in the user's state directory.
@@ -20,8 +20,8 @@ os.environ.setdefault("ZEROMODE_DATABASE_URL", f"sqlite:///{_STATE}/jobs.sqlite3
 os.environ.setdefault("ZEROMODE_OFFLOAD", "false")
 
 
-import pytest  # noqa: E402
-from fastapi.testclient import TestClient  # noqa: E402
+import pytest
+from fastapi.testclient import TestClient
 
 
 @pytest.fixture(scope="session")
