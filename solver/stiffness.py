@@ -174,6 +174,16 @@ class StiffnessResult:
     group_order: int
     blocks: tuple[int, ...]
 
+    @classmethod
+    def bracketed(cls, lower: float, upper: float, uniform: float, stiffness: np.ndarray, method: str,
+                  dual: np.ndarray | None, iterations: int, t0: float, group_order: int,
+                  blocks: tuple[int, ...]) -> StiffnessResult:
+        """The result of a route that bracketed λ*/uniform in [lower, upper] (scaled units),
+        started at perf_counter ``t0``: "optimal" once the bracket closed to GAP_RTOL."""
+        status = "optimal" if upper - lower <= GAP_RTOL * upper else "gap_not_closed"
+        return cls(lower * uniform, upper * uniform, stiffness, method, dual, status, iterations,
+                   1e3 * (time.perf_counter() - t0), group_order, blocks)
+
 
 def principal_axes(positions: np.ndarray) -> np.ndarray:
     """Orthonormal axes (d × d, columns) of the centred ``positions`` (N, d): the eigenvectors
@@ -296,18 +306,8 @@ def optimal_stiffness(
         if best[1] - best[0] <= GAP_RTOL * best[1]:
             break
     lower, upper, k, dual = best
-    return StiffnessResult(
-        lower=lower * uniform,
-        upper=upper * uniform,
-        stiffness=k,
-        method="interior_point",
-        dual=dual,
-        status="optimal" if upper - lower <= GAP_RTOL * upper else "gap_not_closed",
-        iterations=iterations,
-        time_ms=1e3 * (time.perf_counter() - t0),
-        group_order=len(reduction.signs),
-        blocks=tuple(q.shape[1] for q in reduction.bases),
-    )
+    return StiffnessResult.bracketed(lower, upper, uniform, k, "interior_point", dual, iterations, t0,
+                                     len(reduction.signs), tuple(q.shape[1] for q in reduction.bases))
 
 
 def _trivial(n_bars: int, span: np.ndarray) -> Reduction:
@@ -530,19 +530,8 @@ def spectral_bundle(c, span: np.ndarray, uniform: float, time_s: float = BUNDLE_
         if iterations % BOUND_EVERY == 0:
             upper = min(upper, _model_bound(scaled, bundle, aggregate, at_hat, span))
     upper = min(upper, _model_bound(scaled, bundle, aggregate, at_hat, span))
-    lower = lower_of(at_hat)
-    return StiffnessResult(
-        lower=lower * uniform,
-        upper=upper * uniform,
-        stiffness=k_hat,
-        method="spectral_bundle",
-        dual=None,
-        status="optimal" if upper - lower <= GAP_RTOL * upper else "gap_not_closed",
-        iterations=iterations,
-        time_ms=1e3 * (time.perf_counter() - t0),
-        group_order=1,
-        blocks=(c.shape[1] - span.shape[1],),
-    )
+    return StiffnessResult.bracketed(lower_of(at_hat), upper, uniform, k_hat, "spectral_bundle", None, iterations,
+                                     t0, 1, (c.shape[1] - span.shape[1],))
 
 
 def upper_bound(a_v: np.ndarray, z: np.ndarray, alpha: float, aggregate: np.ndarray | None) -> float:
