@@ -383,8 +383,6 @@ def fields_body(result) -> dict:
     return {f.name: _field_body(getattr(result, f.name)) for f in fields(result)}
 
 
-
-
 def certificate_body(c: Certificate) -> dict:
     return {
         "analysis": counts_body(c.analysis),

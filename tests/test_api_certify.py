@@ -26,6 +26,7 @@ from oracles.wire import frame_body
 from zeromode.service.app import create_app
 from zeromode.service.settings import Settings
 from zeromode.solver.certificates import OPTIMAL_MAX_DIM
+from zeromode.solver.frame import Frame
 from zeromode.solver.lattice import auxetic_sheet
 
 # A triangle whose three sides each carry a taut midpoint joint: 3 flexes, 3 stresses.
@@ -110,9 +111,19 @@ def test_scs_is_selectable(client):
 
 
 def test_solver_failure_is_422_certificate_failed(client):
-    r = certify(client, OUTWARD, modes=[OUTWARD_MODE], options={"max_iters": 1})
+    # One iteration leaves the prestress SDP of Connelly's frame (t* ≈ 0) undecided for both solvers.
+    from test_certificates import connelly_second_order_rigid
+
+    r = certify(client, frame_body(Frame.build(*connelly_second_order_rigid())), options={"max_iters": 1, "stiffness": False})
     assert error_code(r) == "certificate_failed"
     assert "clarabel" in r.json()["detail"]["message"] and "scs" in r.json()["detail"]["message"]
+
+
+def test_allocation_the_conic_solvers_leave_open_is_answered_by_the_interior_point_route(client):
+    body = ok(certify(client, OUTWARD, modes=[OUTWARD_MODE], options={"max_iters": 1}))
+    sdp = body["rigidity_margin"]["sdp"]
+    assert [a["solver"] for a in sdp["attempts"]] == ["clarabel", "scs", "interior_point"]
+    assert sdp["solver"] == "interior_point" and sdp["status"] == "optimal"
 
 
 def test_a_sheet_with_default_options_gets_its_optimal_margin_with_a_verified_bracket(client):

@@ -465,13 +465,39 @@ def test_prestress_without_a_stress_basis_matches_the_full_basis(name):
         assert np.linalg.eigvalsh(energy)[0] == pytest.approx(reduced.margin, rel=1e-6)
 
 
-@pytest.mark.parametrize("stiffness", [False, True])
-def test_solver_failure_is_a_certificate_failed_error(stiffness):
-    """One iteration decides nothing: neither t* ≈ 0 (prestress) nor the optimal allocation
-    (its bracket stays open). A lucky iterate would be accepted — its bounds are verified."""
-    frame = outward_square() if stiffness else Frame.build(*connelly_second_order_rigid())
-    modes = [outward_mode(frame)] if stiffness else []
+def test_solver_failure_is_a_certificate_failed_error():
+    """One iteration decides nothing: t* ≈ 0 (prestress) stays undecided. A lucky iterate
+    would be accepted — its bounds are verified."""
+    frame = Frame.build(*connelly_second_order_rigid())
     with pytest.raises(DomainError) as info:
-        certify(frame, modes, stiffness=stiffness, max_iters=1)
+        certify(frame, [], stiffness=False, max_iters=1)
     assert info.value.code == "certificate_failed"
     assert "clarabel: " in info.value.message and "scs: " in info.value.message
+
+
+def test_conic_failures_on_the_allocation_fall_back_to_the_interior_point_route():
+    """One conic iteration leaves the optimal allocation's bracket open for both solvers; the
+    interior-point route (stiffness.py) then answers, its bracket checked from scratch, the
+    failed attempts on record."""
+    frame = outward_square()
+    got = certify(frame, [outward_mode(frame)], stiffness=True, max_iters=1).rigidity_margin
+    assert [a.solver for a in got.sdp.attempts] == ["clarabel", "scs", "interior_point"]
+    assert got.sdp.solver == "interior_point" and got.sdp.status == "optimal"
+    # the conic route's own answer, a bracket of 1e-4, agrees
+    assert got.optimal == pytest.approx(check_margin(frame, [outward_mode(frame)]).optimal, rel=1e-3)
+    x, e = frame.positions, frame.edges
+    assert reference_margin(x, e, [outward_mode(frame)], got.stiffness) == pytest.approx(got.optimal, rel=1e-7)
+
+
+def test_an_allocation_the_conic_solvers_cannot_verify_is_certified_by_the_interior_point_route():
+    """The 2 × 2 finite-strain sheet (trammel modules, 25 nodes, a 46 × 46 LMI): Clarabel's and
+    SCS's answers do not verify; the interior-point route of stiffness.py answers with a verified
+    bracket, checked from scratch like every other margin, the failed attempts on record."""
+    from zeromode.solver.finite_strain import finite_strain_sheet
+
+    lat = finite_strain_sheet(2, 2, poisson=-0.5, strain_range=(-0.1, 0.1), tolerance=0.02).lattice
+    got = check_margin(lat.frame, [lat.mode])
+    attempts = got.sdp.attempts
+    assert attempts[-1].status in ("optimal", "optimal_inaccurate") and got.sdp.solver == attempts[-1].solver
+    if any(a.status != "optimal" for a in attempts[:-1]):
+        assert got.sdp.solver == "interior_point" and [a.solver for a in attempts] == ["clarabel", "scs", "interior_point"]

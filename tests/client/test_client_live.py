@@ -256,6 +256,27 @@ def test_auxetic_sheet_has_the_requested_poisson_ratio(client: Client) -> None:
         assert secant < 0 and state["poisson_ratio"] == pytest.approx(secant, rel=1e-6)
 
 
+def test_auxetic_sheet_holds_its_ratio_at_finite_strain_and_carries_certificates(client: Client) -> None:
+    """The client passes the pipeline's options of /v1/design/auxetic (finite_strain, certify):
+    the states at ε_x = ±10 % keep the secant ν within the tolerance, measured here from the
+    returned positions; the certificate's counts are the numpy rank count of the returned sheet."""
+    result = client.design_auxetic(dim=2, cells=[2, 2], poisson_ratio=-0.5, certify=True,
+                                   finite_strain={"strain_range": [-0.1, 0.1], "tolerance": 0.02})
+    frame, boundary = result.frame, result["report"]["boundary"]
+    for state in result["states"]:
+        moved = np.asarray(state["positions"])
+        assert relative_bar_error([moved], frame.edges, frame.positions) < 1e-8
+        eps_x, eps_y = boundary_strains(frame.positions, moved, boundary, finite=True)
+        assert abs(abs(eps_x) - 0.1) < 1e-9 and abs(-eps_y / eps_x + 0.5) <= 0.02
+    certificate = result["report"]["certificate"]
+    counts = reference_counts(frame.positions, frame.edges)
+    assert certificate["analysis"]["rank"] == counts["rank"]
+    assert certificate["analysis"]["self_stresses"] == counts["self_stresses"]
+    margin = certificate["rigidity_margin"]
+    assert margin["undesigned_zero_modes"] == 0
+    assert 0 < margin["uniform"] <= margin["optimal"] * (1 + 1e-6) and margin["optimal"] <= margin["optimal_upper_bound"]
+
+
 def test_allosteric_design_drives_the_target(client: Client) -> None:
     """A dilating source triangle must contract a target triangle 6 units away."""
     x_src = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
