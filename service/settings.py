@@ -125,12 +125,19 @@ def settings_scope(settings: Settings) -> Iterator[None]:
         _CURRENT.reset(token)
 
 
+# h11 buffers up to this many times max_header_bytes per connection (128 KiB by default: 64 MiB
+# at the 512-connection cap), so an oversized header block is answered with a code, not bare.
+HEADER_PARSER_FACTOR = 8
+
+
 def server_options(settings: Settings) -> dict:
     """uvicorn's options for these settings: the h11 parser (it bounds the header bytes; the
-    httptools parser does not), the connection cap and the keep-alive timeout."""
+    httptools parser does not), the connection cap and the keep-alive timeout. h11's bound is
+    HEADER_PARSER_FACTOR × ``max_header_bytes``: a block between the two reaches the app, which
+    answers 431 ``headers_too_large`` with its JSON body; only a larger one gets h11's bare 400."""
     return {
         "http": "h11",
-        "h11_max_incomplete_event_size": settings.max_header_bytes,
+        "h11_max_incomplete_event_size": HEADER_PARSER_FACTOR * settings.max_header_bytes,
         "limit_concurrency": settings.max_connections,
         "timeout_keep_alive": settings.keep_alive_s,
     }

@@ -214,6 +214,10 @@ def deployed() -> Iterator[str]:
 
 
 def test_oversized_headers_are_refused_by_the_server(deployed):
+    # Past ZEROMODE_MAX_HEADER_BYTES (8192 here): the app's 431 with its code and sentence ...
+    response = httpx.get(f"{deployed}/health", headers={"x-padding": "a" * 30_000})
+    assert response.status_code == 431 and response.json()["detail"]["code"] == "headers_too_large"
+    # ... and past h11's buffer (8 × the limit) the parser's own 4xx, the service unharmed.
     response = httpx.get(f"{deployed}/health", headers={"x-padding": "a" * 100_000})
     assert 400 <= response.status_code < 500
     assert httpx.get(f"{deployed}/health").status_code == 200
