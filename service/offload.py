@@ -18,8 +18,9 @@ Which requests are heavy (``heavy``) is decided from their sizes, by what was me
 a loaded 2-core machine (load 5-8): every request left inline answers in a few seconds at most
 (its time budget, checked between its steps, is then never overrun by more than a step), e.g. an
 auxetic sheet of 400 cells 0.5 s, a design of 32 nodes × 2 motions 3 s, an analysis of 300 2D
-nodes 2.8 s at most; while an analysis of 1 000 floppy 2D nodes took 37 s, a 3D auxetic chain of 8 blocks took 60 s, a two-configuration
-design of 64 nodes 60 s, a plot or a GraphML export of 10⁵ nodes 20 s.
+nodes 2.8 s at most; while an analysis of 1 000 floppy 2D nodes took 37 s, a 3D auxetic chain
+of 8 blocks 60 s, a two-configuration design of 64 nodes 60 s, a plot or a GraphML export of
+10⁵ nodes 20 s.
 """
 
 from __future__ import annotations
@@ -67,11 +68,11 @@ HEAVY_CELLS = 400
 HEAVY_DESIGN = 32
 # The dense analysis asked for by name is heavy past this many rows or columns of C (≈ 0.5 s).
 HEAVY_DENSE_SIDE = 1_000
-# Routes that are not job endpoints (service/tasks.py RUNNABLE) answered by a worker when heavy,
-# through ``execute_route`` (their answer may be a file).
 # Bodies larger than this are validated by the worker, inside the budget it is stopped at, rather
 # than by the service before it takes them (uninterruptible: a 5 MB frame of 10⁵ nodes took up to 1.2 s).
 VALIDATE_HERE_BYTES = 1_000_000
+# Routes that are not job endpoints (service/tasks.py RUNNABLE) answered by a worker when heavy,
+# through ``execute_route`` (their answer may be a file).
 ROUTES = frozenset({"/v1/design/two-configuration", "/v1/design/allosteric/network", "/v1/plot", "/v1/export"})
 JSON_HEADERS = [("content-type", "application/json")]
 
