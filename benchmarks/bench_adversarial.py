@@ -512,9 +512,9 @@ def write_markdown(r: dict, out: Path) -> None:
         "",
         "## Notes",
         "",
-        ("- A header block past 16 KiB that arrives in one piece is refused by uvicorn's h11 parser "
-         "(`h11_max_incomplete_event_size`) with its own plain-text 400 before the app sees it (the app answers "
-         "431 `headers_too_large` to a block it receives)."),
+        ("- A header block past 16 KiB (`ZEROMODE_MAX_HEADER_BYTES`) is answered 431 `headers_too_large` by the "
+         "app; past 8 times that (uvicorn's `h11_max_incomplete_event_size`) h11 refuses it with its own "
+         "plain-text 400 before the app sees it."),
         ("- A request's budget runs from the moment its body has been read; a heavy body past 1 MB is parsed by "
          "the service only to decide where it runs, and validated by the worker, inside the budget."),
     ]
