@@ -25,6 +25,7 @@ from pathlib import Path
 import httpx
 
 from benchmarks.bench_sweeps import health_probe, percentiles, start_service_with
+from benchmarks.load import threads_wall
 
 CLIENTS = 48
 BUDGET_S = 2.0
@@ -54,13 +55,7 @@ def heavy_load(url: str, clients: int = CLIENTS) -> dict:
 
     prober = threading.Thread(target=health_probe, args=(url, stop, latencies))
     prober.start()
-    t0 = time.perf_counter()
-    threads = [threading.Thread(target=heavy) for _ in range(clients)]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join()
-    wall = time.perf_counter() - t0
+    wall = threads_wall(heavy, clients)
     stop.set()
     prober.join()
     return {"health": percentiles(latencies), "latencies": latencies, "wall_s": wall,

@@ -81,6 +81,17 @@ def rss_mib(pids: list[int]) -> float:
     return total / 1024
 
 
+def threads_wall(target, clients: int) -> float:
+    """Seconds until ``clients`` threads each running ``target`` have all finished."""
+    t0 = time.perf_counter()
+    threads = [threading.Thread(target=target) for _ in range(clients)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    return time.perf_counter() - t0
+
+
 def drive(url: str, path: str, body: dict, clients: int, requests: int, max_seconds: float) -> dict:
     """C threads share a bounded request count; returns latencies and errors."""
     latencies: list[float] = []
@@ -109,13 +120,7 @@ def drive(url: str, path: str, body: dict, clients: int, requests: int, max_seco
                     if not ok:
                         errors.append(str(getattr(r, "status_code", r)))
 
-    t0 = time.perf_counter()
-    threads = [threading.Thread(target=run) for _ in range(clients)]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join()
-    wall = time.perf_counter() - t0
+    wall = threads_wall(run, clients)
     lat = np.array(latencies) * 1e3
     return {
         "requests": len(latencies),
