@@ -27,6 +27,7 @@ import uuid
 from collections.abc import Iterable
 from typing import Any
 
+from zeromode.service.errors import error_body
 from zeromode.service.offload import OVERRUN_SLACK, heavy
 from zeromode.service.settings import Settings
 from zeromode.service.store import Store, Submission
@@ -278,8 +279,8 @@ class Engine:
     def request_outcome(future) -> tuple[int, bytes]:
         if future.status == "finished":
             return future.result()
-        return 503, json.dumps({"detail": {
-            "code": "worker_lost", "message": "the worker process answering this request died; try again."}}).encode()
+        return 503, json.dumps(error_body(
+            "worker_lost", "the worker process answering this request died; try again.")).encode()
 
     def stop_request(self, future) -> None:
         """Cancel the request's task and restart the worker running it, if any (the only way to

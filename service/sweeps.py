@@ -21,8 +21,8 @@ from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from typing import Any
 
-from zeromode.service.settings import Settings, current_settings
-from zeromode.service.tasks import RequestRefused, chunk_of, execute_chunk, validated
+from zeromode.service.settings import Settings, current_settings, settings_scope
+from zeromode.service.tasks import RequestRefused, chunk_of, execute_chunk, settings_of, validated
 
 
 class SweepRefused(Exception):
@@ -137,9 +137,6 @@ def validate_points(endpoint: str, sweep_points: list[Point]) -> None:
 def first_refusal(endpoint: str, sweep_points: list[Point], settings_json: str) -> dict[str, Any] | None:
     """``validate_points`` under the service's settings as a Dask task: the 422 detail of the
     first bad point, or None."""
-    from zeromode.service.settings import settings_scope
-    from zeromode.service.tasks import settings_of
-
     with settings_scope(settings_of(settings_json)):
         try:
             validate_points(endpoint, sweep_points)

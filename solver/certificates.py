@@ -261,11 +261,15 @@ def _solve_once(program: LmiProgram, solver: str, time_limit: float | None, max_
 
 
 class CertificateFailed(DomainError):
-    """``certificate_failed``: every solver attempt failed; ``attempts`` records them in order."""
+    """``certificate_failed``: every attempt at an n × n LMI failed; ``attempts`` records them
+    in order, ``best`` the widest verified bracket known when there is one."""
 
-    def __init__(self, message: str, attempts: tuple[SolverRun, ...]):
-        super().__init__("certificate_failed", message)
-        self.attempts = attempts
+    def __init__(self, size: int, attempts: tuple[SolverRun, ...], best: tuple[float, float] | None = None):
+        summary = "; ".join(f"{a.solver}: {a.status}" for a in attempts)
+        bracket = "" if best is None else f"; best verified bracket [{best[0]:.6g}, {best[1]:.6g}]"
+        super().__init__("certificate_failed",
+                         f"no solver produced a verified certificate for the {size}×{size} SDP ({summary}){bracket}.")
+        self.size, self.attempts = size, attempts
 
 
 def solve_lmi(
@@ -305,11 +309,7 @@ def solve_lmi(
                 status = f"{status}_unverified"
         attempts.append(SolverRun(name, status, 1e3 * (time.perf_counter() - t0)))
     check_budget()  # a solver stopped by the time limit is a budget failure, not a math one
-    summary = "; ".join(f"{a.solver}: {a.status}" for a in attempts)
-    raise CertificateFailed(
-        f"no solver produced a verified certificate for the {program.size}×{program.size} SDP ({summary}).",
-        tuple(attempts),
-    )
+    raise CertificateFailed(program.size, tuple(attempts))
 
 
 # ----------------------------------------------------------------------------- certificates
@@ -543,10 +543,10 @@ def rigidity_margin(
         # trammel sheet, 46 × 46): the interior-point route of stiffness.py, whose bracket is
         # verified on the frame itself, is the method's other way to the same optimum.
         margin = _large_margin(frame, m, p, uniform, c, span)
+        attempts = exc.attempts + margin.sdp.attempts
         if margin.sdp.status != "optimal" or margin.optimal < uniform * (1 - MARGIN_GAP_RTOL):
-            raise DomainError("certificate_failed", f"{exc.message[:-2]}; {margin.sdp.solver}: bracket "
-                              f"[{margin.optimal:.6g}, {margin.optimal_upper_bound:.6g}], {margin.sdp.status}).") from exc
-        return replace(margin, sdp=replace(margin.sdp, attempts=exc.attempts + margin.sdp.attempts))
+            raise CertificateFailed(p, attempts, (margin.optimal, margin.optimal_upper_bound)) from exc
+        return replace(margin, sdp=replace(margin.sdp, attempts=attempts))
     return RigidityMargin(m, p, 0, uniform, solution.lower, solution.upper, stiffness=solution.x, sdp=solution)
 
 
