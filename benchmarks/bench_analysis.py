@@ -62,6 +62,7 @@ FULL_SIZES = {
     "fcc": [100, 1000, 10_000, 30_000],
 }
 MILLION = ("triangulated", "kagome")
+CROSSOVER_ROUNDS = 31
 REST_HEADING = "## Through the service"
 QUICK_SIZES = {
     "triangulated": [100, 1000, 10_000],
@@ -231,11 +232,11 @@ def crossover_table(dofs: list[int]) -> list[str]:
             seen.add(dn)
             cells = []
             for bases in (False, True):
-                for method in ("dense", "sparse"):
-                    seconds, _ = median_cpu(
-                        lambda f=frame, m=method, b=bases: analyze(f, method=m, bases=b), 7
-                    )
-                    cells.append(fmt_time(seconds))
+                seconds, _ = paired_median_cpu(
+                    [lambda f=frame, m=method, b=bases: analyze(f, method=m, bases=b) for method in ("dense", "sparse")],
+                    CROSSOVER_ROUNDS,
+                )
+                cells += [fmt_time(s) for s in seconds]
             rows.append(
                 f"| {name} | {dn} | {frame.n_edges} | {dn * frame.n_edges} | "
                 + " | ".join(cells)
@@ -414,7 +415,7 @@ def main() -> None:
         "## Dense/sparse crossover",
         "",
         (
-            "The same frames through both routes (`method=`), medians of 7 runs. `analyze` takes "
+            f"The same frames through both routes (`method=`), timed in turn, medians of {CROSSOVER_ROUNDS} rounds. `analyze` takes "
             f"the dense SVD while N_B·dN ≤ {DENSE_MAX_ENTRIES_COUNTS} for counts and "
             f"dN·max(N_B, dN) ≤ {DENSE_MAX_ENTRIES_BASES} with bases (sized by dN² since a frame with "
             "few bars still needs the dN × dN matrix V), the sparse route above."

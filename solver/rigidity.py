@@ -43,15 +43,14 @@ from zeromode.solver.rank import RTOL, RankGap, complement_within, decide_rank, 
 DENSE_MAX_DOF = 400
 # analyze takes the SVD of C while C has at most this many entries (N_B·dN), the sparse route
 # above. Measured (benchmarks/bench_analysis.py, crossover table in
-# docs/benchmarks/analysis.md): the SVD's cost grows as N_B·dN·min(N_B, dN) (singular values
-# alone for counts) while the sparse route costs about 2 ms of fixed Python-level steps plus,
-# with bases, a QR of each basis; counts alone break even near 20 000–30 000 entries
-# (triangulated: 20 600 entries dense 2.1 ms, sparse 2.5 ms; 33 700 dense 3.5 ms, sparse 2.6 ms),
-# counts with bases near 20 000 (kagome 19 650: dense 4.7 ms, sparse 3.1 ms). The bases limit
-# is kept at 40 000 (the sparse route gains at most 2× below it), so small designed frames keep
-# the exact SVD bases they were verified with.
-DENSE_MAX_ENTRIES_COUNTS = 25_000
-DENSE_MAX_ENTRIES_BASES = 40_000
+# docs/benchmarks/analysis.md, both routes timed in turn): the SVD's cost grows as
+# N_B·dN·min(N_B, dN) while the sparse route costs about 1–1.5 ms of fixed Python-level steps
+# plus, with bases, the basis iterations. Counts alone: the SVD is ahead at 7 776 entries
+# (kagome 0.60 ms against 0.91 ms) and behind from about 20 000 (kagome 19 650: 1.56 ms against
+# 1.26 ms; triangulated 20 608: 1.65 against 1.56); with bases ahead at 7 290–7 776 (cubic 1.12
+# against 1.46 ms) and behind at 19 650 (3.24 against 2.07 ms). The limits sit between.
+DENSE_MAX_ENTRIES_COUNTS = 15_000
+DENSE_MAX_ENTRIES_BASES = 12_000
 # Bases are returned only while they stay this small (numbers); counts are always exact.
 BASIS_MAX_NUMBERS = 4_000_000
 # The dense route asked for by name is refused (too_expensive) past this many rows or columns of
