@@ -64,6 +64,8 @@ FULL_SIZES = {
 MILLION = ("triangulated", "kagome")
 CROSSOVER_ROUNDS = 31
 REST_HEADING = "## Through the service"
+MILLION_HEADING = "## 10⁶ nodes"
+RERUN = "Rerun alone:"
 QUICK_SIZES = {
     "triangulated": [100, 1000, 10_000],
     "kagome": [100, 1000, 10_000],
@@ -253,12 +255,21 @@ def one_million(name: str) -> dict:
     a = analyze(frame, bases=False)
     cpu, wall = time.process_time() - t0, time.perf_counter() - w0
     return {"n": frame.n_nodes, "nb": frame.n_edges, "cpu": cpu, "wall": wall, **counts(a),
-            "gap": [a.rank_gap.last_nonzero, a.rank_gap.first_zero]}
+            "gap": [a.rank_gap.last_nonzero, a.rank_gap.first_zero], "peak_gib": peak_memory_gib()}
+
+
+def peak_memory_gib() -> float:
+    """This process's peak resident memory: VmHWM, which starts afresh at exec (ru_maxrss keeps
+    the forking parent's figure when that was larger)."""
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith("VmHWM:"):
+            return int(line.split()[1]) * 1024 / 2**30  # kB
+    raise RuntimeError("no VmHWM in /proc/self/status (Linux only)")
 
 
 def million_table() -> list[str]:
     """Each 10⁶-node frame once, alone in a fresh process: CPU and wall seconds of the counts
-    (frame built beforehand) and the child's peak resident memory (from wait4)."""
+    (frame built beforehand) and the child's peak resident memory."""
     rows = [
         ("| frame | N | N_B | rank | nontrivial zero modes | self-stresses | σ_r / σ_{r+1} "
         "| counts (CPU) | counts (wall) | peak memory |"),
@@ -270,15 +281,13 @@ def million_table() -> list[str]:
             stdout=subprocess.PIPE, cwd=Path(__file__).resolve().parent.parent,
         )
         out = child.stdout.read()
-        _, status, usage = os.wait4(child.pid, 0)
-        assert status == 0, f"{name}: exit status {status}"
+        assert child.wait() == 0, f"{name}: exit status {child.returncode}"
         r = json.loads(out.decode().strip().splitlines()[-1])
-        peak_gib = usage.ru_maxrss * 1024 / 2**30  # ru_maxrss is in KiB on Linux
         ratio = f"{r['gap'][0] / r['gap'][1]:.1e}" if r["gap"][1] > 0 else "∞"
         rows.append(
             f"| {name} | {r['n']} | {r['nb']} | {r['rank']} | {r['nontrivial_zero_modes']} "
             f"| {r['self_stresses']} | {ratio} | {fmt_time(r['cpu'])} | {fmt_time(r['wall'])} "
-            f"| {peak_gib:.2f} GiB |"
+            f"| {r['peak_gib']:.2f} GiB |"
         )
         print(rows[-1], flush=True)
     return rows
@@ -332,6 +341,19 @@ def rest_table() -> list[str]:
     return rows
 
 
+def rewrite_table(path: Path, heading: str, table: list[str], note: str) -> None:
+    """Replace the table of section ``heading`` in ``path``, keeping its text and stating
+    ``note`` (in place of an earlier rerun's)."""
+    text = path.read_text()
+    start = text.index(heading)
+    end = text.find("\n## ", start + len(heading))
+    end = len(text) if end < 0 else end
+    intro = text[start:end].split("\n| frame", 1)[0].rstrip().split("\n")
+    intro = [line for line in intro if not line.startswith(RERUN)]
+    section = "\n".join(intro) + f"\n{RERUN} {note}.\n\n" + "\n".join(table) + "\n"
+    path.write_text(text[:start] + section + text[end:])
+
+
 def load() -> str:
     return " ".join(Path("/proc/loadavg").read_text().split()[:3]) if Path("/proc/loadavg").exists() else "n/a"
 
@@ -345,17 +367,16 @@ def main() -> None:
     parser.add_argument(
         "--rest-only", action="store_true", help="rerun the service table alone, in place"
     )
+    parser.add_argument(
+        "--million-only", action="store_true", help="rerun the 10⁶-node table alone, in place"
+    )
     args = parser.parse_args()
     if args.one_million:
         print(json.dumps(one_million(args.one_million)))
         return
-    if args.rest_only:
-        text = args.out.read_text()
-        start = text.index(REST_HEADING)
-        end = text.index("\n## ", start + len(REST_HEADING))
-        table = "\n".join(rest_table())
-        head, tail = text[start:end].split("\n| frame", 1)[0], text[end:]
-        args.out.write_text(text[:start] + head + "\n" + table + "\n" + tail)
+    if args.rest_only or args.million_only:
+        heading, table = (REST_HEADING, rest_table()) if args.rest_only else (MILLION_HEADING, million_table())
+        rewrite_table(args.out, heading, table, f"load average {load()} at its end, {time.strftime('%Y-%m-%d')}")
         print(f"wrote {args.out}")
         return
     sizes = QUICK_SIZES if args.quick else FULL_SIZES
@@ -438,7 +459,7 @@ def main() -> None:
     ]
     if million_rows:
         lines += [
-            "## 10⁶ nodes",
+            MILLION_HEADING,
             "",
             (
                 "Counts only (`analyze(frame, bases=False)`), each frame once, alone in a fresh "
