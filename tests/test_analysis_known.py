@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import pytest
+import scipy.sparse as sp
 from oracles.rigidity import (
     as_columns,
     compatibility_matrix,
@@ -295,3 +296,18 @@ def test_an_ambiguous_gap_says_so(method, offset):
         assert gap.last_nonzero < 20 * threshold
     if sigma_next > threshold / 10:
         assert gap.first_zero > threshold / 20
+
+
+@pytest.mark.parametrize("name", ["triangulated", "kagome", "square", "cubic-diagonal", "fcc"])
+def test_sigma_max_estimate_is_a_close_lower_bound(name):
+    # The sparse route's threshold and shift scale with σ_max from six Lanczos steps on the
+    # Gram matrix: a Rayleigh quotient, so never above numpy's σ_max, and within 5 % of it.
+    from benchmarks.lattices import LATTICES
+    from zeromode.solver.rigidity import _largest_singular_value
+
+    frame = LATTICES[name](300, jitter=0.1, seed=3)
+    c = compatibility_matrix(normalised(np.asarray(frame.positions)), frame.edges)
+    exact = singular_values(c)[0]
+    for seed in range(3):
+        estimate = _largest_singular_value(sp.csr_matrix(c.T @ c), np.random.default_rng(seed))
+        assert 0.95 * exact <= estimate <= exact * (1 + 1e-12)
