@@ -44,12 +44,15 @@ DENSE_MAX_DOF = 400
 # analyze takes the SVD of C while C has at most this many entries (N_B·dN), the sparse route
 # above. Measured (benchmarks/bench_analysis.py, crossover table in
 # docs/benchmarks/analysis.md, both routes timed in turn): the SVD's cost grows as
-# N_B·dN·min(N_B, dN) while the sparse route costs about 1–1.5 ms of fixed Python-level steps
-# plus, with bases, the basis iterations. Counts alone: the SVD is ahead at 7 776 entries
-# (kagome 0.60 ms against 0.91 ms) and behind from about 20 000 (kagome 19 650: 1.56 ms against
-# 1.26 ms; triangulated 20 608: 1.65 against 1.56); with bases ahead at 7 290–7 776 (cubic 1.12
-# against 1.46 ms) and behind at 19 650 (3.24 against 2.07 ms). The limits sit between.
-DENSE_MAX_ENTRIES_COUNTS = 15_000
+# N_B·dN·min(N_B, dN) while the sparse route costs about 1–2 ms of fixed Python-level steps
+# plus, with bases, the basis iterations. Counts alone, two runs of the same day: the SVD ahead
+# at 7 776 entries in both (kagome 0.60 against 0.91 ms; 0.95 against 1.94 ms), level near
+# 20 000 (kagome 19 650: 1.56 against 1.26 ms in one run, 2.15 against 2.37 ms in the other;
+# triangulated 20 608: 1.65 against 1.56, 2.11 against 2.51 ms) and behind from 33 696 in both
+# (triangulated: 2.37 against 1.45 ms; 3.44 against 3.00 ms). With bases the SVD is ahead at
+# 7 290–7 776 entries and behind from 19 650 in both runs (kagome 3.24 against 2.07 ms; 4.50
+# against 3.24 ms). The limits sit at the break-even points.
+DENSE_MAX_ENTRIES_COUNTS = 20_000
 DENSE_MAX_ENTRIES_BASES = 12_000
 # Bases are returned only while they stay this small (numbers); counts are always exact.
 BASIS_MAX_NUMBERS = 4_000_000
