@@ -74,16 +74,6 @@ QUICK_SIZES = {
 }
 
 
-def median_cpu(fn, runs: int) -> tuple[float, object]:
-    """Median process CPU time of ``runs`` calls, and the last result."""
-    times, result = [], None
-    for _ in range(runs):
-        t0 = time.process_time()
-        result = fn()
-        times.append(time.process_time() - t0)
-    return float(np.median(times)), result
-
-
 def paired_median_cpu(fns, runs: int) -> tuple[list[float], list]:
     """Median process CPU time of each callable over ``runs`` rounds that call them in turn
     (so a shared machine's slow spells fall on all of them alike), and their last results."""
@@ -183,7 +173,7 @@ def lattice_table(sizes: dict[str, list[int]]) -> tuple[list[str], list[str], di
             (counts_s, chol_s), (a, _) = paired_median_cpu(
                 [lambda f=frame: analyze(f, bases=False), cholmod_factorisation(frame)], runs
             )
-            bases_s, b = median_cpu(lambda f=frame: analyze(f), runs)
+            (bases_s,), (b,) = paired_median_cpu([lambda f=frame: analyze(f)], runs)
             c = counts(a)
             assert counts(b) == c
             numbers = c["nontrivial_zero_modes"] * d * n + c["self_stresses"] * frame.n_edges
