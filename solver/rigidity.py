@@ -29,11 +29,11 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
-from scipy.linalg import blas, eigvalsh_tridiagonal, lapack
+from scipy.linalg import blas, lapack
 
 from zeromode.solver.budget import check_budget
 from zeromode.solver.errors import DomainError
-from zeromode.solver.factorisation import cholesky, nested_dissection
+from zeromode.solver.factorisation import cholesky, minimum_degree, nested_dissection
 from zeromode.solver.frame import Frame
 from zeromode.solver.progress import report_detail
 from zeromode.solver.rank import RTOL, RankGap, complement_within, decide_rank, orthonormal_range
@@ -75,15 +75,24 @@ def compatibility_matrix(positions: np.ndarray, edges: np.ndarray, dense: bool =
     i, j = edges[:, 0], edges[:, 1]
     # Each row lists the lower-numbered node first, so the CSR arrays are built directly
     # (2d sorted entries per row) without a sort: x_first − x_second there, its negative after.
-    ends = np.stack([np.minimum(i, j), np.maximum(i, j)], axis=1)  # (N_B, 2)
-    diff = positions[ends[:, 0]] - positions[ends[:, 1]]  # (N_B, d)
-    cols = (d * ends[:, :, None] + np.arange(d)).ravel()
-    vals = np.stack([diff, -diff], axis=1).ravel()
+    first, second = np.minimum(i, j), np.maximum(i, j)
+    # 32-bit indices while they fit: SciPy would otherwise scan 64-bit ones to downcast them.
+    index = np.int32 if max(n * d, 2 * d * nb) < 2**31 else np.int64
+    vals = np.empty((nb, 2, d))
+    # np.take, not fancy indexing: 5× faster on (n, d) rows (measured, 10³ nodes)
+    np.subtract(np.take(positions, first, axis=0), np.take(positions, second, axis=0), out=vals[:, 0])
+    np.negative(vals[:, 0], out=vals[:, 1])
+    cols = np.empty((nb, 2, d), dtype=index)
+    coordinate = np.arange(d, dtype=index)
+    np.add(d * first.astype(index)[:, None], coordinate, out=cols[:, 0])
+    np.add(d * second.astype(index)[:, None], coordinate, out=cols[:, 1])
+    vals, cols = vals.ravel(), cols.ravel()
     if dense:
         c = np.zeros((nb, n * d))
         c[np.repeat(np.arange(nb), 2 * d), cols] = vals  # (row, col) pairs are distinct
         return c
-    return sp.csr_matrix((vals, cols, np.arange(0, 2 * d * nb + 1, 2 * d)), shape=(nb, n * d))
+    indptr = np.arange(0, 2 * d * nb + 1, 2 * d, dtype=index)
+    return sp.csr_matrix((vals, cols, indptr), shape=(nb, n * d))
 
 
 def rigid_motions(positions: np.ndarray, rtol: float = RTOL) -> np.ndarray:
@@ -284,14 +293,16 @@ CHOLQR_MAX_RATIO = 1e6
 HOUSEHOLDER_MAX_COLUMNS = 16
 # Above this many independent null vectors on the side counted, the block is too wide.
 MAX_NULL_VECTORS = 20_000
-# Geometric nested dissection orders the Gram matrix from this many nodes, CHOLMOD's
-# approximate minimum degree below (and always for CCᵀ in 2D). Measured (ordering +
-# factorisation + 3 block solves, one core): in 3D dissection wins from about 500 nodes (cubic
-# 10³: 21 ms against 26 ms; 10⁴: 0.6–0.8 s against 2.4 s) and loses below (cubic 343: 7.6 ms
-# against 5.1 ms); for CᵀC in 2D the two orders tie at 10⁵ nodes (triangulated 1.8 s against
-# 1.9 s) and dissection wins above (3·10⁵: 6.0 s against 7.4 s), minimum degree below (10⁴:
-# 93 ms against 100 ms); for CCᵀ in 2D minimum degree wins at every size (kagome 10⁵: 0.74 s
-# against 1.17 s; 3·10⁵: 3.3 s against 5.5 s).
+# Geometric nested dissection orders the Gram matrix from this many nodes; below, CᵀC is
+# ordered by approximate minimum degree of the node graph (factorisation.minimum_degree) and
+# CCᵀ by CHOLMOD's own. Measured (ordering + factorisation, one core): in 3D dissection wins
+# from about 500 nodes (fcc 864: 9.3 ms against 13.1 ms; cubic 2 197: 37 ms against 42 ms;
+# cubic 10⁴: 0.6–0.8 s against 1.3 s) and ties or loses below (cubic 512: 5.9 ms against
+# 5.5 ms; 216: 2.0 ms against 1.6 ms); for CᵀC in 2D the two orders tie at 10⁵ nodes
+# (triangulated 1.05 s against 0.98 s), dissection wins above (3·10⁵: 2.9 s against 3.5 s;
+# 10⁶: 18 s against 22 s); for CCᵀ in 2D CHOLMOD's minimum degree wins at every size (kagome
+# 10⁵: 0.74 s against 1.17 s; 3·10⁵: 3.3 s against 5.5 s), also over the bars ordered by the
+# node graph's minimum degree (kagome 10³: 2.3 ms against 3.4 ms).
 NESTED_DISSECTION_MIN_NODES = {(3, True): 500, (3, False): 500, (2, True): 100_000, (2, False): None}
 
 
@@ -382,19 +393,21 @@ def _sparse_null_spaces(c: sp.csr_matrix, x: np.ndarray, edges: np.ndarray, rigi
 
 def _elimination_order(x: np.ndarray, edges: np.ndarray, count_modes: bool) -> np.ndarray | None:
     """The order in which the Gram matrix's unknowns (CᵀC if ``count_modes``, else CCᵀ) are
-    eliminated: geometric nested dissection of the nodes from NESTED_DISSECTION_MIN_NODES on,
-    None (CHOLMOD's own approximate minimum degree) below.
+    eliminated: geometric nested dissection of the nodes from NESTED_DISSECTION_MIN_NODES on;
+    below, minimum degree of the nodes for CᵀC and None (CHOLMOD's own minimum degree) for CCᵀ.
 
     Both Gram matrices follow the bar graph: (CᵀC)_ij ≠ 0 for the d × d blocks of joined
-    nodes, (CCᵀ)_ef ≠ 0 for bars sharing a node. One dissection of the nodes orders both:
-    a node's d coordinates together, a bar with the later of its two nodes (bars inside one
-    half never share a node with bars inside the other, so the halves stay separated).
+    nodes, (CCᵀ)_ef ≠ 0 for bars sharing a node. One order of the nodes orders both:
+    a node's d coordinates together, a bar with the later of its two nodes (with dissection,
+    bars inside one half never share a node with bars inside the other, so the halves stay
+    separated).
     """
     n, d = x.shape
     threshold = NESTED_DISSECTION_MIN_NODES[d, count_modes]
-    if threshold is None or n < threshold:
+    dissect = threshold is not None and n >= threshold
+    if not (dissect or count_modes):
         return None
-    node_order = nested_dissection(x, edges)
+    node_order = nested_dissection(x, edges) if dissect else minimum_degree(n, edges)
     if count_modes:
         return (d * node_order[:, None] + np.arange(d)).ravel()
     position = np.empty_like(node_order)
@@ -421,7 +434,11 @@ def _largest_singular_value(gram: sp.spmatrix, rng: np.random.Generator, steps: 
             break
         betas.append(beta)
         previous, q = q, w / beta
-    top = eigvalsh_tridiagonal(np.array(alpha), np.array(betas[: len(alpha) - 1]))[-1]
+    k = len(alpha)
+    tridiagonal = np.zeros((k, k))  # T_k, its upper triangle (LAPACK's syevd on k ≤ 6 beats stevr's wrapper)
+    tridiagonal.flat[:: k + 1] = alpha
+    tridiagonal.flat[1 :: k + 1] = betas[: k - 1]
+    top = np.linalg.eigvalsh(tridiagonal, UPLO="U")[-1]
     return float(np.sqrt(max(top, 0.0)))
 
 
