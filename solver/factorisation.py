@@ -19,7 +19,8 @@ the figures are in docs/benchmarks/analysis.md):
     simplicial LDLᵀ without a fill-reducing order for 3D (20× slower on a 3D lattice);
   * cvxopt's CHOLMOD has no METIS, so its own ordering (AMD) fills 3D lattices badly; the
     geometric nested dissection below gives METIS-like fill (a 10⁴-node 3D lattice factorises
-    in 0.6–0.8 s instead of 2.4 s with AMD, the same as with METIS's order).
+    in 0.6–0.8 s instead of 2.4 s with AMD, the same as with METIS's order); for smaller
+    frames, AMD of the node graph (``minimum_degree``) fills less than CHOLMOD's AMD of CᵀC.
 cvxopt solves one right-hand side at a time (its ``cholmod.solve`` loops over columns), so a
 block solve costs k single solves; the callers keep their blocks thin. cvxopt is GPL-3
 licensed, and CHOLMOD's supernodal module is GPL-2+: a build that bundles zeromode with it
