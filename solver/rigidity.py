@@ -271,12 +271,12 @@ def _dense_null_spaces(c: np.ndarray, rigid: np.ndarray, rtol: float, want_bases
 # shift-invert step damps such a direction by δ/(σ² + δ) relative to the null space.
 SHIFT = 1e-10
 # Columns of the iterated block beyond the lower bound on the null space being found: they
-# carry the smallest nonzero singular values whose settling ends the iteration. Two suffice
-# for that (a block that fills with null vectors is doubled, see _null_by_subspace_iteration):
-# on the benchmark's lattices (10²–10⁴ nodes, 2D and 3D) two take the same number of solves as
-# three, each with a third fewer columns (cvxopt solves column by column); one column needs
-# a fourth solve on some of them.
-OVERSAMPLE = 2
+# carry the smallest nonzero singular values whose settling ends the iteration (a block that
+# fills with null vectors is doubled, see _null_by_subspace_iteration). cvxopt solves column by
+# column, so the cost is in column solves: on the benchmark's lattices (10²–10⁴ nodes, 2D and
+# 3D) one column takes 3 solves (4 on three of them: 3–4 column solves) where two take 3 solves
+# of two columns (6), 0–9 % less time in all (measured in turn, 301 rounds up to 10³ nodes).
+OVERSAMPLE = 1
 # Bases are iterated until ‖C v‖ ≤ BASIS_ANGLE·σ_r for every basis vector v, which bounds
 # the angle between the returned and the exact null space by BASIS_ANGLE (round-off allowing).
 BASIS_ANGLE = 1e-10
