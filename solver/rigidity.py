@@ -275,7 +275,8 @@ SHIFT = 1e-10
 # fills with null vectors is doubled, see _null_by_subspace_iteration). cvxopt solves column by
 # column, so the cost is in column solves: on the benchmark's lattices (10²–10⁴ nodes, 2D and
 # 3D) one column takes 3 solves (4 on three of them: 3–4 column solves) where two take 3 solves
-# of two columns (6), 0–9 % less time in all (measured in turn, 301 rounds up to 10³ nodes).
+# of two columns (6): 0–9 % less time up to 10³ nodes (measured in turn, 301 rounds), 5–10 %
+# at 10⁴ (the cubic lattice, with its fourth solve, 3 % more), 10–20 % at 10⁵.
 OVERSAMPLE = 1
 # Bases are iterated until ‖C v‖ ≤ BASIS_ANGLE·σ_r for every basis vector v, which bounds
 # the angle between the returned and the exact null space by BASIS_ANGLE (round-off allowing).
