@@ -14,13 +14,12 @@ from zeromode.solver.factorisation import cholesky, minimum_degree, nested_disse
 from zeromode.solver.rigidity import compatibility_matrix
 
 
-def lattice_gram(make, n: int):
+def lattice(make, n: int):
+    """A jittered lattice patch and its normalised positions."""
     from benchmarks.lattices import LATTICES
 
     frame = LATTICES[make](n, jitter=0.1, seed=3)
-    x = frame.normalised_positions()
-    c = compatibility_matrix(x, frame.edges)
-    return frame, x, (c.T @ c).tocsr()
+    return frame, frame.normalised_positions()
 
 
 def fill(n: int, pairs: np.ndarray, order: np.ndarray) -> int:
@@ -60,7 +59,7 @@ def test_orders_are_permutations(n, data):
 @pytest.mark.parametrize("make, n", [("triangulated", 1000), ("cubic-diagonal", 1000), ("fcc", 500)])
 def test_orders_reduce_fill(make, n):
     """The nodes are renumbered at random first, so the given order is no banded lattice order."""
-    frame, x, _ = lattice_gram(make, n)
+    frame, x = lattice(make, n)
     n = frame.n_nodes
     label = np.random.default_rng(0).permutation(n)
     pairs, points = label[frame.edges], np.empty_like(x)
@@ -72,7 +71,9 @@ def test_orders_reduce_fill(make, n):
 
 @pytest.mark.parametrize("order_by", ["none", "minimum_degree", "nested_dissection"])
 def test_cholesky_solves_like_numpy(order_by):
-    frame, x, gram = lattice_gram("triangulated", 200)
+    frame, x = lattice("triangulated", 200)
+    c = compatibility_matrix(x, frame.edges)
+    gram = (c.T @ c).tocsr()
     node_order = {
         "none": None,
         "minimum_degree": minimum_degree(frame.n_nodes, frame.edges),
