@@ -1,11 +1,13 @@
-"""Analysis benchmark: rank, zero modes and self-stresses of lattice frames, against one CHOLMOD
-factorisation and against PyRigi (issues 2 and 15).
+"""Analysis benchmark: rank, zero modes and self-stresses of lattice frames and near-isostatic
+networks, against one CHOLMOD factorisation and against PyRigi (issues 2 and 15).
 
 Run from the repository root:  .venv/bin/python -m benchmarks.bench_analysis [--quick]
 
 Times ``analyze`` (library level, no HTTP, single-threaded BLAS as the service runs it) on 2D
 triangulated and kagome patches of 10²…10⁵ nodes and on 3D cubic-with-face-diagonals and fcc
-patches of 10²…3·10⁴ nodes: counts only (``bases=False``) and with both bases (the default
+patches of 10²…3·10⁴ nodes, and on near-isostatic disordered networks of 10²…10⁴ nodes in 2D
+and 3D (benchmarks/networks.py: a few zero modes and self-stresses at any size, σ_r down to
+1e-8 σ_max at 10⁴ nodes): counts only (``bases=False``) and with both bases (the default
 call, where they fit in BASIS_MAX_NUMBERS). Beside each frame, in the same process and run, one
 supernodal CHOLMOD factorisation of CᵀC + δI with CHOLMOD's own (AMD) ordering: the cost of any
 factorisation-based rank method, the yardstick of issue 15. Times are process CPU seconds
@@ -42,6 +44,7 @@ import numpy as np
 import scipy.sparse.linalg as spla
 
 from benchmarks.lattices import LATTICES
+from benchmarks.networks import NETWORKS
 from zeromode.solver import Frame, analyze
 from zeromode.solver.factorisation import cholesky
 from zeromode.solver.rigidity import (
@@ -60,7 +63,10 @@ FULL_SIZES = {
     "kagome": [100, 1000, 10_000, 100_000],
     "cubic-diagonal": [100, 1000, 10_000, 30_000],
     "fcc": [100, 1000, 10_000, 30_000],
+    "near-isostatic 2D": [100, 1000, 10_000],
+    "near-isostatic 3D": [100, 1000, 10_000],
 }
+FRAMES = {**LATTICES, **NETWORKS}
 MILLION = ("triangulated", "kagome")
 CROSSOVER_ROUNDS = 31
 REST_HEADING = "## Through the service"
@@ -71,6 +77,8 @@ QUICK_SIZES = {
     "kagome": [100, 1000, 10_000],
     "cubic-diagonal": [100, 1000],
     "fcc": [100],
+    "near-isostatic 2D": [100, 1000],
+    "near-isostatic 3D": [100],
 }
 
 
@@ -148,14 +156,20 @@ def fmt_time(seconds: float | None) -> str:
     return f"{1e3 * seconds:.1f} ms" if seconds < 1 else f"{seconds:.2f} s"
 
 
-def lattice_table(sizes: dict[str, list[int]]) -> tuple[list[str], list[str], dict]:
-    """The lattice rows, the PyRigi rows, and the counts-per-size summary for the README."""
+def relative_sigma_r(frame: Frame, a) -> float:
+    """σ_r / σ_max of the normalised frame: the analysis's σ_r over ARPACK's σ_max of C."""
+    c = compatibility_matrix(frame.normalised_positions(), frame.edges)
+    return a.rank_gap.last_nonzero / spla.svds(c, k=1, return_singular_vectors=False)[0]
+
+
+def frame_table(sizes: dict[str, list[int]]) -> tuple[list[str], list[str], dict]:
+    """The frames' rows, the PyRigi rows, and the counts-per-size summary for the README."""
     rows = [
         (
-            "| frame | d | N | N_B | route | rank | nontrivial zero modes | self-stresses "
+            "| frame | d | N | N_B | route | rank | nontrivial zero modes | self-stresses | σ_r / σ_max "
             "| counts | CHOLMOD factorisation | counts ÷ CHOLMOD | with bases | bases ÷ counts |"
         ),
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     pyrigi_rows = [
         (
@@ -167,7 +181,7 @@ def lattice_table(sizes: dict[str, list[int]]) -> tuple[list[str], list[str], di
     summary: dict = {}
     for name, targets in sizes.items():
         for target in targets:
-            frame = LATTICES[name](target)
+            frame = FRAMES[name](target)
             n, d = frame.n_nodes, frame.dim
             runs = runs_for(n)
             (counts_s, chol_s), (a, _) = paired_median_cpu(
@@ -181,7 +195,8 @@ def lattice_table(sizes: dict[str, list[int]]) -> tuple[list[str], list[str], di
             ratio = f"{bases_s / counts_s:.1f}×" if b.bases_included else "–"
             rows.append(
                 f"| {name} | {d} | {n} | {frame.n_edges} | {a.method} | {c['rank']} "
-                f"| {c['nontrivial_zero_modes']} | {c['self_stresses']} | {fmt_time(counts_s)} "
+                f"| {c['nontrivial_zero_modes']} | {c['self_stresses']} | {relative_sigma_r(frame, a):.0e} "
+                f"| {fmt_time(counts_s)} "
                 f"| {fmt_time(chol_s)} | {counts_s / chol_s:.2f} | {with_bases} | {ratio} |"
             )
             print(rows[-1], flush=True)
@@ -373,8 +388,8 @@ def main() -> None:
     dofs = [50, 100, 150, 200, 300] if args.quick else [30, 50, 80, 120, 160, 200, 300, 400]
     load_before = load()
     print(f"load average {load_before}", flush=True)
-    print("## Lattices", flush=True)
-    lattice_rows, pyrigi_rows, _ = lattice_table(sizes)
+    print("## Frames", flush=True)
+    frame_rows, pyrigi_rows, _ = frame_table(sizes)
     print("## Dense/sparse crossover", flush=True)
     crossover_rows = crossover_table(dofs)
     print("## REST", flush=True)
@@ -393,6 +408,10 @@ def main() -> None:
         ),
         "",
         (
+            "Lattice patches (`benchmarks/lattices.py`) and near-isostatic disordered networks "
+            "(`benchmarks/networks.py`: Henneberg growth on random points, 5 bars removed and 10 "
+            "added, seed 0: a few zero modes and self-stresses at any size, and σ_r falling with "
+            "size). *σ_r / σ_max*: the analysis's σ_r over ARPACK's largest singular value of C. "
             "Library-level `analyze` (frame already built). *counts*: `bases=False`; *with "
             "bases*: the default call, which also returns orthonormal bases of the nontrivial "
             f"zero modes and self-stresses while they hold at most {BASIS_MAX_NUMBERS:.0e} "
@@ -408,7 +427,7 @@ def main() -> None:
             "the same numbers. *route*: see the crossover table."
         ),
         "",
-        *lattice_rows,
+        *frame_rows,
         "",
         "## PyRigi",
         "",

@@ -265,11 +265,20 @@ def _dense_null_spaces(c: np.ndarray, rigid: np.ndarray, rtol: float, want_bases
     return complement_within(vt[rank:].T, rigid), u[:, rank:], rank, gap
 
 
-# δ = SHIFT·σ_max² in CᵀC + δI: far above the round-off of forming CᵀC (≈ 1e-16 σ_max²), so
-# the factorisation sees a positive definite matrix, and far below σ² of any singular value
-# the rank keeps (σ > RTOL·σ_max ⇒ σ² ≥ 1e-18 σ_max² … designed frames σ² ≳ 1e-8 σ_max²), so a
-# shift-invert step damps such a direction by δ/(σ² + δ) relative to the null space.
-SHIFT = 1e-10
+# δ = SHIFT·σ_max² in CᵀC + δI: 10³ times the round-off of forming CᵀC (≈ 1e-16 σ_max²), so
+# the factorisation sees a positive definite matrix (up to 10⁶ nodes, 2D and 3D lattices and
+# near-isostatic networks), and below σ² of the singular values of designed frames and lattice
+# patches (σ ≳ 1e-4 σ_max), so a shift-invert step damps such a direction by δ/(σ² + δ) relative
+# to the null space. Directions with σ² below δ (σ ≲ 3e-7 σ_max, yet above the rank threshold
+# RTOL·σ_max) are damped by less than half per step: the iteration cannot tell them from the
+# null space, and a block narrower than all of them converges to a mixture whose Ritz value
+# stalls above the threshold, a zero mode missed. So the block is widened until its largest
+# Ritz value is one the shift damps (θ² ≥ δ); Rayleigh–Ritz on C then separates the null space
+# from those singular values. Near-degenerate frames have such directions (disordered
+# near-isostatic networks of 10⁴ nodes reach σ_r ≈ 1e-6 – 1e-8 σ_max). A larger shift leaves
+# more of them undamped (δ = 1e-10 σ_max² with a second factorisation at 1e-13 when needed:
+# 1.7–2.4× slower counts on those networks, and slower at 10⁶ nodes; the same on lattices).
+SHIFT = 1e-13
 # Columns of the iterated block beyond the lower bound on the null space being found: they
 # carry the smallest nonzero singular values whose settling ends the iteration (a block that
 # fills with null vectors is doubled, see _null_by_subspace_iteration). cvxopt solves column by
@@ -282,7 +291,9 @@ OVERSAMPLE = 1
 # the angle between the returned and the exact null space by BASIS_ANGLE (round-off allowing).
 BASIS_ANGLE = 1e-10
 # … or until ‖C v‖ ≤ ROUNDOFF·σ_max, the level round-off in C·v (≈ 1e-16 σ_max per entry,
-# summed over a node's bars) keeps it above.
+# summed over a node's bars) keeps it above; or, where a singular value below the rank's
+# threshold lies above both (a near-degenerate frame), until ‖C v‖ is at most the largest Ritz
+# value counted as zero, which its singular vector cannot go below.
 ROUNDOFF = 1e-13
 # Cholesky QR is used for blocks whose Cholesky factor's diagonal spans at most this ratio
 # (cond ≲ 1e6, well inside its stable range cond ≲ 1/√ε ≈ 1e8).
@@ -362,17 +373,17 @@ def _sparse_null_spaces(c: sp.csr_matrix, x: np.ndarray, edges: np.ndarray, rigi
     rng = np.random.default_rng(0)
     sigma_max = _largest_singular_value(gram, rng)
     tol = rtol * sigma_max
-    factor = cholesky(gram, _elimination_order(x, edges, count_modes), shift=SHIFT * sigma_max**2)
+    order = _elimination_order(x, edges, count_modes)
+    shift = SHIFT * sigma_max**2
+    factor = cholesky(gram, order, shift=shift)
     report_detail(0.3, "factorised the Gram matrix")
-    if count_modes:
-        modes = _NullProblem(c, factor.solve, rigid)
-        stresses = _NullProblem(ct, lambda w: w - c @ factor.solve(ct @ w), np.zeros((nb, 0)))
-    else:
-        modes = _NullProblem(c, lambda y: y - ct @ factor.solve(c @ y), rigid)
-        stresses = _NullProblem(ct, factor.solve, np.zeros((nb, 0)))
     floor = max(surplus, rho)
-    counted, bound = (modes, floor - rho) if count_modes else (stresses, floor - surplus)
-    found, kept, dropped = _null_by_subspace_iteration(counted, tol, bound, rng)
+    bound = floor - rho if count_modes else floor - surplus
+    a, b = (c, ct) if count_modes else (ct, c)  # the counted side's matrix, the other's
+    no_known = np.zeros((nb, 0))
+    counted = _NullProblem(a, factor.solve, rigid if count_modes else no_known)
+    other = _NullProblem(b, lambda w: w - a @ factor.solve(b @ w), no_known if count_modes else rigid)
+    found, kept, dropped = _null_by_subspace_iteration(counted, tol, bound, rng, shift)
     if rho:  # the rigid motions are zeros of C too: the largest of them may top the found ones
         # ‖C R‖₂ from the ρ × ρ Gram matrix of C R (its entries are round-off, ≈ 1e-16 σ_max)
         moved = c @ rigid
@@ -385,10 +396,9 @@ def _sparse_null_spaces(c: sp.csr_matrix, x: np.ndarray, edges: np.ndarray, rigi
         return None, None, rank, gap
     # The counted side's vectors take one more step together (polish); the other side's
     # dimension is now known.
-    target = max(BASIS_ANGLE * kept, ROUNDOFF * sigma_max)
-    found = _null_basis(counted, target, found.shape[1], start=found)
-    other, other_dim = (stresses, n_stresses) if count_modes else (modes, n_modes)
-    rest = _null_basis(other, target, other_dim)
+    target = max(BASIS_ANGLE * kept, ROUNDOFF * sigma_max, dropped)
+    found = _null_basis(counted, target, found.shape[1], shift, start=found)
+    rest = _null_basis(other, target, n_stresses if count_modes else n_modes, shift)
     return (found, rest, rank, gap) if count_modes else (rest, found, rank, gap)
 
 
@@ -444,22 +454,26 @@ def _largest_singular_value(gram: sp.spmatrix, rng: np.random.Generator, steps: 
 
 
 def _null_by_subspace_iteration(
-    problem: _NullProblem, tol: float, lower_bound: int, rng: np.random.Generator,
+    problem: _NullProblem, tol: float, lower_bound: int, rng: np.random.Generator, shift: float,
     first_steps: int = 2, max_rounds: int = 60,
 ):
     """Orthonormal basis of N(matrix) ⊖ span(known) (columns), the smallest nonzero Ritz
     singular value and the largest zero one: the count behind the rank.
 
-    Shift-invert subspace iteration: each step applies (matrixᵀmatrix + δI)⁻¹, which damps a
-    singular direction σ by δ/(σ² + δ) relative to the null space, and re-orthonormalises the
-    block (lower_bound + OVERSAMPLE columns, ⟂ known). After each round a Rayleigh–Ritz step
-    on the matrix itself gives the Ritz singular values θ ≥ σ on the block; those with
-    θ ≤ tol are null. A null direction not yet found shows up as a small nonzero θ that keeps
-    falling by δ/(σ² + δ) per step, so the rounds (one step each after the first) stop only
-    when a round finds no new null vector and the smallest nonzero θ moved by less than 10 %.
-    A block whose Ritz values are all zero may miss part of the null space: fresh random
-    directions are added (doubling it) and the rounds start again. The count is that of the
-    last Rayleigh–Ritz step, which by interlacing never exceeds the null space's dimension.
+    Shift-invert subspace iteration: each step applies (matrixᵀmatrix + δI)⁻¹ (δ = ``shift``),
+    which damps a singular direction σ by δ/(σ² + δ) relative to the null space, and
+    re-orthonormalises the block (lower_bound + OVERSAMPLE columns, ⟂ known). After each round
+    a Rayleigh–Ritz step on the matrix itself gives the Ritz singular values θ ≥ σ on the
+    block; those with θ ≤ tol are null. A null direction not yet found shows up as a small
+    nonzero θ that keeps falling by δ/(σ² + δ) per step, so the rounds (one step each after the
+    first) stop only when a round finds no new null vector and no nonzero θ fell by 10 % or
+    more (in a wider block a falling θ is a block still turning towards the directions the
+    shift amplifies, and a null vector may be mixed into a smaller θ that does not fall). Two
+    kinds of block may miss part of the null space, and are doubled with fresh random
+    directions before the rounds start again: one whose Ritz values are all zero, and one whose
+    largest θ has θ² < δ (all of it lies in directions the shift barely damps, which may extend
+    beyond it; see SHIFT). The count is that of the last Rayleigh–Ritz step, which by
+    interlacing never exceeds the null space's dimension.
     """
     n = problem.matrix.shape[1]
     room = n - problem.known.shape[1]
@@ -473,28 +487,29 @@ def _null_by_subspace_iteration(
             y = problem.step(y)
         theta, y = _ritz_pairs(problem.matrix, y)
         z = int(np.count_nonzero(theta <= tol))
-        if z == y.shape[1]:
-            if z == room:
+        if z == y.shape[1] or theta[-1] ** 2 < shift:
+            width = y.shape[1]
+            if width == room:
                 break
-            if z >= MAX_NULL_VECTORS:
+            if width >= MAX_NULL_VECTORS:
                 raise DomainError(
                     "too_expensive",
                     f"the frame has more than {MAX_NULL_VECTORS} independent zero modes.",
                 )
-            fresh = problem.deflate(rng.standard_normal((n, min(z, room - z))))
+            fresh = problem.deflate(rng.standard_normal((n, min(width, room - width))))
             y = np.hstack([y, fresh - y @ (y.T @ fresh)])
             steps, previous = first_steps, None
             continue
-        if previous is not None and z == previous[0] and theta[z] >= 0.9 * previous[1]:
+        if previous is not None and z == previous[0] and np.all(theta[z:] >= 0.9 * previous[1][z:]):
             break
-        steps, previous = 1, (z, theta[z])
+        steps, previous = 1, (z, theta)
     kept = float(theta[z]) if z < theta.size else 0.0
     dropped = float(theta[z - 1]) if z > 0 else 0.0
     return y[:, :z], kept, dropped
 
 
 def _null_basis(
-    problem: _NullProblem, target: float, dim: int, start: np.ndarray | None = None,
+    problem: _NullProblem, target: float, dim: int, shift: float, start: np.ndarray | None = None,
     quick_steps: int = 3, max_steps: int = 60,
 ) -> np.ndarray:
     """Orthonormal basis (n × dim) of N(matrix) ⊖ span(known) when its dimension is known.
@@ -505,9 +520,10 @@ def _null_basis(
     by δ the shifted inverse has eigenvalues δ/(σ² + δ) ∈ (0, 1], 1 on the null space, so the
     block needs no re-orthonormalisation between these steps (columns are only rescaled),
     and one QR at the end. If ``quick_steps`` are not enough, some nonzero singular values
-    are small enough (σ² ≲ δ) to converge slowly: the block then takes OVERSAMPLE more
-    columns, which catch those directions, and every step is followed by a QR and a
-    Rayleigh–Ritz step that keeps the dim Ritz vectors of smallest θ.
+    are small enough (σ² ≲ δ, δ = ``shift``) to converge slowly: the block then takes OVERSAMPLE
+    more columns, which catch those directions, and every step is followed by a QR and a
+    Rayleigh–Ritz step that keeps the dim Ritz vectors of smallest θ. The extra columns are
+    doubled while even the largest Ritz value has θ² < δ (more such directions than columns).
     """
     n = problem.matrix.shape[1]
     if dim == 0:
@@ -517,6 +533,7 @@ def _null_basis(
     if start is not None:
         y[:, : start.shape[1]] = start
     y = problem.deflate(y)
+    theta = None  # the Ritz values of the last step after the quick ones
     for step in range(max_steps):
         check_budget()
         if step < quick_steps:
@@ -527,8 +544,9 @@ def _null_basis(
                 if problem.residual(y) <= target:
                     return y
             continue
-        if step == quick_steps:
-            extra = min(OVERSAMPLE, n - problem.known.shape[1] - dim)
+        room = n - problem.known.shape[1] - y.shape[1]
+        if theta is None or (theta[-1] ** 2 < shift and room > 0):
+            extra = min(max(OVERSAMPLE, y.shape[1] - dim), room)
             y = np.hstack([y, problem.deflate(rng.standard_normal((n, extra)))])
         theta, y = _ritz_pairs(problem.matrix, problem.step(y))
         if theta[dim - 1] <= target:
