@@ -259,19 +259,34 @@ def test_bad_requests_answer_422_with_their_code(client):
 
 
 def test_an_answer_missing_the_floors_is_422_with_the_best_figures(client):
-    """Relays of 1e-5 site sizes next to a site of size 1 cannot reach the gap floor: the answer
-    is 422 inaccurate_design, and its best figures are those of a frame that misses a floor."""
+    """Relays of 5.8e-4 site sizes next to a site of size 1 (5.6e-4 – 5.9e-4 behave alike; from
+    6e-4 the floors are met) verify but miss the target-error floor: the answer is 422
+    inaccurate_design, and its best figures are those of a frame that misses a floor."""
     x_src, u_src, x_tgt, u_tgt = sites(2, 48.0)
     response = client.post(
-        "/v1/design/allosteric", json=request_body(x_src, u_src, x_tgt, u_tgt, relay_spacing=1e-5)
+        "/v1/design/allosteric", json=request_body(x_src, u_src, x_tgt, u_tgt, relay_spacing=5.8e-4)
     )
     assert response.status_code == 422, response.text[:300]
     detail = response.json()["detail"]
     assert detail["code"] == "inaccurate_design"
     best = detail["best"]
     assert best["target_error"] > TARGET_ERROR_MAX or best["gap"] < GAP_FLOOR
-    assert best["chain"]["relay_spacing"] == pytest.approx(1e-5)
+    assert best["chain"]["relay_spacing"] == pytest.approx(5.8e-4)
     assert f"{best['gap']:.2e}" in detail["message"]
+
+
+def test_relays_too_small_to_verify_are_422_without_figures(client):
+    """Relays of 1e-5 site sizes: every chain has zero modes beyond the designed ones at the
+    rank's relative threshold (numpy's SVD of C agrees), so none verifies and there are no
+    figures to report."""
+    x_src, u_src, x_tgt, u_tgt = sites(2, 48.0)
+    response = client.post(
+        "/v1/design/allosteric", json=request_body(x_src, u_src, x_tgt, u_tgt, relay_spacing=1e-5)
+    )
+    assert response.status_code == 422, response.text[:300]
+    detail = response.json()["detail"]
+    assert (detail["code"], detail["best"]) == ("inaccurate_design", None)
+    assert "did not verify" in detail["message"] and "zero modes instead of" in detail["message"]
 
 
 def test_the_report_carries_the_figures(client):
