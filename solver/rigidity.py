@@ -277,7 +277,7 @@ def _dense_null_spaces(c: np.ndarray, rigid: np.ndarray, rtol: float, want_bases
 # from those singular values. Near-degenerate frames have such directions (disordered
 # near-isostatic networks of 10⁴ nodes reach σ_r ≈ 1e-6 – 1e-8 σ_max). A larger shift leaves
 # more of them undamped (δ = 1e-10 σ_max² with a second factorisation at 1e-13 when needed:
-# 1.7–2.4× slower counts on those networks, and slower at 10⁶ nodes; the same on lattices).
+# 1.5–1.8× slower counts on those networks at 10⁴ nodes; the same on lattices).
 SHIFT = 1e-13
 # Columns of the iterated block beyond the lower bound on the null space being found: they
 # carry the smallest nonzero singular values whose settling ends the iteration (a block that
