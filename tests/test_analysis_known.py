@@ -355,9 +355,10 @@ def test_zero_modes_among_near_degenerate_directions_are_counted(log_offsets, pe
 
 @pytest.mark.parametrize("seed", [0, 2])
 def test_zero_modes_of_near_isostatic_networks_at_scale(seed):
-    # Henneberg-grown networks of 10⁴ nodes (benchmarks/networks.py) have σ_r ≈ 1e-7 – 1e-8
-    # σ_max and several singular values below √δ of the sparse route's shift, the case where a
-    # narrow shift-invert block used to stall and miss their zero modes (these two counted none).
+    # Henneberg-grown networks of 10⁴ nodes (benchmarks/networks.py; these two: σ_r ≈ 2e-6 and
+    # 2e-7 σ_max) have singular values below √δ of the sparse route's former shift (1e-5 σ_max),
+    # the case where a narrow shift-invert block stalled and missed their zero modes (these two
+    # were counted with none).
     # The certificate is independent of the route: orthonormal vectors U (the rigid motions
     # and the returned modes) with ‖C U‖₂ below the threshold mean at least that many singular
     # values below it (Courant–Fischer), so rank C ≤ dN − columns of U; likewise the stresses.
