@@ -51,7 +51,11 @@ def restarted(scheduler: str, before: set[int], wait_s: float = 90.0) -> set[int
     """The worker pids once one of ``before`` has been replaced (its worker restarted)."""
     deadline = time.monotonic() + wait_s
     while time.monotonic() < deadline:
-        now = worker_pids(scheduler)
+        try:
+            now = worker_pids(scheduler)
+        except OSError:  # a worker closing while it is asked (CommClosedError): ask again
+            time.sleep(0.2)
+            continue
         if now - before and len(now) == len(before):
             return now
         time.sleep(0.2)
