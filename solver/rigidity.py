@@ -24,7 +24,7 @@ Two routes, with identical counts and subspaces where both apply:
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.sparse as sp
@@ -470,31 +470,38 @@ def _null_by_subspace_iteration(
     which damps a singular direction σ by δ/(σ² + δ) relative to the null space, and
     re-orthonormalises the block (lower_bound + OVERSAMPLE columns, ⟂ known). After each round
     a Rayleigh–Ritz step on the matrix itself gives the Ritz singular values θ ≥ σ on the
-    block; those with θ ≤ tol are null. A null direction not yet found shows up as a small
-    nonzero θ that keeps falling by δ/(σ² + δ) per step, so the rounds (one step each after the
-    first) stop only when a round finds no new null vector and no nonzero θ fell by 10 % or
-    more (in a wider block a falling θ is a block still turning towards the directions the
-    shift amplifies, and a null vector may be mixed into a smaller θ that does not fall). Two
-    kinds of block may miss part of the null space, and are doubled with fresh random
-    directions before the rounds start again: one whose Ritz values are all zero, and one whose
+    block; those with θ ≤ tol are null, and are locked: kept aside and projected out of the
+    block, which goes on with its other columns only (the null space is invariant under the
+    shifted inverse, so this spans what iterating the whole block would, without solving for
+    vectors already found). A null direction not yet found shows up as a small nonzero θ that
+    keeps falling by δ/(σ² + δ) per step, so the rounds (one step each after the first) stop
+    only when a round locks nothing and no θ fell by 10 % or more (in a wider block a falling
+    θ is a block still turning towards the directions the shift amplifies, and a null vector
+    may be mixed into a smaller θ that does not fall). Two kinds of block may miss part of the
+    null space, and take fresh random directions up to twice the width (locked columns
+    included) before the rounds start again: one whose columns were all locked, and one whose
     largest θ has θ² < δ (all of it lies in directions the shift barely damps, which may extend
-    beyond it; see SHIFT). The count is that of the last Rayleigh–Ritz step, which by
-    interlacing never exceeds the null space's dimension.
+    beyond it; see SHIFT). The count is that of a last Rayleigh–Ritz step on the locked and
+    the other columns together, which by interlacing never exceeds the null space's dimension.
     """
     n = problem.matrix.shape[1]
     room = n - problem.known.shape[1]
     if room == 0:
         return np.zeros((n, 0)), 0.0, 0.0
+    active = problem  # its known columns grow by the locked null vectors
     y = problem.deflate(rng.standard_normal((n, min(room, lower_bound + OVERSAMPLE))))
     steps, previous = first_steps, None
     for _ in range(max_rounds):
         check_budget()
         for _ in range(steps):
-            y = problem.step(y)
+            y = active.step(y)
         theta, y = _ritz_pairs(problem.matrix, y)
         z = int(np.count_nonzero(theta <= tol))
-        if z == y.shape[1] or theta[-1] ** 2 < shift:
-            width = y.shape[1]
+        if z:
+            active = replace(active, known=np.hstack([active.known, y[:, :z]]))
+            theta, y = theta[z:], y[:, z:]
+        width = active.known.shape[1] - problem.known.shape[1] + y.shape[1]
+        if y.shape[1] == 0 or theta[-1] ** 2 < shift:
             if width == room:
                 break
             if width >= MAX_NULL_VECTORS:
@@ -502,13 +509,16 @@ def _null_by_subspace_iteration(
                     "too_expensive",
                     f"the frame has more than {MAX_NULL_VECTORS} independent zero modes.",
                 )
-            fresh = problem.deflate(rng.standard_normal((n, min(width, room - width))))
+            fresh = active.deflate(rng.standard_normal((n, min(width, room - width))))
             y = np.hstack([y, fresh - y @ (y.T @ fresh)])
             steps, previous = first_steps, None
             continue
-        if previous is not None and z == previous[0] and np.all(theta[z:] >= 0.9 * previous[1][z:]):
+        if previous is not None and z == 0 and np.all(theta >= 0.9 * previous):
             break
-        steps, previous = 1, (z, theta)
+        steps, previous = 1, theta
+    locked = active.known[:, problem.known.shape[1]:]
+    theta, y = _ritz_pairs(problem.matrix, np.hstack([locked, y]))
+    z = int(np.count_nonzero(theta <= tol))
     kept = float(theta[z]) if z < theta.size else 0.0
     dropped = float(theta[z - 1]) if z > 0 else 0.0
     return y[:, :z], kept, dropped
@@ -521,17 +531,21 @@ def _null_basis(
     """Orthonormal basis (n × dim) of N(matrix) ⊖ span(known) when its dimension is known.
 
     The same shift-invert steps on a block of exactly ``dim`` columns (``start`` first, the
-    rest random) until every column v has ‖matrix·v‖ ≤ max(``target``, ``floor``), ``floor``
-    being the largest singular value counted as zero, which its singular vector cannot go
-    below: the count has already established the dimension, and with a clear gap (σ_r² ≫ δ) a
-    few steps suffice. Scaled by δ the shifted inverse has eigenvalues δ/(σ² + δ) ∈ (0, 1], 1
-    on the null space, so the block needs no re-orthonormalisation between these steps
-    (columns are only rescaled), and one QR at the end, taken once the residual is
-    ORTHONORMAL_HEADROOM under the target (the QR may raise it by the block's condition). If ``quick_steps`` are not enough, some nonzero singular values
-    are small enough (σ² ≲ δ, δ = ``shift``) to converge slowly: the block then takes OVERSAMPLE
-    more columns, which catch those directions, and every step is followed by a QR and a
-    Rayleigh–Ritz step that keeps the dim Ritz vectors of smallest θ. The extra columns are
-    doubled while even the largest Ritz value has θ² < δ (more such directions than columns).
+    rest random) until every column v has ‖matrix·v‖ ≤ ``target``: the count has already
+    established the dimension, and with a clear gap (σ_r² ≫ δ) a few steps suffice. Scaled by
+    δ the shifted inverse has eigenvalues δ/(σ² + δ) ∈ (0, 1], 1 on the null space, so the
+    block needs no re-orthonormalisation between these steps (columns are only rescaled), and
+    one QR at the end, taken once the residual is ORTHONORMAL_HEADROOM under the target (the
+    QR may raise it by the block's condition). If ``quick_steps`` are not enough, some nonzero
+    singular values are small enough (σ² ≲ δ, δ = ``shift``) to converge slowly: the block then
+    takes OVERSAMPLE more columns, which catch those directions, and every step is followed by
+    a QR and a Rayleigh–Ritz step that keeps the dim Ritz vectors of smallest θ, until their
+    θ ≤ max(``target``, ``floor``), ``floor`` being the largest Ritz value the count took as
+    zero, above a singular value below the rank's threshold that its singular vector cannot go
+    below (only after the quick steps: the count locks a null vector as soon as θ ≤ threshold,
+    so its θ may lie far above its singular value, and a few steps bring it down). The extra
+    columns are doubled while even the largest Ritz value has θ² < δ (more such directions than
+    columns).
     """
     n = problem.matrix.shape[1]
     if dim == 0:
@@ -547,9 +561,9 @@ def _null_basis(
         if step < quick_steps:
             y = problem.deflate(problem.inverse(y))
             y /= np.linalg.norm(y, axis=0)
-            if problem.residual(y) <= max(ORTHONORMAL_HEADROOM * target, floor):
+            if problem.residual(y) <= ORTHONORMAL_HEADROOM * target:
                 y = _orthonormal(y)
-                if problem.residual(y) <= max(target, floor):
+                if problem.residual(y) <= target:
                     return y
             continue
         room = n - problem.known.shape[1] - y.shape[1]
