@@ -309,6 +309,11 @@ CHOLQR_MAX_RATIO = 1e6
 # at n = 200, 0.19 ms against 0.99 ms at n = 20 000; even at 10 columns, 2 000 rows; Cholesky
 # QR ahead from about 30 columns, 4× at 900).
 HOUSEHOLDER_MAX_COLUMNS = 16
+# A null vector is locked (kept aside, no longer iterated) once its Ritz value is this far under
+# the rank's threshold: one just under it may still hold a trace of a small singular value, and
+# its Ritz value, reported as σ_{r+1}, would make a clear rank call look close (a 10⁵-node
+# network: σ_{r+1} 2.6e-11 against σ_r 7.7e-11 when locked at the threshold; 3.2e-13 iterated on).
+SETTLED = 1e-3
 # Above this many independent null vectors on the side counted, the block is too wide.
 MAX_NULL_VECTORS = 20_000
 # Geometric nested dissection orders the Gram matrix from this many nodes; below, CᵀC is
@@ -470,16 +475,17 @@ def _null_by_subspace_iteration(
     which damps a singular direction σ by δ/(σ² + δ) relative to the null space, and
     re-orthonormalises the block (lower_bound + OVERSAMPLE columns, ⟂ known). After each round
     a Rayleigh–Ritz step on the matrix itself gives the Ritz singular values θ ≥ σ on the
-    block; those with θ ≤ tol are null, and are locked: kept aside and projected out of the
-    block, which goes on with its other columns only (the null space is invariant under the
-    shifted inverse, so this spans what iterating the whole block would, without solving for
-    vectors already found). A null direction not yet found shows up as a small nonzero θ that
-    keeps falling by δ/(σ² + δ) per step, so the rounds (one step each after the first) stop
-    only when a round locks nothing and no θ fell by 10 % or more (in a wider block a falling
-    θ is a block still turning towards the directions the shift amplifies, and a null vector
-    may be mixed into a smaller θ that does not fall). Two kinds of block may miss part of the
-    null space, and take fresh random directions up to twice the width (locked columns
-    included) before the rounds start again: one whose columns were all locked, and one whose
+    block; those with θ ≤ tol are null, and once θ ≤ SETTLED·tol they are locked: kept aside
+    and projected out of the block, which goes on with its other columns only (the null space
+    is invariant under the shifted inverse, so this spans what iterating the whole block would,
+    without solving for vectors already found). A null direction not yet found shows up as a
+    small nonzero θ that keeps falling by δ/(σ² + δ) per step, so the rounds (one step each
+    after the first) stop only when a round finds no new null vector and no nonzero θ fell by
+    10 % or more (in a wider block a falling θ is a block still turning towards the directions
+    the shift amplifies, and a null vector may be mixed into a smaller θ that does not fall).
+    Two kinds of block may miss part of the null space, and take fresh random directions up to
+    twice the width (locked columns included) before the rounds start again: one whose columns
+    are all null, and one whose
     largest θ has θ² < δ (all of it lies in directions the shift barely damps, which may extend
     beyond it; see SHIFT). The count is that of a last Rayleigh–Ritz step on the locked and
     the other columns together, which by interlacing never exceeds the null space's dimension.
@@ -496,12 +502,14 @@ def _null_by_subspace_iteration(
         for _ in range(steps):
             y = active.step(y)
         theta, y = _ritz_pairs(problem.matrix, y)
+        settled = int(np.count_nonzero(theta <= SETTLED * tol))
+        if settled:
+            active = replace(active, known=np.hstack([active.known, y[:, :settled]]))
+            theta, y = theta[settled:], y[:, settled:]
+        locked = active.known.shape[1] - problem.known.shape[1]
         z = int(np.count_nonzero(theta <= tol))
-        if z:
-            active = replace(active, known=np.hstack([active.known, y[:, :z]]))
-            theta, y = theta[z:], y[:, z:]
-        width = active.known.shape[1] - problem.known.shape[1] + y.shape[1]
-        if y.shape[1] == 0 or theta[-1] ** 2 < shift:
+        null, width = locked + z, locked + y.shape[1]
+        if null == width or theta[-1] ** 2 < shift:
             if width == room:
                 break
             if width >= MAX_NULL_VECTORS:
@@ -513,11 +521,10 @@ def _null_by_subspace_iteration(
             y = np.hstack([y, fresh - y @ (y.T @ fresh)])
             steps, previous = first_steps, None
             continue
-        if previous is not None and z == 0 and np.all(theta >= 0.9 * previous):
+        if previous is not None and null == previous[0] and np.all(theta[z:] >= 0.9 * previous[1]):
             break
-        steps, previous = 1, theta
-    locked = active.known[:, problem.known.shape[1]:]
-    theta, y = _ritz_pairs(problem.matrix, np.hstack([locked, y]))
+        steps, previous = 1, (null, theta[z:])
+    theta, y = _ritz_pairs(problem.matrix, np.hstack([active.known[:, problem.known.shape[1]:], y]))
     z = int(np.count_nonzero(theta <= tol))
     kept = float(theta[z]) if z < theta.size else 0.0
     dropped = float(theta[z - 1]) if z > 0 else 0.0
@@ -542,8 +549,8 @@ def _null_basis(
     a QR and a Rayleigh–Ritz step that keeps the dim Ritz vectors of smallest θ, until their
     θ ≤ max(``target``, ``floor``), ``floor`` being the largest Ritz value the count took as
     zero, above a singular value below the rank's threshold that its singular vector cannot go
-    below (only after the quick steps: the count locks a null vector as soon as θ ≤ threshold,
-    so its θ may lie far above its singular value, and a few steps bring it down). The extra
+    below (only after the quick steps: that Ritz value is only an upper bound, possibly far
+    above the singular value, and a few steps bring the vector down to it). The extra
     columns are doubled while even the largest Ritz value has θ² < δ (more such directions than
     columns).
     """
