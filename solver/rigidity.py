@@ -485,9 +485,8 @@ def _null_by_subspace_iteration(
     the shift amplifies, and a null vector may be mixed into a smaller θ that does not fall).
     Two kinds of block may miss part of the null space, and take fresh random directions up to
     twice the width (locked columns included) before the rounds start again: one whose columns
-    are all null, and one whose
-    largest θ has θ² < δ (all of it lies in directions the shift barely damps, which may extend
-    beyond it; see SHIFT). The count is that of a last Rayleigh–Ritz step on the locked and
+    are all null, and one whose largest θ has θ² < δ (all of it lies in directions the shift
+    barely damps, which may extend beyond it; see SHIFT). The count is that of a last Rayleigh–Ritz step on the locked and
     the other columns together, which by interlacing never exceeds the null space's dimension.
     """
     n = problem.matrix.shape[1]
