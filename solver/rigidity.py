@@ -384,9 +384,8 @@ def _sparse_null_spaces(c: sp.csr_matrix, x: np.ndarray, edges: np.ndarray, rigi
     rng = np.random.default_rng(0)
     sigma_max = _largest_singular_value(gram, rng)
     tol = rtol * sigma_max
-    order = _elimination_order(x, edges, count_modes)
     shift = SHIFT * sigma_max**2
-    factor = cholesky(gram, order, shift=shift)
+    factor = cholesky(gram, _elimination_order(x, edges, count_modes), shift=shift)
     report_detail(0.3, "factorised the Gram matrix")
     floor = max(surplus, rho)
     bound = floor - rho if count_modes else floor - surplus
@@ -486,8 +485,9 @@ def _null_by_subspace_iteration(
     Two kinds of block may miss part of the null space, and take fresh random directions up to
     twice the width (locked columns included) before the rounds start again: one whose columns
     are all null, and one whose largest θ has θ² < δ (all of it lies in directions the shift
-    barely damps, which may extend beyond it; see SHIFT). The count is that of a last Rayleigh–Ritz step on the locked and
-    the other columns together, which by interlacing never exceeds the null space's dimension.
+    barely damps, which may extend beyond it; see SHIFT). The count is that of a last
+    Rayleigh–Ritz step on the locked and the other columns together, which by interlacing never
+    exceeds the null space's dimension.
     """
     n = problem.matrix.shape[1]
     room = n - problem.known.shape[1]

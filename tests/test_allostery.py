@@ -277,8 +277,7 @@ def test_an_answer_missing_the_floors_is_422_with_the_best_figures(client):
 
 def test_relays_too_small_to_verify_are_422_without_figures(client):
     """Relays of 1e-5 site sizes: every chain has zero modes beyond the designed ones at the
-    rank's relative threshold (numpy's SVD of C agrees), so none verifies and there are no
-    figures to report."""
+    rank's relative threshold, so none verifies and there are no figures to report."""
     x_src, u_src, x_tgt, u_tgt = sites(2, 48.0)
     response = client.post(
         "/v1/design/allosteric", json=request_body(x_src, u_src, x_tgt, u_tgt, relay_spacing=1e-5)
