@@ -59,6 +59,17 @@ class Cholesky:
         cholmod.solve(self._factor, x)
         return np.asarray(x).reshape(b.shape)
 
+    def pivots(self) -> np.ndarray:
+        """The n pivots of the elimination, P A Pᵀ = L D Lᵀ with L unit lower triangular: D's
+        diagonal, in elimination order. CHOLMOD's supernodal kernel keeps L̃ L̃ᵀ (D = diag(L̃)²);
+        its simplicial one keeps L D Lᵀ, whose D-solve of a vector of ones gives 1/D."""
+        try:
+            return np.asarray(cholmod.diag(self._factor)).ravel() ** 2
+        except ValueError:  # cvxopt's only sign of a simplicial factor
+            ones = cvx_matrix(np.ones(self.n))
+            cholmod.solve(self._factor, ones, sys=6)
+            return 1.0 / np.asarray(ones).ravel()
+
 
 def cholesky(
     a: sp.spmatrix, order: np.ndarray | None = None, shift: float = 0.0, supernodal: bool = False

@@ -85,3 +85,19 @@ def test_cholesky_solves_like_numpy(order_by):
     expected = np.linalg.solve(gram.toarray() + shift * np.eye(gram.shape[0]), b)
     got = cholesky(gram, order, shift=shift).solve(b)
     assert np.allclose(got, expected, rtol=1e-8, atol=1e-10 * np.abs(expected).max())
+
+
+@pytest.mark.parametrize("supernodal", [False, True])
+def test_pivots_are_those_of_numpy_cholesky_in_the_same_order(supernodal):
+    """P A Pᵀ = L D Lᵀ: D's diagonal is diag(cholesky(P A Pᵀ))², whichever kernel CHOLMOD
+    keeps (at 200 nodes its own choice is the simplicial L D Lᵀ). CHOLMOD may postorder the
+    elimination tree, which permutes the pivots, so they are compared sorted."""
+    frame, x = lattice("triangulated", 200)
+    c = compatibility_matrix(x, frame.edges)
+    gram = (c.T @ c).tocsr()
+    order = coordinates(minimum_degree(frame.n_nodes, frame.edges), frame.dim)
+    shift = 1e-3
+    permuted = gram.toarray()[np.ix_(order, order)] + shift * np.eye(gram.shape[0])
+    expected = np.sort(np.diag(np.linalg.cholesky(permuted)) ** 2)
+    got = np.sort(cholesky(gram, order, shift=shift, supernodal=supernodal).pivots())
+    assert np.allclose(got, expected, rtol=1e-9, atol=0.0)
