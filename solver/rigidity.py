@@ -299,6 +299,10 @@ OVERSAMPLE = 1
 # networks 10³ 64 against 85, 10⁴ 126 against 188; 3D 10³ 94 against 95, 10⁴ (seeds 0–3) 58
 # against 61. At 1e5 the undercounts cost more (2D 10³ 79, 3D 10³ 104, 3D 10⁴ 75).
 SMALL_PIVOT = 1e6
+# … and at most this many: past it the block (n × width numbers) would grow on a guess rather
+# than on null vectors found, which widening doubles to anyway (a 64-column start saves at most
+# six widenings).
+SMALL_PIVOT_MAX_START = 64
 # Bases are iterated until ‖C v‖ ≤ BASIS_ANGLE·σ_r for every basis vector v, which bounds
 # the angle between the returned and the exact null space by BASIS_ANGLE (round-off allowing).
 BASIS_ANGLE = 1e-10
@@ -407,7 +411,8 @@ def _sparse_null_spaces(c: sp.csr_matrix, x: np.ndarray, edges: np.ndarray, rigi
     other = _NullProblem(b, lambda w: w - a @ factor.solve(b @ w), no_known if count_modes else rigid)
     # the factor's small pivots guess the null space's dimension (SMALL_PIVOT), known ones aside
     small = int(np.count_nonzero(factor.pivots() <= SMALL_PIVOT * shift)) - counted.known.shape[1]
-    found, kept, dropped = _null_by_subspace_iteration(counted, tol, max(bound, small), rng, shift)
+    start = max(bound, min(small, SMALL_PIVOT_MAX_START))
+    found, kept, dropped = _null_by_subspace_iteration(counted, tol, start, rng, shift)
     if rho:  # the rigid motions are zeros of C too: the largest of them may top the found ones
         # ‖C R‖₂ from the ρ × ρ Gram matrix of C R (its entries are round-off, ≈ 1e-16 σ_max)
         moved = c @ rigid

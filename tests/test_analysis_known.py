@@ -29,6 +29,7 @@ from scipy.sparse.linalg import svds
 
 from zeromode.service.responses import counts_body
 from zeromode.solver import Frame, analyze
+from zeromode.solver.rigidity import SMALL_PIVOT_MAX_START
 
 TOL = 1e-10
 
@@ -353,6 +354,25 @@ def test_zero_modes_among_near_degenerate_directions_are_counted(log_offsets, pe
     assert {f: getattr(result, f) for f in counts} == counts
     s = singular_values(compatibility_matrix(normalised(x), edges))
     assert result.rank_gap.first_zero <= 1e-9 * s[0] < result.rank_gap.last_nonzero
+
+
+def test_more_zero_modes_than_the_start_from_small_pivots_takes():
+    # A triangulated patch with 100 pendant bars: 100 zero modes beyond the rigid motions, more
+    # than the sparse count's start from the factor's small pivots may take
+    # (SMALL_PIVOT_MAX_START), so the block still widens; counts against numpy's SVD.
+    from benchmarks.lattices import triangulated_lattice
+
+    rng = np.random.default_rng(5)
+    base = triangulated_lattice(400)
+    n = base.n_nodes
+    held = rng.choice(n, 100, replace=False)
+    x = np.vstack([base.positions, np.asarray(base.positions)[held] + rng.uniform(-0.5, 0.5, (100, 2))])
+    edges = np.vstack([base.edges, np.column_stack([held, n + np.arange(100)])])
+    assert 100 > SMALL_PIVOT_MAX_START
+    result = analyze(Frame.build(x, edges), method="sparse", bases=False)
+    counts = reference_counts(x, edges)
+    assert counts["nontrivial_zero_modes"] == 100
+    assert {f: getattr(result, f) for f in counts} == counts
 
 
 @pytest.mark.parametrize("seed", [0, 2])
