@@ -295,9 +295,10 @@ OVERSAMPLE = 1
 # width (widening still finds the rest; wrong guesses cost solves, never a count). Measured,
 # small pivots beyond the known null vectors against the null space's dimension: near-isostatic
 # networks of 10²–10⁴ nodes in 2D and 3D (3 seeds) −3 … +2, mostly exact; lattice patches to
-# 3·10⁵ nodes none. Column solves of the count over seeds 0–7 against a one-column start: 2D
-# networks 10³ 64 against 85, 10⁴ 126 against 188; 3D 10³ 94 against 95, 10⁴ (seeds 0–3) 58
-# against 61. At 1e5 the undercounts cost more (2D 10³ 79, 3D 10³ 104, 3D 10⁴ 75).
+# 3·10⁵ nodes none. Column solves of the iteration alone over seeds 0–7 against a one-column
+# start (before the stop and widening rules of _null_by_subspace_iteration): 2D networks 10³ 64
+# against 85, 10⁴ 126 against 188; 3D 10³ 94 against 95, 10⁴ (seeds 0–3) 58 against 61. At 1e5
+# the undercounts cost more (2D 10³ 79, 3D 10³ 104, 3D 10⁴ 75).
 SMALL_PIVOT = 1e6
 # … and at most this many: past it the block (n × width numbers) would grow on a guess rather
 # than on null vectors found, which widening doubles to anyway (a 64-column start saves at most
