@@ -28,8 +28,7 @@ from oracles.rigidity import (
 from scipy.sparse.linalg import svds
 
 from zeromode.service.responses import counts_body
-from zeromode.solver import Frame, analyze
-from zeromode.solver.rigidity import SMALL_PIVOT_MAX_START
+from zeromode.solver import Frame, analyze, rigidity
 
 TOL = 1e-10
 
@@ -368,7 +367,7 @@ def test_more_zero_modes_than_the_start_from_small_pivots_takes():
     held = rng.choice(n, 100, replace=False)
     x = np.vstack([base.positions, np.asarray(base.positions)[held] + rng.uniform(-0.5, 0.5, (100, 2))])
     edges = np.vstack([base.edges, np.column_stack([held, n + np.arange(100)])])
-    assert 100 > SMALL_PIVOT_MAX_START
+    assert 100 > rigidity.SMALL_PIVOT_MAX_START
     result = analyze(Frame.build(x, edges), method="sparse", bases=False)
     counts = reference_counts(x, edges)
     assert counts["nontrivial_zero_modes"] == 100
@@ -421,20 +420,24 @@ def test_zero_modes_of_near_isostatic_networks_at_scale(seed):
 )
 def test_zero_modes_found_over_several_widenings_match_numpy(n, dim, removed, extra, seed):
     # Henneberg networks with up to 16 bars removed: zero modes not implied by the Maxwell
-    # count (the sparse route's count starts from a block one column wide), so its block is
-    # widened several times (1, 2, 4, 8, 16 columns), and null vectors found in one round are
-    # locked out of the next. Counts, the rank gap's bracket of the threshold, and both bases
-    # must agree with numpy's SVD.
+    # count. The sparse route's block starts as wide as the factor's small pivots suggest
+    # (mostly exact on these, so rarely widened), and again from one column (SMALL_PIVOT = 0:
+    # widened several times, 1, 2, 4, 8, 16 columns); null vectors found in one round are
+    # locked out of the next. Either way, counts, the rank gap's bracket of the threshold, and
+    # both bases must agree with numpy's SVD.
     from benchmarks.networks import henneberg_network
 
     frame = henneberg_network(n, dim, extra=extra, removed=removed, seed=seed)
     x, edges = np.asarray(frame.positions), frame.edges
-    result = analyze(frame, method="sparse")
-    assert {f: getattr(result, f) for f in reference_counts(x, edges)} == reference_counts(x, edges)
     s = singular_values(compatibility_matrix(normalised(x), edges))
-    assert result.rank_gap.first_zero <= 1e-9 * s[0] < result.rank_gap.last_nonzero
-    assert result.bases_included
-    for returned, oracle in ((as_columns(result.modes), nontrivial_flexes(x, edges)),
-                             (result.stresses.T, self_stresses(x, edges))):
-        assert returned.shape == oracle.shape
-        np.testing.assert_allclose(projector(returned), projector(oracle), atol=1e-8)
+    for small_pivot in (rigidity.SMALL_PIVOT, 0.0):
+        with pytest.MonkeyPatch.context() as patch:
+            patch.setattr(rigidity, "SMALL_PIVOT", small_pivot)
+            result = analyze(frame, method="sparse")
+        assert {f: getattr(result, f) for f in reference_counts(x, edges)} == reference_counts(x, edges)
+        assert result.rank_gap.first_zero <= 1e-9 * s[0] < result.rank_gap.last_nonzero
+        assert result.bases_included
+        for returned, oracle in ((as_columns(result.modes), nontrivial_flexes(x, edges)),
+                                 (result.stresses.T, self_stresses(x, edges))):
+            assert returned.shape == oracle.shape
+            np.testing.assert_allclose(projector(returned), projector(oracle), atol=1e-8)
