@@ -331,6 +331,13 @@ HOUSEHOLDER_MAX_COLUMNS = 16
 # its Ritz value, reported as σ_{r+1}, would make a clear rank call look close (a 10⁵-node
 # network: σ_{r+1} 2.6e-11 against σ_r 7.7e-11 when locked at the threshold; 3.2e-13 iterated on).
 SETTLED = 1e-3
+# The rounds' stop watches the Ritz values with θ² below this many times δ (and the null ones
+# not yet locked): above it, the shift damps the direction by 1e-4 or more a step, so a null
+# direction mixed into that Ritz vector would have grown 1e8-fold against it in the first two
+# steps and cannot hide there; such a θ falling is the block turning within a cluster of nonzero
+# singular values (a 3D network of 10³ nodes: 6.3e-4 → 4.4e-4 → 4.3e-4, θ² ≈ 2e6 δ), which
+# would only cost a round.
+DAMPED = 1e4
 # Above this many independent null vectors on the side counted, the block is too wide.
 MAX_NULL_VECTORS = 20_000
 # Geometric nested dissection orders the Gram matrix from this many nodes; below, CᵀC is
@@ -344,6 +351,12 @@ MAX_NULL_VECTORS = 20_000
 # 10⁵: 0.74 s against 1.17 s; 3·10⁵: 3.3 s against 5.5 s), also over the bars ordered by the
 # node graph's minimum degree (kagome 10³: 2.3 ms against 3.4 ms).
 NESTED_DISSECTION_MIN_NODES = {(3, True): 500, (3, False): 500, (2, True): 100_000, (2, False): None}
+# … and CᵀC only while the frame's mean degree 2N_B/N exceeds this many times d (2d bars a node:
+# isostatic): the measurements above are of lattice patches (mean degree 2d + 2 and more), whose
+# geometric separators are small; near-isostatic disordered networks (mean degree ≈ 2d) fill
+# less under minimum degree at every size measured (ordering + factorisation, one core: 3D 10³
+# nodes 6.2 ms against 8.2 ms, 10⁴ 0.31 s against 0.32 s; 2D 10⁵ 0.39 s against 0.59 s).
+DISSECTION_MIN_DEGREE = 2.5
 
 
 @dataclass(frozen=True, eq=False)
@@ -398,15 +411,15 @@ def _sparse_null_spaces(c: sp.csr_matrix, x: np.ndarray, edges: np.ndarray, rigi
     surplus = ndof - nb
     count_modes = surplus <= rho
     gram = ct @ c if count_modes else c @ ct
+    a, b = (c, ct) if count_modes else (ct, c)  # the counted side's matrix, the other's
     rng = np.random.default_rng(0)
-    sigma_max = _largest_singular_value(gram, rng)
+    sigma_max = _largest_singular_value(a, rng)
     tol = rtol * sigma_max
     shift = SHIFT * sigma_max**2
     factor = cholesky(gram, _elimination_order(x, edges, count_modes), shift=shift)
     report_detail(0.3, "factorised the Gram matrix")
     floor = max(surplus, rho)
     bound = floor - rho if count_modes else floor - surplus
-    a, b = (c, ct) if count_modes else (ct, c)  # the counted side's matrix, the other's
     no_known = np.zeros((nb, 0))
     counted = _NullProblem(a, factor.solve, rigid if count_modes else no_known)
     other = _NullProblem(b, lambda w: w - a @ factor.solve(b @ w), no_known if count_modes else rigid)
@@ -434,8 +447,9 @@ def _sparse_null_spaces(c: sp.csr_matrix, x: np.ndarray, edges: np.ndarray, rigi
 
 def _elimination_order(x: np.ndarray, edges: np.ndarray, count_modes: bool) -> np.ndarray | None:
     """The order in which the Gram matrix's unknowns (CᵀC if ``count_modes``, else CCᵀ) are
-    eliminated: geometric nested dissection of the nodes from NESTED_DISSECTION_MIN_NODES on;
-    below, minimum degree of the nodes for CᵀC and None (CHOLMOD's own minimum degree) for CCᵀ.
+    eliminated: geometric nested dissection of the nodes from NESTED_DISSECTION_MIN_NODES on
+    (for CᵀC, only on frames whose mean degree is past DISSECTION_MIN_DEGREE·d); otherwise
+    minimum degree of the nodes for CᵀC and None (CHOLMOD's own minimum degree) for CCᵀ.
 
     Both Gram matrices follow the bar graph: (CᵀC)_ij ≠ 0 for the d × d blocks of joined
     nodes, (CCᵀ)_ef ≠ 0 for bars sharing a node. One order of the nodes orders both:
@@ -445,7 +459,8 @@ def _elimination_order(x: np.ndarray, edges: np.ndarray, count_modes: bool) -> n
     """
     n, d = x.shape
     threshold = NESTED_DISSECTION_MIN_NODES[d, count_modes]
-    dissect = threshold is not None and n >= threshold
+    dense_enough = not count_modes or 2 * len(edges) > DISSECTION_MIN_DEGREE * d * n
+    dissect = threshold is not None and n >= threshold and dense_enough
     if not (dissect or count_modes):
         return None
     node_order = nested_dissection(x, edges) if dissect else minimum_degree(n, edges)
@@ -456,18 +471,21 @@ def _elimination_order(x: np.ndarray, edges: np.ndarray, count_modes: bool) -> n
     return np.argsort(position[edges].max(axis=1), kind="stable")
 
 
-def _largest_singular_value(gram: sp.spmatrix, rng: np.random.Generator, steps: int = 6) -> float:
-    """σ_max(C) = √λ_max of its Gram matrix CᵀC or CCᵀ (same nonzero eigenvalues): the largest
-    eigenvalue of the tridiagonal T_k of ``steps`` Lanczos steps from a random start, a Rayleigh
-    quotient on the Krylov space, so never above λ_max (round-off allowing). Measured on 2D and
-    3D lattices of 10²–10⁴ nodes: six steps give σ_max within 3.6 % from below, closer than ten
-    steps of the power iteration (within 4.5 %), ample for a relative threshold and a shift."""
-    q = rng.standard_normal(gram.shape[0])
+def _largest_singular_value(a: sp.spmatrix, rng: np.random.Generator, steps: int = 6) -> float:
+    """σ_max(A) (A: m × n, C or Cᵀ) = √λ_max of AᵀA: the largest eigenvalue of the tridiagonal
+    T_k of ``steps`` Lanczos steps on AᵀA from a random start, a Rayleigh quotient on the Krylov
+    space, so never above λ_max (round-off allowing). Measured on 2D and 3D lattices of 10²–10⁴
+    nodes: six steps give σ_max within 3.6 % from below, closer than ten steps of the power
+    iteration (within 4.5 %), ample for a relative threshold and a shift. AᵀA q is taken as
+    Aᵀ(A q): two products with A's 2d entries a row cost less than one with the Gram matrix's
+    (a 10⁴-node 2D network: 0.11 ms against 0.18 ms)."""
+    q = rng.standard_normal(a.shape[1])
     q /= np.sqrt(q @ q)
     previous, beta = np.zeros_like(q), 0.0
     alpha, betas = [], []
-    for _ in range(min(steps, gram.shape[0])):
-        w = gram @ q - beta * previous
+    at = a.T
+    for _ in range(min(steps, a.shape[1])):
+        w = at @ (a @ q) - beta * previous
         alpha.append(q @ w)
         w -= alpha[-1] * q
         beta = float(np.sqrt(w @ w))
@@ -500,13 +518,15 @@ def _null_by_subspace_iteration(
     is invariant under the shifted inverse, so this spans what iterating the whole block would,
     without solving for vectors already found). A null direction not yet found shows up as a
     small nonzero θ that keeps falling by δ/(σ² + δ) per step, so the rounds (one step each
-    after the first) stop only when a round finds no new null vector, locks none, and no θ of
-    the block fell by 10 % or more (in a wider block a falling θ is a block still turning
-    towards the directions the shift amplifies, and a null vector may be mixed into a smaller θ
-    that does not fall; a null θ not yet settled that still falls is a null vector still
-    shedding singular directions the shift barely damps, whose θ would be reported as σ_{r+1}:
-    a 10⁵-node network started at its guessed width reported 1.4e-11 against σ_r 7.7e-11 when
-    only the nonzero θ were watched, 3e-14 watching all).
+    after the first) stop only when a round finds no new null vector and no θ it watches fell by
+    10 % or more from the θ in the same place a round before (locked ones leave the block,
+    settled). It watches the null θ not yet locked and the nonzero θ with θ² < DAMPED·δ (in a
+    wider block a falling θ is a block still turning towards the directions the shift
+    amplifies, and a null vector may be mixed into a smaller θ that does not fall; a null θ not
+    yet settled that still falls is a null vector still shedding singular directions the shift
+    barely damps, whose θ would be reported as σ_{r+1}: a 10⁵-node network started at its
+    guessed width reported 1.4e-11 against σ_r 7.7e-11 when only the nonzero θ were watched,
+    3e-14 watching all).
     Two kinds of block may miss part of the null space, and take fresh random directions before
     the rounds start again: one whose columns are all null takes as many as its width (locked
     columns included), and one whose largest θ has θ² < δ (all of it lies in directions the
@@ -532,6 +552,8 @@ def _null_by_subspace_iteration(
         if settled:
             active = replace(active, known=np.hstack([active.known, y[:, :settled]]))
             theta, y = theta[settled:], y[:, settled:]
+            if previous is not None:  # compare what stays with the same places a round before
+                previous = previous[0], previous[1][settled:]
         locked = active.known.shape[1] - problem.known.shape[1]
         z = int(np.count_nonzero(theta <= tol))
         null, width = locked + z, locked + y.shape[1]
@@ -548,9 +570,8 @@ def _null_by_subspace_iteration(
             y = np.hstack([y, fresh - y @ (y.T @ fresh)])
             steps, previous = first_steps, None
             continue
-        if previous is not None and null == previous[0] and theta.size == previous[1].size and np.all(
-            theta >= 0.9 * previous[1]
-        ):
+        watched = (theta <= tol) | (theta**2 < DAMPED * shift)
+        if previous is not None and null == previous[0] and np.all((theta >= 0.9 * previous[1]) | ~watched):
             break
         steps, previous = 1, (null, theta)
     theta, y = _ritz_pairs(problem.matrix, np.hstack([active.known[:, problem.known.shape[1]:], y]))
