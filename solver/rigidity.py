@@ -468,7 +468,7 @@ def _elimination_order(x: np.ndarray, edges: np.ndarray, count_modes: bool) -> n
         return (d * node_order[:, None] + np.arange(d)).ravel()
     position = np.empty_like(node_order)
     position[node_order] = np.arange(node_order.size)
-    return np.argsort(position[edges].max(axis=1), kind="stable")
+    return np.argsort(np.maximum(position[edges[:, 0]], position[edges[:, 1]]), kind="stable")
 
 
 def _largest_singular_value(a: sp.spmatrix, rng: np.random.Generator, steps: int = 6) -> float:
