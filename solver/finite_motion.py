@@ -84,7 +84,7 @@ from zeromode.solver.normalisation import Normalisation
 from zeromode.solver.progress import progress_stage, report_progress
 from zeromode.solver.rank import RTOL, complement_within, nullspace
 from zeromode.solver.rigidity import DENSE_MAX_DOF, analyze, compatibility_matrix, rigid_motions
-from zeromode.solver.tolerances import GIVEN_MODE_RTOL
+from zeromode.solver.tolerances import GIVEN_MODE_RTOL, SIGN_TIE_RTOL
 
 # Largest frame traced (d·N). A sparse step costs a few factorisations of a dN × dN stiffness
 # pattern: about 0.1 s each at dN = 15 000 (the 50 × 50 auxetic sheet), so a path of a few dozen
@@ -635,18 +635,25 @@ def given_mode(mode, n: int, d: int) -> np.ndarray:
     return u
 
 
+def signed_mode(u: np.ndarray) -> np.ndarray:
+    """u (any shape) signed so that its largest entry is positive; entries within SIGN_TIE_RTOL
+    of the largest magnitude tie, and the first of them decides (a deterministic sign whatever
+    the round-off of the computation that produced u)."""
+    magnitude = np.abs(u).ravel()
+    first = int(np.argmax(magnitude >= (1.0 - SIGN_TIE_RTOL) * magnitude.max()))
+    return u if u.flat[first] > 0 else -u
+
+
 def start_direction(cons: BarConstraints, x: np.ndarray, mode):
     """(unit starting tangent (dN), orthonormal basis of N(C(x))) in normalised coordinates;
-    ``mode`` (n, d) or None (then the single nontrivial mode, largest entry positive).
+    ``mode`` (n, d) or None (then the single nontrivial mode, signed by signed_mode).
     DomainError if there is no tangent."""
     n = x.shape[0]
     if mode is not None:
         u = given_mode(mode, n, x.shape[1])
     null, modes = _reference_null_space(cons, x, explicit_mode=mode is not None)
     if mode is None:
-        u = modes[:, 0]
-        # Deterministic sign: the largest entry positive (ties: the first).
-        return u * (1.0 if u[np.argmax(np.abs(u))] > 0 else -1.0), null
+        return signed_mode(modes[:, 0]), null
     u = u.ravel()
     norm = np.linalg.norm(u)
     if norm == 0:

@@ -57,6 +57,7 @@ from zeromode.solver.finite_motion import (
     located_sigma,
     relative_bar_error,
     signed_determinant,
+    signed_mode,
     start_direction,
     trace_motion,
 )
@@ -424,11 +425,11 @@ class _PatchCheck:
 
     def default_mode(self) -> np.ndarray:
         """The frame's nontrivial mode (N, d) as trace_motion picks it without one: the tiled
-        cell mode ⟂ the rigid motions, its largest entry positive (ties: the first)."""
+        cell mode ⟂ the rigid motions, signed by finite_motion.signed_mode."""
         u, _ = self.tiled_mode(self.cell_cons.reference)
         rigid = rigid_motions(self.norm.positions_in(self.frame.positions), RTOL)
         u = u - rigid @ (rigid.T @ u)
-        return (u * (1.0 if u[np.argmax(np.abs(u))] > 0 else -1.0)).reshape(self.frame.positions.shape)
+        return signed_mode(u).reshape(self.frame.positions.shape)
 
     def cell_rates(self, mode) -> np.ndarray:
         """The cell's rates ((n_c + k), d) of its mode, signed like the frame's ``mode`` (N, d);

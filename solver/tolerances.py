@@ -36,6 +36,12 @@ DISTINCT_RTOL = 1e-9
 # this fraction of the largest. Requested motions are exact data, so round-off is the only noise.
 RIGID_RTOL = 1e-9
 
+# A mode's sign is decided by its largest entry (positive), and entries within this fraction of
+# the largest magnitude tie (the first of them decides): a symmetric frame's mode has entries
+# equal up to round-off, whose last bits differ between BLAS kernels (OpenBLAS's AVX2 and
+# AVX-512 ones picked opposite signs for a 10 × 10 sheet's mode).
+SIGN_TIE_RTOL = 1e-8
+
 # A mode zeromode constructed must satisfy ‖C u‖ ≤ DESIGN_MODE_RTOL·‖C‖_F‖u‖ (normalised C)
 # before a design is returned: the construction is exact, so only round-off (≈ 1e-15) remains.
 DESIGN_MODE_RTOL = 1e-10

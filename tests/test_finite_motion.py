@@ -33,6 +33,7 @@ from zeromode.solver.finite_motion import (
     fidelity,
     kabsch_distance,
     motion_fidelity,
+    signed_mode,
     trace_motion,
 )
 
@@ -371,3 +372,24 @@ def test_progress_of_a_motion_rises_to_one_through_a_located_singular_point():
     fractions = [f for f, _ in reports]
     assert fractions == sorted(fractions) and fractions[-1] == 1.0
     assert any("locating a singular point" in m for _, m in reports)
+
+
+@settings(max_examples=50, deadline=None)
+@given(st.integers(2, 30), st.integers(0, 2**32 - 1))
+def test_a_modes_sign_does_not_follow_round_off_between_tied_entries(n, seed):
+    # A symmetric frame's mode has entries of equal magnitude up to round-off, which differs
+    # between BLAS kernels: the sign must come out the same whichever of the tied entries
+    # round-off makes the largest (the first of them decides).
+    rng = np.random.default_rng(seed)
+    u = rng.uniform(-0.9, 0.9, n)
+    i, j = sorted(rng.choice(n, 2, replace=False))
+    u[i], u[j] = rng.choice([-1.0, 1.0]), rng.choice([-1.0, 1.0])
+    signs = set()
+    for bump_i, bump_j in [(1e-15, 0.0), (0.0, 1e-15)]:
+        v = u.copy()
+        v[i] *= 1 + bump_i
+        v[j] *= 1 + bump_j
+        w = signed_mode(v)
+        assert np.array_equal(np.abs(w), np.abs(v))
+        signs.add(np.sign(w[i]))
+    assert signs == {1.0}
