@@ -139,12 +139,15 @@ def test_sensitivity_is_the_response_change_of_perturbed_frames(d, distance):
 @pytest.mark.parametrize("d", [2, 3])
 def test_sensitivity_and_gap_do_not_degrade_with_distance(d):
     """The same sites at 24, 96 and 200 site sizes: relays grow geometrically, so the target's
-    sensitivity stays within a factor 2 and the gap within a factor 10."""
+    sensitivity stays within a factor 2, and the gap stays 100× above its floor and within a
+    factor 30. Which modules the 3D placement picks follows round-off, which differs between
+    BLAS kernels: its gaps span 3.6× with OpenBLAS's AVX2 kernels (1.1e-3 … 3.8e-3) and 16× with
+    its AVX-512 ones (2.8e-4 … 4.4e-3); 2D ones agree (3.8e-2 … 5.9e-2 with either)."""
     figures = [design_allosteric(*sites(d, distance)).figures for distance in (24.0, 96.0, 200.0)]
     sensitivity = [f.sensitivity for f in figures]
     gaps = [f.gap for f in figures]
     assert max(sensitivity) <= 2 * min(sensitivity)
-    assert max(gaps) <= 10 * min(gaps)
+    assert min(gaps) >= 100 * GAP_FLOOR and max(gaps) <= 30 * min(gaps)
     assert all(f.target_error <= TARGET_ERROR_MAX for f in figures)
 
 
@@ -259,20 +262,30 @@ def test_bad_requests_answer_422_with_their_code(client):
 
 
 def test_an_answer_missing_the_floors_is_422_with_the_best_figures(client):
-    """Relays of 5.8e-4 site sizes next to a site of size 1 (5.6e-4 – 5.9e-4 behave alike; from
-    6e-4 the floors are met) verify but miss the target-error floor: the answer is 422
-    inaccurate_design, and its best figures are those of a frame that misses a floor."""
+    """Relays of about 5e-4 site sizes growing by 1.2 next to a site of size 1 sit where the
+    construction verifies but its target error, some 1e-8 – 1e-10, is set by round-off
+    (sensitivity ≈ 2e-2): which spacings miss the 1e-9 floor depends on the BLAS kernels
+    (OpenBLAS's AVX2 and AVX-512 ones disagree on 3 of these 5). Every answer keeps its word:
+    a 200 meets the floors, and the others are 422 inaccurate_design whose best figures are
+    those of a frame that misses a floor (4 of the 5 on either kernel)."""
     x_src, u_src, x_tgt, u_tgt = sites(2, 48.0)
-    response = client.post(
-        "/v1/design/allosteric", json=request_body(x_src, u_src, x_tgt, u_tgt, relay_spacing=5.8e-4)
-    )
-    assert response.status_code == 422, response.text[:300]
-    detail = response.json()["detail"]
-    assert detail["code"] == "inaccurate_design"
-    best = detail["best"]
-    assert best["target_error"] > TARGET_ERROR_MAX or best["gap"] < GAP_FLOOR
-    assert best["chain"]["relay_spacing"] == pytest.approx(5.8e-4)
-    assert f"{best['gap']:.2e}" in detail["message"]
+    missed = []
+    for spacing in (4.6e-4, 4.8e-4, 5.0e-4, 5.2e-4, 5.4e-4):
+        body = request_body(x_src, u_src, x_tgt, u_tgt, relay_spacing=spacing, relay_growth=1.2)
+        response = client.post("/v1/design/allosteric", json=body)
+        if response.status_code == 200:
+            report = response.json()["report"]
+            assert report["target_error"] <= TARGET_ERROR_MAX and report["gap"] >= GAP_FLOOR
+            continue
+        assert response.status_code == 422, response.text[:300]
+        missed.append((spacing, response.json()["detail"]))
+    assert missed
+    for spacing, detail in missed:
+        assert detail["code"] == "inaccurate_design"
+        best = detail["best"]
+        assert best["target_error"] > TARGET_ERROR_MAX or best["gap"] < GAP_FLOOR
+        assert best["chain"]["relay_spacing"] == pytest.approx(spacing)
+        assert f"{best['gap']:.2e}" in detail["message"]
 
 
 def test_relays_too_small_to_verify_are_422_without_figures(client):
