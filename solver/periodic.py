@@ -283,7 +283,7 @@ def trace_periodic_motion(
     docstring and PeriodicConstraints: the parameter is the patch's).
 
     mode: ((n_c + k), d) rates of the nodes and lattice vectors, or None (the cell's single
-    nontrivial mode, largest entry positive). stop(patch positions (N, d), sign): as
+    nontrivial mode, signed by finite_motion.signed_mode). stop(patch positions (N, d), sign): as
     finite_motion.trace_motion's, on the tiled patch, the last step shortened towards where it
     turns true (STOP_BISECTIONS). Other arguments as trace_motion.
     """

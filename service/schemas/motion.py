@@ -29,7 +29,8 @@ class MotionRequest(RequestModel):
         default=None,
         description=(
             "N×d zero mode to follow (any scale; its rigid part is ignored). Default: the frame's "
-            "single nontrivial zero mode, with its largest entry positive; 422 `ambiguous_mode` if "
+            "single nontrivial zero mode, with its largest entry positive (entries within 1e-8 of "
+            "it tie, the first deciding); 422 `ambiguous_mode` if "
             "the frame has several, `no_motion` if none."
         ),
     )
