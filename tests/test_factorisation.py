@@ -118,3 +118,29 @@ def test_pivots_are_those_of_numpy_cholesky_in_the_same_order(supernodal):
     expected = np.sort(np.diag(np.linalg.cholesky(permuted)) ** 2)
     got = np.sort(cholesky(gram, order, shift=shift, supernodal=supernodal).pivots())
     assert np.allclose(got, expected, rtol=1e-9, atol=0.0)
+
+
+@pytest.mark.parametrize("supernodal", [False, True])
+@pytest.mark.parametrize("width", [0, 1, 2, 3, 4, 5, 6, 7, 9])
+def test_block_solves_are_numpys_on_either_kernel(supernodal, width):
+    """Blocks of any width (a supernodal factor solves them four columns at a time through
+    CHOLMOD's sparse solve, a remainder under BLOCK_SOLVE_MIN_COLUMNS column by column); a
+    column of zeros (which the sparse right-hand side leaves out) solves to zeros; 1-D b keeps
+    its shape."""
+    frame, x = lattice("triangulated", 200)
+    c = compatibility_matrix(x, frame.edges)
+    gram = (c.T @ c).tocsr()
+    shift = 1e-3
+    factor = cholesky(gram, shift=shift, supernodal=supernodal)
+    assert factor.supernodal is supernodal  # CHOLMOD's own choice at 200 nodes is simplicial
+    b = np.random.default_rng(width).standard_normal((gram.shape[0], width))
+    if width >= 2:
+        b[:, 1] = 0.0
+    dense = gram.toarray() + shift * np.eye(gram.shape[0])
+    expected = np.linalg.solve(dense, b)
+    got = factor.solve(b)
+    assert got.shape == b.shape
+    assert np.allclose(got, expected, rtol=1e-8, atol=1e-10 * np.abs(expected).max(initial=1.0))
+    if width:
+        column = factor.solve(b[:, 0])
+        assert column.shape == (gram.shape[0],) and np.allclose(column, expected[:, 0], rtol=1e-8)
