@@ -280,13 +280,16 @@ def _dense_null_spaces(c: np.ndarray, rigid: np.ndarray, rtol: float, want_bases
 # 1.5–1.8× slower counts on those networks at 10⁴ nodes; the same on lattices).
 SHIFT = 1e-13
 # Columns of the iterated block beyond the lower bound on the null space being found: they
-# carry the smallest nonzero singular values whose settling ends the iteration (a block that
-# fills with null vectors is doubled, see _null_by_subspace_iteration). cvxopt solves column by
-# column, so the cost is in column solves: on the benchmark's lattices (10²–10⁴ nodes, 2D and
-# 3D) one column takes 3 solves (4 on three of them: 3–4 column solves) where two take 3 solves
-# of two columns (6): 0–9 % less time up to 10³ nodes (measured in turn, 301 rounds), 5–10 %
-# at 10⁴ (the cubic lattice, with its fourth solve, 3 % more), 10–20 % at 10⁵.
-OVERSAMPLE = 1
+# carry the smallest nonzero singular values, whose Ritz value the rank's gap reports as σ_r and
+# whose settling ends the iteration (a block that fills with null vectors is doubled, see
+# _null_by_subspace_iteration). Two, not one: the block starts from fixed random columns (the
+# same answer every time), and a single column whose part along σ_r's singular vector happens
+# to be small converges to a larger singular value first and stalls there, which the gap then
+# reports as σ_r (random frames of 10–80 nodes, 2D and 3D, against numpy's SVD: the Ritz value
+# over σ_r above 2 in about 1 of 3 000 frames with one column, up to 3.4; at most 1.45 in
+# 10 500 frames with two). The second column costs 5–13 % of the count's time on the
+# benchmark's frames of 10²–10⁴ nodes (measured in turn).
+OVERSAMPLE = 2
 # A pivot of the shifted Gram matrix's factorisation (factorisation.Cholesky.pivots) at most this
 # many times δ counts towards the block's starting width. A singular positive semidefinite matrix
 # has as many zero pivots as null vectors; with the shift a null vector v gives a pivot of about
