@@ -55,10 +55,14 @@ SOLVE_BLOCK = 4
 # its dense kernels then read the factor once for the block, where cvxopt's dense solve reads it
 # once a column. Measured (one core, CᵀC + δI, spsolve with both conversions against column
 # solves): 3 columns 0.58–0.86 of the time, 4 columns 0.44–0.78 (3D cubic 10⁴ nodes the least,
-# a 2D near-isostatic network of 10⁴ the most), 2 columns 0.78–1.15, 1 column 1.0–1.14; with a
-# simplicial factor (10² and 10³ nodes) 1.1–1.45 at any width. Wider blocks go four columns at
-# a time: CHOLMOD's sparse result grows past them (16 columns and more in one call: 1.0–1.2).
+# a 2D near-isostatic network of 10⁴ the most), 1 column 1.0–1.14; with a simplicial factor (10²
+# and 10³ nodes) 1.1–1.45 at any width. Wider blocks go four columns at a time: CHOLMOD's sparse
+# result grows past them (16 columns and more in one call: 1.0–1.2).
 BLOCK_SOLVE_MIN_COLUMNS = 3
+# Two columns gain only where a solve is long, on factors of this order and more: 0.80–0.87 of
+# the time at 3·10⁴–2·10⁵ unknowns (3D cubic and near-isostatic 10⁴ nodes, triangulated 10⁵),
+# 0.98–1.20 at 2·10⁴ and less (2D lattices and networks of 10⁴ nodes, 3D ones of 10³).
+BLOCK_SOLVE_TWO_COLUMNS_MIN_ORDER = 25_000
 
 
 @dataclass(frozen=True, eq=False)
@@ -74,14 +78,15 @@ class Cholesky:
     def solve(self, b: np.ndarray) -> np.ndarray:
         """A⁻¹ b for b of shape (n,) or (n, k); returns a new array of the same shape."""
         b2 = np.asfortranarray(b, dtype=float).reshape(self.n, -1)
-        if not self.supernodal or b2.shape[1] < BLOCK_SOLVE_MIN_COLUMNS:
+        least = 2 if self.n >= BLOCK_SOLVE_TWO_COLUMNS_MIN_ORDER else BLOCK_SOLVE_MIN_COLUMNS
+        if not self.supernodal or b2.shape[1] < least:
             x = cvx_matrix(b2)
             cholmod.solve(self._factor, x)
             return np.asarray(x).reshape(b.shape)
         x = np.empty_like(b2)
         for start in range(0, b2.shape[1], SOLVE_BLOCK):
             block = b2[:, start : start + SOLVE_BLOCK]
-            if block.shape[1] < BLOCK_SOLVE_MIN_COLUMNS:
+            if block.shape[1] < least:
                 x[:, start:] = self.solve(block)
                 continue
             # cvxopt.sparse of a dense matrix keeps its nonzero entries, in column order

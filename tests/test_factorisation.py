@@ -144,3 +144,21 @@ def test_block_solves_are_numpys_on_either_kernel(supernodal, width):
     if width:
         column = factor.solve(b[:, 0])
         assert column.shape == (gram.shape[0],) and np.allclose(column, expected[:, 0], rtol=1e-8)
+
+
+@pytest.mark.parametrize("width", [1, 2, 3, 6])
+def test_block_solves_on_a_factor_past_the_two_column_order(width):
+    """A factor of order ≥ BLOCK_SOLVE_TWO_COLUMNS_MIN_ORDER (2·13 225 unknowns), where two
+    columns also go through the sparse solve: (A + δI)x = b checked by SciPy's product."""
+    from zeromode.solver.factorisation import BLOCK_SOLVE_TWO_COLUMNS_MIN_ORDER
+
+    frame, x = lattice("triangulated", 13_225)
+    c = compatibility_matrix(x, frame.edges)
+    gram = (c.T @ c).tocsr()
+    assert gram.shape[0] >= BLOCK_SOLVE_TWO_COLUMNS_MIN_ORDER
+    shift = 1e-3
+    factor = cholesky(gram, shift=shift, supernodal=True)
+    b = np.random.default_rng(width).standard_normal((gram.shape[0], width))
+    got = factor.solve(b)
+    residual = gram @ got + shift * got - b
+    assert np.linalg.norm(residual) <= 1e-10 * np.linalg.norm(b)
