@@ -69,6 +69,9 @@ FULL_SIZES = {
 FRAMES = {**LATTICES, **NETWORKS}
 MILLION = ("triangulated", "kagome")
 CROSSOVER_ROUNDS = 31
+# Lattice patches come in steps of a whole side (a triangulated patch jumps from 6 120 to 11 760 to
+# 20 608 entries of C); the networks take any node count and fill the steps between.
+CROSSOVER_FRAMES = ("triangulated", "kagome", "cubic-diagonal", "near-isostatic 2D", "near-isostatic 3D")
 REST_HEADING = "## Through the service"
 MILLION_HEADING = "## 10⁶ nodes"
 RERUN = "Rerun alone:"
@@ -228,13 +231,13 @@ def crossover_table(dofs: list[int]) -> list[str]:
         ),
         "|---|---|---|---|---|---|---|---|",
     ]
-    for name in ("triangulated", "kagome", "cubic-diagonal"):
+    for name in CROSSOVER_FRAMES:
         seen = set()
         for dof in dofs:
-            dim = 3 if name == "cubic-diagonal" else 2
-            frame = LATTICES[name](dof // dim)
+            dim = 3 if name in ("cubic-diagonal", "near-isostatic 3D") else 2
+            frame = FRAMES[name](dof // dim)
             dn = frame.dim * frame.n_nodes
-            if dn in seen:  # the patch side is an integer: nearby targets give the same frame
+            if dn in seen:  # a lattice patch's side is an integer: nearby targets give the same frame
                 continue
             seen.add(dn)
             cells = []
@@ -385,7 +388,7 @@ def main() -> None:
         print(f"wrote {args.out}")
         return
     sizes = QUICK_SIZES if args.quick else FULL_SIZES
-    dofs = [50, 100, 150, 200, 300] if args.quick else [30, 50, 80, 120, 160, 200, 300, 400]
+    dofs = [50, 100, 150, 200, 300] if args.quick else [30, 50, 80, 100, 120, 140, 160, 200, 300, 400]
     load_before = load()
     print(f"load average {load_before}", flush=True)
     print("## Frames", flush=True)

@@ -43,17 +43,21 @@ from zeromode.solver.rank import RTOL, RankGap, complement_within, decide_rank, 
 DENSE_MAX_DOF = 400
 # analyze takes the SVD of C while C has at most this many entries (N_B·dN), the sparse route
 # above. Measured (benchmarks/bench_analysis.py, crossover table in
-# docs/benchmarks/analysis.md, both routes timed in turn): the SVD's cost grows as
-# N_B·dN·min(N_B, dN) while the sparse route costs about 1–2 ms of fixed Python-level steps
-# plus, with bases, the basis iterations. Counts alone, two runs of the same day: the SVD ahead
-# at 7 776 entries in both (kagome 0.60 against 0.91 ms; 0.95 against 1.94 ms), level near
-# 20 000 (kagome 19 650: 1.56 against 1.26 ms in one run, 2.15 against 2.37 ms in the other;
-# triangulated 20 608: 1.65 against 1.56, 2.11 against 2.51 ms) and behind from 33 696 in both
-# (triangulated: 2.37 against 1.45 ms; 3.44 against 3.00 ms). With bases the SVD is ahead at
-# 7 290–7 776 entries and behind from 19 650 in both runs (kagome 3.24 against 2.07 ms; 4.50
-# against 3.24 ms). The limits sit at the break-even points.
-DENSE_MAX_ENTRIES_COUNTS = 20_000
-DENSE_MAX_ENTRIES_BASES = 12_000
+# docs/benchmarks/analysis.md, both routes timed in turn; two runs of the same day): the SVD's
+# cost grows as N_B·dN·min(N_B, dN) while the sparse route costs about 0.6–1.2 ms of fixed
+# Python-level steps plus, with bases, the basis iterations. Lattice patches jump by whole
+# sides, so near-isostatic networks of any node count fill the steps. Counts alone, one core:
+# the SVD ahead up to 14 280–14 640 entries in both runs (2D and 3D networks 0.74–0.86 against
+# 0.92–1.15 ms), ahead or level at 18 906 (3D network 0.96 against 1.08 ms; 1.15 against 1.16),
+# level or behind at 19 880 (2D network 1.05 against 1.02 ms; 1.21 against 1.01) and behind from
+# 19 650 in both (kagome 1.04 against 0.88 ms; 1.19 against 0.89). With bases (sized by
+# dN·max(N_B, dN), as the SVD then also holds the dN × dN matrix V) the SVD is ahead to 7 776
+# (kagome 0.85 against 1.01 ms), level from 9 702 to 11 760 (3D network 1.11 against 1.10 ms, 2D
+# network 1.15 against 1.22 ms, triangulated 1.35 against 1.30 ms; the other run: 1.33 against
+# 1.16, 1.36 against 1.30, 1.59 against 1.30) and behind from 14 280 in both. The limits sit at
+# the break-even points.
+DENSE_MAX_ENTRIES_COUNTS = 18_000
+DENSE_MAX_ENTRIES_BASES = 10_000
 # Bases are returned only while they stay this small (numbers); counts are always exact.
 BASIS_MAX_NUMBERS = 4_000_000
 # The dense route asked for by name is refused (too_expensive) past this many rows or columns of
