@@ -80,19 +80,22 @@ class Cholesky:
         b2 = np.asfortranarray(b, dtype=float).reshape(self.n, -1)
         least = 2 if self.n >= BLOCK_SOLVE_TWO_COLUMNS_MIN_ORDER else BLOCK_SOLVE_MIN_COLUMNS
         if not self.supernodal or b2.shape[1] < least:
-            x = cvx_matrix(b2)
-            cholmod.solve(self._factor, x)
-            return np.asarray(x).reshape(b.shape)
+            return self._column_solves(b2).reshape(b.shape)
         x = np.empty_like(b2)
         for start in range(0, b2.shape[1], SOLVE_BLOCK):
             block = b2[:, start : start + SOLVE_BLOCK]
             if block.shape[1] < least:
-                x[:, start:] = self.solve(block)
-                continue
-            # cvxopt.sparse of a dense matrix keeps its nonzero entries, in column order
-            solved = cholmod.spsolve(self._factor, cvx_sparse(cvx_matrix(block)))
-            x[:, start : start + SOLVE_BLOCK] = np.asarray(cvx_matrix(solved))
+                x[:, start:] = self._column_solves(block)
+            else:  # cvxopt.sparse of a dense matrix keeps its nonzero entries, in column order
+                solved = cholmod.spsolve(self._factor, cvx_sparse(cvx_matrix(block)))
+                x[:, start : start + SOLVE_BLOCK] = np.asarray(cvx_matrix(solved))
         return x.reshape(b.shape)
+
+    def _column_solves(self, b: np.ndarray) -> np.ndarray:
+        """A⁻¹ b (n × k) by cvxopt's dense solve, one column at a time."""
+        x = cvx_matrix(b)
+        cholmod.solve(self._factor, x)
+        return np.asarray(x)
 
     def pivots(self) -> np.ndarray:
         """The n pivots of the elimination, P A Pᵀ = L D Lᵀ with L unit lower triangular: D's
