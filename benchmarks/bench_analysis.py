@@ -18,8 +18,10 @@ PyRigi (≥ 1.3) answers on the 10²-node frames, on the same normalised positio
 counts, and the four calls of the earlier benchmark (rank, infinitesimal rigidity, nontrivial
 flexes, stresses) against one zeromode call that also returns both bases. Its counts must agree.
 
-A second table measures the dense/sparse crossover that ``analyze`` uses (DENSE_MAX_ENTRIES*).
-A third runs the 2D frames of 10⁶ nodes (triangulated; kagome with its many boundary zero
+A second table measures the dense/sparse crossover that ``analyze`` uses (DENSE_MAX_ENTRIES*),
+and a third splits the counts' time of the frames nearest issue 15's 2× between cvxopt's AMD
+and CHOLMOD calls and everything else (``CholmodClock``; ``--split-only`` reruns it alone).
+Another runs the 2D frames of 10⁶ nodes (triangulated; kagome with its many boundary zero
 modes), each once in a fresh process, for the counts' time and the process's peak memory
 (``--skip-million`` leaves it out).
 """
@@ -39,9 +41,11 @@ import sys
 import time
 import warnings
 from pathlib import Path
+from typing import Self
 
 import numpy as np
 import scipy.sparse.linalg as spla
+from cvxopt import amd, cholmod
 
 from benchmarks.lattices import LATTICES
 from benchmarks.networks import NETWORKS
@@ -73,7 +77,27 @@ CROSSOVER_ROUNDS = 31
 # 20 608 entries of C); the networks take any node count and fill the steps between.
 CROSSOVER_FRAMES = ("triangulated", "kagome", "cubic-diagonal", "near-isostatic 2D", "near-isostatic 3D")
 REST_HEADING = "## Through the service"
+SPLIT_HEADING = "## Where the count's time goes"
+# The frames whose ratio to one CHOLMOD factorisation is at or past issue 15's 2× (and a lattice
+# patch that is well inside it, for contrast).
+SPLIT_FRAMES = (
+    ("triangulated", 100), ("kagome", 100), ("cubic-diagonal", 100), ("fcc", 100),
+    ("near-isostatic 2D", 100), ("near-isostatic 3D", 100), ("near-isostatic 2D", 1000),
+    ("near-isostatic 3D", 1000), ("near-isostatic 2D", 10_000), ("triangulated", 10_000),
+)
 MILLION_HEADING = "## 10⁶ nodes"
+SPLIT_INTRO = (
+    "Counts only (`analyze(frame, bases=False)`), CPU time split by wrapping cvxopt's AMD and "
+    "CHOLMOD functions (`benchmarks.bench_analysis.CholmodClock`): *AMD ordering* (zeromode's "
+    "minimum degree of the node graph; none where CHOLMOD orders CCᵀ itself, inside its "
+    "factorisation), *CHOLMOD factorisation* (symbolic and numeric), *CHOLMOD solves* (in parentheses "
+    "the columns solved in one count, with a simplicial factor one of them the solve that reads "
+    "its pivots), "
+    "*the rest*: everything else in the call (normalisation, C, the Gram matrix and its handover "
+    "to CHOLMOD, σ_max, the block's QR and Rayleigh–Ritz steps, Python). *one CHOLMOD "
+    "factorisation*: the yardstick of the first table, timed in turn in the same rounds; medians "
+    "(the parts' medians need not add up to the total's)."
+)
 RERUN = "Rerun alone:"
 QUICK_SIZES = {
     "triangulated": [100, 1000, 10_000],
@@ -349,10 +373,91 @@ def rest_table() -> list[str]:
     return rows
 
 
+# The binding's functions each part of the split wraps, by module.
+CHOLMOD_PARTS = (("ordering", amd, ("order",)), ("factorisation", cholmod, ("symbolic", "numeric")),
+                 ("solves", cholmod, ("solve", "spsolve")))
+
+
+class CholmodClock:
+    """Process CPU seconds spent inside cvxopt's AMD and CHOLMOD calls while active: the
+    ordering (``amd.order``), the factorisation (``cholmod.symbolic`` and ``numeric``) and the
+    solves (``cholmod.solve`` and ``spsolve``, with the number of columns solved). It wraps the
+    binding's functions, which zeromode's factorisation module calls through the modules, and
+    restores them on exit; everything else in a call (NumPy, SciPy, the handover of CᵀC to
+    CHOLMOD, Python) is the rest."""
+
+    def __init__(self) -> None:
+        self.seconds = {part: 0.0 for part, _, _ in CHOLMOD_PARTS}
+        self.columns = 0
+        self._saved: list[tuple[object, str, object]] = []
+
+    def __enter__(self) -> Self:
+        for part, module, names in CHOLMOD_PARTS:
+            for name in names:
+                original = getattr(module, name)
+                self._saved.append((module, name, original))
+                setattr(module, name, self._timed(part, original))
+        return self
+
+    def __exit__(self, *exc) -> None:
+        for module, name, original in self._saved:
+            setattr(module, name, original)
+
+    def _timed(self, part: str, original):
+        def call(*args, **kwargs):
+            if part == "solves":
+                self.columns += args[1].size[1]
+            t0 = time.process_time()
+            try:
+                return original(*args, **kwargs)
+            finally:
+                self.seconds[part] += time.process_time() - t0
+
+        return call
+
+
+def split_table() -> list[str]:
+    """The counts' CPU time split between cvxopt's AMD and CHOLMOD calls and everything else,
+    beside one CHOLMOD factorisation timed in turn in the same rounds (medians)."""
+    rows = [
+        ("| frame | N | counts | AMD ordering | CHOLMOD factorisation | CHOLMOD solves (columns) "
+         "| the rest | one CHOLMOD factorisation | counts ÷ it | the rest ÷ it |"),
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for name, target in SPLIT_FRAMES:
+        frame = FRAMES[name](target)
+        reference = cholmod_factorisation(frame)
+        totals, parts, yardstick, columns = [], {part: [] for part, _, _ in CHOLMOD_PARTS}, [], 0
+        for _ in range(runs_for(frame.n_nodes)):
+            with CholmodClock() as clock:
+                t0 = time.process_time()
+                analyze(frame, bases=False)
+                totals.append(time.process_time() - t0)
+            for part, seconds in clock.seconds.items():
+                parts[part].append(seconds)
+            columns = clock.columns
+            t0 = time.process_time()
+            reference()
+            yardstick.append(time.process_time() - t0)
+        total, ref = float(np.median(totals)), float(np.median(yardstick))
+        median = {part: float(np.median(v)) for part, v in parts.items()}
+        rest = float(np.median(np.array(totals) - sum(np.array(v) for v in parts.values())))
+        rows.append(
+            f"| {name} | {frame.n_nodes} | {fmt_time(total)} | {fmt_time(median['ordering'])} "
+            f"| {fmt_time(median['factorisation'])} | {fmt_time(median['solves'])} ({columns}) "
+            f"| {fmt_time(rest)} | {fmt_time(ref)} | {total / ref:.2f} | {rest / ref:.2f} |"
+        )
+        print(rows[-1], flush=True)
+    return rows
+
+
 def rewrite_table(path: Path, heading: str, table: list[str], note: str) -> None:
     """Replace the table of section ``heading`` in ``path``, keeping its text and stating
     ``note`` (in place of an earlier rerun's)."""
     text = path.read_text()
+    if heading not in text:  # the time split, new since the last full run: before the service's
+        at = text.index(REST_HEADING)
+        text = text[:at] + f"{heading}\n\n{SPLIT_INTRO}\n\n| frame\n\n" + text[at:]
     start = text.index(heading)
     end = text.find("\n## ", start + len(heading))
     end = len(text) if end < 0 else end
@@ -378,12 +483,19 @@ def main() -> None:
     parser.add_argument(
         "--million-only", action="store_true", help="rerun the 10⁶-node table alone, in place"
     )
+    parser.add_argument(
+        "--split-only", action="store_true", help="rerun the time-split table alone, in place"
+    )
     args = parser.parse_args()
     if args.one_million:
         print(json.dumps(one_million(args.one_million)))
         return
-    if args.rest_only or args.million_only:
-        heading, table = (REST_HEADING, rest_table()) if args.rest_only else (MILLION_HEADING, million_table())
+    if args.rest_only or args.million_only or args.split_only:
+        heading, table = (
+            (REST_HEADING, rest_table()) if args.rest_only
+            else (MILLION_HEADING, million_table()) if args.million_only
+            else (SPLIT_HEADING, split_table())
+        )
         rewrite_table(args.out, heading, table, f"load average {load()} at its end, {time.strftime('%Y-%m-%d')}")
         print(f"wrote {args.out}")
         return
@@ -395,6 +507,8 @@ def main() -> None:
     frame_rows, pyrigi_rows, _ = frame_table(sizes)
     print("## Dense/sparse crossover", flush=True)
     crossover_rows = crossover_table(dofs)
+    print("## Time split", flush=True)
+    split_rows = split_table()
     print("## REST", flush=True)
     rest_rows = rest_table()
     million_rows = [] if args.quick or args.skip_million else million_table()
@@ -458,6 +572,12 @@ def main() -> None:
         "",
     ]
     lines += [
+        SPLIT_HEADING,
+        "",
+        SPLIT_INTRO,
+        "",
+        *split_rows,
+        "",
         REST_HEADING,
         "",
         (
