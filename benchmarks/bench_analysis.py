@@ -90,10 +90,9 @@ SPLIT_INTRO = (
     "Counts only (`analyze(frame, bases=False)`), CPU time split by wrapping cvxopt's AMD and "
     "CHOLMOD functions (`benchmarks.bench_analysis.CholmodClock`): *AMD ordering* (zeromode's "
     "minimum degree of the node graph; none where CHOLMOD orders CCᵀ itself, inside its "
-    "factorisation), *CHOLMOD factorisation* (symbolic and numeric), *CHOLMOD solves* (in parentheses "
-    "the columns solved in one count, with a simplicial factor one of them the solve that reads "
-    "its pivots), "
-    "*the rest*: everything else in the call (normalisation, C, the Gram matrix and its handover "
+    "factorisation), *CHOLMOD factorisation* (symbolic and numeric), *CHOLMOD solves* (in "
+    "parentheses the columns solved in one count, with a simplicial factor one of them the solve "
+    "that reads its pivots), *the rest*: everything else in the call (normalisation, C, the Gram matrix and its handover "
     "to CHOLMOD, σ_max, the block's QR and Rayleigh–Ritz steps, Python). *one CHOLMOD "
     "factorisation*: the yardstick of the first table, timed in turn in the same rounds; medians "
     "(the parts' medians need not add up to the total's)."
@@ -455,9 +454,6 @@ def rewrite_table(path: Path, heading: str, table: list[str], note: str) -> None
     """Replace the table of section ``heading`` in ``path``, keeping its text and stating
     ``note`` (in place of an earlier rerun's)."""
     text = path.read_text()
-    if heading not in text:  # the time split, new since the last full run: before the service's
-        at = text.index(REST_HEADING)
-        text = text[:at] + f"{heading}\n\n{SPLIT_INTRO}\n\n| frame\n\n" + text[at:]
     start = text.index(heading)
     end = text.find("\n## ", start + len(heading))
     end = len(text) if end < 0 else end

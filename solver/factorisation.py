@@ -148,10 +148,9 @@ def cholesky(
         cholmod.options.update(options)
     try:
         cholmod.diag(factor)  # defined for supernodal factors only
-        supernodal = True
     except ValueError:  # cvxopt's only sign of a simplicial factor
-        supernodal = False
-    return Cholesky(n, supernodal, factor)
+        return Cholesky(n, False, factor)
+    return Cholesky(n, True, factor)
 
 
 def minimum_degree(n: int, pairs: np.ndarray) -> np.ndarray:
