@@ -31,7 +31,7 @@ licensed, and CHOLMOD's supernodal module is GPL-2+: a build that bundles zeromo
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
@@ -74,6 +74,8 @@ class Cholesky:
     n: int
     supernodal: bool
     _factor: object
+    # sparse right-hand sides by width, every entry in their pattern (see _sparse_solve)
+    _full_patterns: dict = field(default_factory=dict)
 
     def solve(self, b: np.ndarray) -> np.ndarray:
         """A⁻¹ b for b of shape (n,) or (n, k); returns a new array of the same shape."""
@@ -86,10 +88,27 @@ class Cholesky:
             block = b2[:, start : start + SOLVE_BLOCK]
             if block.shape[1] < least:
                 x[:, start:] = self._column_solves(block)
-            else:  # cvxopt.sparse of a dense matrix keeps its nonzero entries, in column order
-                solved = cholmod.spsolve(self._factor, cvx_sparse(cvx_matrix(block)))
-                x[:, start : start + SOLVE_BLOCK] = np.asarray(cvx_matrix(solved))
+            else:
+                x[:, start : start + SOLVE_BLOCK] = self._sparse_solve(block)
         return x.reshape(b.shape)
+
+    def _sparse_solve(self, b: np.ndarray) -> np.ndarray:
+        """A⁻¹ b (n × k, k ≤ SOLVE_BLOCK, Fortran order) by CHOLMOD's sparse solve.
+
+        b goes in as the values of a sparse matrix whose pattern holds every entry (made once
+        per width: refilling its values costs a fifth of building a sparse matrix from b,
+        0.07 against 0.33 ms at n = 20 000, k = 4), and comes out as the values of CHOLMOD's
+        sparse result, which lists a full result column by column (CCS, rows ascending) and
+        leaves out only exact zeros (then scattered into a dense matrix instead)."""
+        n, k = b.shape
+        rhs = self._full_patterns.get(k)
+        if rhs is None:
+            rhs = self._full_patterns[k] = cvx_sparse(cvx_matrix(np.ones((n, k))))
+        rhs.V = cvx_matrix(b.ravel(order="F"))
+        solved = cholmod.spsolve(self._factor, rhs)
+        if len(solved.V) == n * k:
+            return np.asarray(solved.V).reshape(k, n).T
+        return np.asarray(cvx_matrix(solved))
 
     def _column_solves(self, b: np.ndarray) -> np.ndarray:
         """A⁻¹ b (n × k) by cvxopt's dense solve, one column at a time."""
