@@ -51,10 +51,10 @@ DENSE_MAX_DOF = 400
 # 0.92–1.15 ms), ahead or level at 18 906 (3D network 0.96 against 1.08 ms; 1.15 against 1.16),
 # level or behind at 19 880 (2D network 1.05 against 1.02 ms; 1.21 against 1.01) and behind from
 # 19 650 in both (kagome 1.04 against 0.88 ms; 1.19 against 0.89). With bases (sized by
-# dN·max(N_B, dN), as the SVD then also holds the dN × dN matrix V) the SVD is ahead to 7 776
-# (kagome 0.85 against 1.01 ms), level from 9 702 to 11 760 (3D network 1.11 against 1.10 ms, 2D
+# dN·max(N_B, dN), as the SVD then also holds the dN × dN matrix V) the SVD is ahead to 9 216
+# (kagome 0.85 against 1.01 ms), level from 9 801 to 11 760 (3D network 1.11 against 1.10 ms, 2D
 # network 1.15 against 1.22 ms, triangulated 1.35 against 1.30 ms; the other run: 1.33 against
-# 1.16, 1.36 against 1.30, 1.59 against 1.30) and behind from 14 280 in both. The limits sit at
+# 1.16, 1.36 against 1.30, 1.59 against 1.30) and behind from 14 400 in both. The limits sit at
 # the break-even points.
 DENSE_MAX_ENTRIES_COUNTS = 18_000
 DENSE_MAX_ENTRIES_BASES = 10_000
