@@ -127,8 +127,8 @@ def test_pivots_are_those_of_numpy_cholesky_in_the_same_order(supernodal):
 def test_block_solves_are_numpys_on_either_kernel(supernodal, width):
     """Blocks of any width (a supernodal factor solves them four columns at a time through
     CHOLMOD's sparse solve, a remainder under BLOCK_SOLVE_MIN_COLUMNS column by column); a
-    column of zeros (which the sparse right-hand side leaves out) solves to zeros; 1-D b keeps
-    its shape."""
+    column of zeros solves to zeros (CHOLMOD's sparse result leaves it out, so the result is
+    scattered rather than read as a full block); 1-D b keeps its shape."""
     frame, x = lattice("triangulated", 200)
     c = compatibility_matrix(x, frame.edges)
     gram = (c.T @ c).tocsr()
