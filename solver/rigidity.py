@@ -551,7 +551,9 @@ def _null_by_subspace_iteration(
     θ (doubling there added columns past the first damped one: 2D 10⁴-node networks, column
     solves over seeds 0–7, 128 against 137). The count is that of a last
     Rayleigh–Ritz step on the locked and the other columns together, which by interlacing never
-    exceeds the null space's dimension.
+    exceeds the null space's dimension; when every locked column was locked by the latest
+    Rayleigh–Ritz step and the other columns are that step's Ritz vectors, the two span the same
+    space and that step's pairs are its pairs (one product with the matrix and one QR saved).
     """
     n = problem.matrix.shape[1]
     room = n - problem.known.shape[1]
@@ -560,11 +562,14 @@ def _null_by_subspace_iteration(
     active = problem  # its known columns grow by the locked null vectors
     y = problem.deflate(_random_block(rng, n, min(room, expected + OVERSAMPLE)))
     steps, previous = first_steps, None
+    latest = None  # the latest Rayleigh–Ritz step's pairs, while they span every column
     for _ in range(max_rounds):
         check_budget()
         for _ in range(steps):
             y = active.step(y)
+        older_locks = active.known.shape[1] > problem.known.shape[1]
         theta, y = _ritz_pairs(problem.matrix, y)
+        latest = None if older_locks else (theta, y)
         settled = int(np.count_nonzero(theta <= SETTLED * tol))
         if settled:
             active = replace(active, known=np.hstack([active.known, y[:, :settled]]))
@@ -585,13 +590,16 @@ def _null_by_subspace_iteration(
             more = width if null == width else int(np.count_nonzero((theta > tol) & (theta**2 < shift)))
             fresh = active.deflate(_random_block(rng, n, min(more, room - width)))
             y = np.hstack([y, fresh - y @ (y.T @ fresh)])
-            steps, previous = first_steps, None
+            steps, previous, latest = first_steps, None, None
             continue
         watched = (theta <= tol) | (theta**2 < DAMPED * shift)
         if previous is not None and null == previous[0] and np.all((theta >= 0.9 * previous[1]) | ~watched):
             break
         steps, previous = 1, (null, theta)
-    theta, y = _ritz_pairs(problem.matrix, np.hstack([active.known[:, problem.known.shape[1]:], y]))
+    if latest is None:
+        locked_columns = active.known[:, problem.known.shape[1] :]
+        latest = _ritz_pairs(problem.matrix, np.hstack([locked_columns, y]))
+    theta, y = latest
     z = int(np.count_nonzero(theta <= tol))
     kept = float(theta[z]) if z < theta.size else 0.0
     dropped = float(theta[z - 1]) if z > 0 else 0.0
