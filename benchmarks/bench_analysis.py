@@ -114,10 +114,11 @@ def paired_median_cpu(fns, runs: int) -> tuple[list[float], list]:
     (so a shared machine's slow spells fall on all of them alike), the order reversed every
     other round, and their last results.
 
-    The reversal lets each call follow itself as often as another: a call runs faster after
-    itself, whose freed memory the allocator hands back without new page faults (2D 10⁴-node
-    network: counts 38.9 ms after counts, 40.0 ms after the factorisation; the factorisation
-    19.0 ms after itself, 21.4 ms after counts), so a fixed order would favour one of them."""
+    The reversal lets each call follow itself as often as the other: what a call pays in page
+    faults depends on what ran before it and left the allocator's memory (2D 10⁴-node network:
+    counts 40.0 ms after counts, 38.9 ms after the factorisation; the factorisation 18.7 ms after
+    itself, 21.0 ms after counts), so a fixed order favours one side (there the counts: 1.84
+    with them always after the factorisation, 2.14 with each after itself, 1.91 reversed)."""
     times = [[] for _ in fns]
     results = [None] * len(fns)
     for r in range(runs):
