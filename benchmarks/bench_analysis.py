@@ -435,7 +435,7 @@ def split_table() -> list[str]:
     for name, target in SPLIT_FRAMES:
         frame = FRAMES[name](target)
         reference = cholmod_factorisation(frame)
-        totals, parts, yardstick, columns = [], {part: [] for part, _, _ in CHOLMOD_PARTS}, [], 0
+        totals, parts, columns = [], {part: [] for part, _, _ in CHOLMOD_PARTS}, 0
 
         def split_count(frame=frame, parts=parts, totals=totals):
             nonlocal columns
@@ -447,16 +447,8 @@ def split_table() -> list[str]:
                 parts[part].append(seconds)
             columns = clock.columns
 
-        def one_factorisation(reference=reference, yardstick=yardstick):
-            t0 = time.process_time()
-            reference()
-            yardstick.append(time.process_time() - t0)
-
-        steps = (split_count, one_factorisation)
-        for r in range(runs_for(frame.n_nodes)):  # reversed every other round, as paired_median_cpu
-            for step in steps[::-1] if r % 2 else steps:
-                step()
-        total, ref = float(np.median(totals)), float(np.median(yardstick))
+        (_, ref), _ = paired_median_cpu([split_count, reference], runs_for(frame.n_nodes))
+        total = float(np.median(totals))
         median = {part: float(np.median(v)) for part, v in parts.items()}
         rest = float(np.median(np.array(totals) - sum(np.array(v) for v in parts.values())))
         rows.append(
