@@ -31,9 +31,10 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from scipy.linalg import blas, lapack
 
+from zeromode.solver import sparse_kernels
 from zeromode.solver.budget import check_budget
 from zeromode.solver.errors import DomainError
-from zeromode.solver.factorisation import cholesky, minimum_degree, nested_dissection
+from zeromode.solver.factorisation import cholesky_csr, minimum_degree, nested_dissection
 from zeromode.solver.frame import Frame
 from zeromode.solver.progress import report_detail
 from zeromode.solver.rank import RTOL, RankGap, complement_within, decide_rank, orthonormal_range
@@ -73,30 +74,14 @@ def compatibility_matrix(positions: np.ndarray, edges: np.ndarray, dense: bool =
     Sparse CSR by default; ``dense=True`` returns an ndarray (cheaper for tiny frames).
     """
     n, d = positions.shape
-    nb = len(edges)
-    if nb == 0:
-        return np.zeros((0, n * d)) if dense else sp.csr_matrix((0, n * d))
-    i, j = edges[:, 0], edges[:, 1]
-    # Each row lists the lower-numbered node first, so the CSR arrays are built directly
-    # (2d sorted entries per row) without a sort: x_first − x_second there, its negative after.
-    first, second = np.minimum(i, j), np.maximum(i, j)
-    # 32-bit indices while they fit: SciPy would otherwise scan 64-bit ones to downcast them.
-    index = np.int32 if max(n * d, 2 * d * nb) < 2**31 else np.int64
-    vals = np.empty((nb, 2, d))
-    # np.take, not fancy indexing: 5× faster on (n, d) rows (measured, 10³ nodes)
-    np.subtract(np.take(positions, first, axis=0), np.take(positions, second, axis=0), out=vals[:, 0])
-    np.negative(vals[:, 0], out=vals[:, 1])
-    cols = np.empty((nb, 2, d), dtype=index)
-    coordinate = np.arange(d, dtype=index)
-    np.add(d * first.astype(index)[:, None], coordinate, out=cols[:, 0])
-    np.add(d * second.astype(index)[:, None], coordinate, out=cols[:, 1])
-    vals, cols = vals.ravel(), cols.ravel()
+    indptr, indices, data = sparse_kernels.compatibility_csr(
+        np.ascontiguousarray(positions, dtype=float), np.asarray(edges, dtype=np.int64).reshape(-1, 2)
+    )
     if dense:
-        c = np.zeros((nb, n * d))
-        c[np.repeat(np.arange(nb), 2 * d), cols] = vals  # (row, col) pairs are distinct
+        c = np.zeros((len(indptr) - 1, n * d))
+        c[np.repeat(np.arange(len(indptr) - 1), 2 * d), indices] = data  # (row, col) pairs are distinct
         return c
-    indptr = np.arange(0, 2 * d * nb + 1, 2 * d, dtype=index)
-    return sp.csr_matrix((vals, cols, indptr), shape=(nb, n * d))
+    return sp.csr_matrix((data, indices, indptr), shape=(len(indptr) - 1, n * d))
 
 
 def rigid_motions(positions: np.ndarray, rtol: float = RTOL) -> np.ndarray:
@@ -219,11 +204,11 @@ def analyze(
         size = ndof * max(frame.n_edges, ndof if bases else 0)
         method = "dense" if size <= limit else "sparse"
     check_dense_size(frame, method)
-    c = compatibility_matrix(x, frame.edges, dense=method == "dense")
     if method == "dense":
+        c = compatibility_matrix(x, frame.edges, dense=True)
         modes, stresses, rank, gap = _dense_null_spaces(c, rigid, rtol, bases)
     elif method == "sparse":
-        modes, stresses, rank, gap = _sparse_null_spaces(c, x, frame.edges, rigid, rtol, bases, basis_limit)
+        modes, stresses, rank, gap = _sparse_null_spaces(x, frame.edges, rigid, rtol, bases, basis_limit)
     else:
         raise ValueError(f"unknown method {method!r}")
     n, d = frame.n_nodes, frame.dim
@@ -231,7 +216,7 @@ def analyze(
     include = (
         bases
         and modes is not None
-        and _bases_fit(z_nontrivial, frame.n_edges - rank, c.shape, basis_limit)
+        and _bases_fit(z_nontrivial, frame.n_edges - rank, (frame.n_edges, d * n), basis_limit)
         and modes.shape[1] == z_nontrivial
     )
     return Analysis(
@@ -368,6 +353,41 @@ DISSECTION_MIN_DEGREE = 2.5
 
 
 @dataclass(frozen=True, eq=False)
+class _Sparse:
+    """A sparse matrix A (m × n) as the CSR arrays of A and of Aᵀ, for the compiled steps
+    (solver/sparse_kernels.py): ``a @ y`` is A·Y, ``a.T`` is Aᵀ (no copy)."""
+
+    indptr: np.ndarray
+    indices: np.ndarray
+    data: np.ndarray
+    t_indptr: np.ndarray
+    t_indices: np.ndarray
+    t_data: np.ndarray
+    shape: tuple[int, int]
+
+    @classmethod
+    def of(cls, indptr: np.ndarray, indices: np.ndarray, data: np.ndarray, ncols: int) -> _Sparse:
+        transposed = sparse_kernels.transpose_csr(indptr, indices, data, ncols)
+        return cls(indptr, indices, data, *transposed, (indptr.size - 1, ncols))
+
+    @property
+    def T(self) -> _Sparse:
+        return _Sparse(self.t_indptr, self.t_indices, self.t_data, self.indptr, self.indices, self.data,
+                       self.shape[::-1])
+
+    def __matmul__(self, y: np.ndarray) -> np.ndarray:
+        """A·y for y (n,) or (n, k)."""
+        block = np.ascontiguousarray(y, dtype=float).reshape(self.shape[1], -1)
+        out = sparse_kernels.times(self.indptr, self.indices, self.data, block)
+        return out.reshape(self.shape[0]) if y.ndim == 1 else out
+
+    def gram(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """CSR arrays of A Aᵀ (m × m)."""
+        return sparse_kernels.row_gram(self.indptr, self.indices, self.data, self.t_indptr, self.t_indices,
+                                       self.t_data)
+
+
+@dataclass(frozen=True, eq=False)
 class _NullProblem:
     """N(matrix) ⊖ span(known) by shift-invert subspace iteration.
 
@@ -376,12 +396,14 @@ class _NullProblem:
     vectors known in advance (the rigid motions), kept out of the block.
     """
 
-    matrix: sp.spmatrix
+    matrix: _Sparse
     inverse: object
-    known: np.ndarray
+    known: np.ndarray  # C-contiguous
 
     def step(self, y: np.ndarray) -> np.ndarray:
         """One shift-invert step: the inverse, the known null vectors projected out, QR."""
+        if y.shape[1] <= HOUSEHOLDER_MAX_COLUMNS:
+            return sparse_kernels.project_out_and_orthonormalise(np.ascontiguousarray(self.inverse(y)), self.known)
         return _orthonormal(self.deflate(self.inverse(y)))
 
     def deflate(self, y: np.ndarray) -> np.ndarray:
@@ -393,9 +415,10 @@ class _NullProblem:
         return float(np.max(np.linalg.norm(self.matrix @ y, axis=0) / np.linalg.norm(y, axis=0)))
 
 
-def _sparse_null_spaces(c: sp.csr_matrix, x: np.ndarray, edges: np.ndarray, rigid: np.ndarray,
-                        rtol: float, want_bases: bool, basis_limit: int):
-    """Rank of a large sparse C (N_B × dN) and, when wanted, bases of N(C) ⊖ rigid and N(Cᵀ).
+def _sparse_null_spaces(x: np.ndarray, edges: np.ndarray, rigid: np.ndarray, rtol: float, want_bases: bool,
+                        basis_limit: int):
+    """Rank of a large sparse C (N_B × dN) of the frame at x (N, d) with ``edges`` and, when
+    wanted, bases of N(C) ⊖ rigid and N(Cᵀ).
 
     dim N(C) − dim N(Cᵀ) = dN − N_B (the Maxwell count) and N(C) holds the ρ rigid motions,
     which are known exactly, so with f = max(dN − N_B, ρ) there are at least f − ρ nontrivial
@@ -409,22 +432,24 @@ def _sparse_null_spaces(c: sp.csr_matrix, x: np.ndarray, edges: np.ndarray, rigi
     Returns (modes dN × m ⟂ rigid, stresses N_B × s, rank, gap); the bases are None unless
     ``want_bases`` and they fit in ``basis_limit`` numbers.
     """
-    nb, ndof = c.shape
+    nb, ndof = len(edges), x.size
     rho = rigid.shape[1]
     if nb == 0:
-        empty = want_bases and _bases_fit(ndof - rho, 0, c.shape, basis_limit)
+        empty = want_bases and _bases_fit(ndof - rho, 0, (nb, ndof), basis_limit)
         modes = complement_within(np.eye(ndof), rigid) if empty else None
         return modes, np.zeros((0, 0)), 0, RankGap(0.0, 0.0)
-    ct = c.T
+    edges = np.asarray(edges, dtype=np.int64).reshape(-1, 2)
+    c = _Sparse.of(*sparse_kernels.compatibility_csr(np.ascontiguousarray(x, dtype=float), edges), ndof)
+    rigid = np.ascontiguousarray(rigid)
     surplus = ndof - nb
     count_modes = surplus <= rho
-    gram = ct @ c if count_modes else c @ ct
-    a, b = (c, ct) if count_modes else (ct, c)  # the counted side's matrix, the other's
+    a, b = (c, c.T) if count_modes else (c.T, c)  # the counted side's matrix, the other's
     rng = np.random.default_rng(0)
     sigma_max = _largest_singular_value(a, rng)
     tol = rtol * sigma_max
     shift = SHIFT * sigma_max**2
-    factor = cholesky(gram, _elimination_order(x, edges, count_modes), shift=shift)
+    # the Gram matrix of the counted side, CᵀC = b bᵀ or CCᵀ = b bᵀ
+    factor = cholesky_csr(*b.gram(), _elimination_order(x, edges, count_modes), shift=shift)
     report_detail(0.3, "factorised the Gram matrix")
     floor = max(surplus, rho)
     bound = floor - rho if count_modes else floor - surplus
@@ -443,7 +468,7 @@ def _sparse_null_spaces(c: sp.csr_matrix, x: np.ndarray, edges: np.ndarray, rigi
     gap = RankGap(kept, dropped)
     report_detail(0.7, "decided the rank")
     n_modes, n_stresses = ndof - rho - rank, nb - rank
-    if not (want_bases and _bases_fit(n_modes, n_stresses, c.shape, basis_limit)):
+    if not (want_bases and _bases_fit(n_modes, n_stresses, (nb, ndof), basis_limit)):
         return None, None, rank, gap
     # The counted side's vectors take one more step together (polish); the other side's
     # dimension is now known.
@@ -488,34 +513,17 @@ def _random_block(rng: np.random.Generator, n: int, k: int | None = None) -> np.
     return rng.uniform(-1.0, 1.0, n if k is None else (n, k))
 
 
-def _largest_singular_value(a: sp.spmatrix, rng: np.random.Generator, steps: int = 6) -> float:
+def _largest_singular_value(a: _Sparse, rng: np.random.Generator, steps: int = 6) -> float:
     """σ_max(A) (A: m × n, C or Cᵀ) = √λ_max of AᵀA: the largest eigenvalue of the tridiagonal
     T_k of ``steps`` Lanczos steps on AᵀA from a random start, a Rayleigh quotient on the Krylov
-    space, so never above λ_max (round-off allowing). Measured on 2D and 3D lattices of 10²–10⁴
-    nodes: six steps give σ_max within 3.6 % from below, closer than ten steps of the power
-    iteration (within 4.5 %), ample for a relative threshold and a shift. AᵀA q is taken as
-    Aᵀ(A q): two products with A's 2d entries a row cost less than one with the Gram matrix's
-    (a 10⁴-node 2D network: 0.11 ms against 0.18 ms)."""
-    q = _random_block(rng, a.shape[1])
-    q /= np.sqrt(q @ q)
-    previous, beta = np.zeros_like(q), 0.0
-    alpha, betas = [], []
-    at = a.T
-    for _ in range(min(steps, a.shape[1])):
-        w = at @ (a @ q) - beta * previous
-        alpha.append(q @ w)
-        w -= alpha[-1] * q
-        beta = float(np.sqrt(w @ w))
-        if beta == 0.0:  # the Krylov space is invariant: T_k's eigenvalues are exact
-            break
-        betas.append(beta)
-        previous, q = q, w / beta
-    k = len(alpha)
-    tridiagonal = np.zeros((k, k))  # T_k, its upper triangle (LAPACK's syevd on k ≤ 6 beats stevr's wrapper)
-    tridiagonal.flat[:: k + 1] = alpha
-    tridiagonal.flat[1 :: k + 1] = betas[: k - 1]
-    top = np.linalg.eigvalsh(tridiagonal, UPLO="U")[-1]
-    return float(np.sqrt(max(top, 0.0)))
+    space, so never above λ_max (round-off allowing; sparse_kernels.largest_singular_value).
+    Measured on 2D and 3D lattices of 10²–10⁴ nodes: six steps give σ_max within 3.6 % from
+    below, closer than ten steps of the power iteration (within 4.5 %), ample for a relative
+    threshold and a shift. AᵀA q is taken as Aᵀ(A q): two products with A's 2d entries a row
+    cost less than one with the Gram matrix's (a 10⁴-node 2D network: 0.11 ms against 0.18 ms)."""
+    start = _random_block(rng, a.shape[1])
+    return float(sparse_kernels.largest_singular_value(a.indptr, a.indices, a.data, a.t_indptr, a.t_indices,
+                                                       a.t_data, start, steps))
 
 
 def _null_by_subspace_iteration(
@@ -686,19 +694,13 @@ def _householder_q(y: np.ndarray) -> np.ndarray:
     return lapack.dorgqr(qr, tau)[0]
 
 
-def _ritz_pairs(matrix: sp.spmatrix, y: np.ndarray):
+def _ritz_pairs(matrix: _Sparse, y: np.ndarray):
     """Ritz singular values θ (ascending) and vectors (columns) of ``matrix`` on span(y), y orthonormal.
 
     The singular values of matrix·y are those of its triangular factor R, whose SVD also gives
     the right singular vectors W (completed with zeros when the matrix has fewer rows than y
-    has columns).
+    has columns; sparse_kernels.ritz_pairs).
     """
-    k = y.shape[1]
-    if k == 0:
+    if y.shape[1] == 0:
         return np.zeros(0), y
-    qr = lapack.dgeqrf(matrix @ y)[0]
-    _, s, wt, _ = lapack.dgesdd(np.triu(qr[:k]))
-    theta = np.zeros(k)
-    theta[: s.size] = s
-    order = np.argsort(theta, kind="stable")
-    return theta[order], y @ wt[order].T
+    return sparse_kernels.ritz_pairs(matrix.indptr, matrix.indices, matrix.data, np.ascontiguousarray(y))

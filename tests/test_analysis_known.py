@@ -310,13 +310,15 @@ def test_sigma_max_estimate_is_a_close_lower_bound(name):
     # (and on CCᵀ, through Cᵀ): a Rayleigh quotient, so never above numpy's σ_max, and within
     # 5 % of it.
     from benchmarks.lattices import LATTICES
-    from zeromode.solver.rigidity import _largest_singular_value
+    from zeromode.solver.rigidity import _largest_singular_value, _Sparse
 
     frame = LATTICES[name](300, jitter=0.1, seed=3)
     c = compatibility_matrix(normalised(np.asarray(frame.positions)), frame.edges)
     exact = singular_values(c)[0]
+    rows = sp.csr_matrix(c)  # the oracle's dense C
+    arrays = _Sparse.of(rows.indptr.astype(np.int64), rows.indices.astype(np.int64), rows.data, c.shape[1])
     for seed in range(3):
-        for side in (c, c.T):
+        for side in (arrays, arrays.T):
             estimate = _largest_singular_value(side, np.random.default_rng(seed))
             assert 0.95 * exact <= estimate <= exact * (1 + 1e-12)
 
