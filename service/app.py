@@ -39,6 +39,7 @@ from zeromode.service.routes import (
 )
 from zeromode.service.settings import Settings, settings_scope
 from zeromode.solver.budget import time_budget
+from zeromode.solver.sparse_kernels import warm_up
 
 log = logging.getLogger("zeromode")
 # A caller's request id is kept only if it is this kind of token (no control characters in logs).
@@ -115,9 +116,12 @@ class LimitsAndAuth:
 
 @asynccontextmanager
 async def lifespan(app: FastAPI) -> AsyncIterator[None]:
-    """At startup the job engine starts in the background (the service answers at once) when
-    heavy requests are offloaded to it or the store holds unfinished work to adopt; at shutdown
-    the engine gives its lease up and closes its cluster."""
+    """At startup the rigidity analysis's compiled kernels are loaded (compiled in a fresh
+    environment), so that no request pays for it within its time budget, and the job engine
+    starts in the background (the service answers at once) when heavy requests are offloaded to
+    it or the store holds unfinished work to adopt; at shutdown the engine gives its lease up
+    and closes its cluster."""
+    warm_up()
     threading.Thread(target=_start_engine, args=(app,), name="zeromode-adopt", daemon=True).start()
     yield
     jobs, app.state.jobs = app.state.jobs, None  # a later start opens them again

@@ -18,6 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from zeromode.solver.compiled import compiled
+
 
 def unit_scaled(x: np.ndarray) -> tuple[np.ndarray, float]:
     """(x / m, m) with m = max |x_ia|, so sums of squares can neither overflow nor underflow."""
@@ -81,8 +83,30 @@ def normalised(positions: np.ndarray) -> np.ndarray:
 
     The same map as ``Normalisation.of(positions).positions_in``, evaluated in units of max |x|
     (centre, then divide), the order every stored design and certificate was verified with.
+    Compiled: every analysis starts here, and at 10² nodes the eight NumPy calls it took cost
+    about 60 µs inside a count of 0.5 ms (each call's overhead, on a few hundred numbers).
     """
-    y, _ = unit_scaled(positions)
-    y = y - y.mean(axis=0)
-    r = float(np.sqrt(np.mean(np.sum(y**2, axis=1)))) if len(y) else 0.0
-    return y / r if r > 0 else y
+    return _normalised(np.ascontiguousarray(positions, dtype=float))
+
+
+@compiled
+def _normalised(positions):
+    n, d = positions.shape
+    largest = 0.0
+    for i in range(n):
+        for a in range(d):
+            largest = max(largest, abs(positions[i, a]))
+    y = positions / largest if largest > 0 else positions.copy()
+    if n == 0:
+        return y
+    centre = np.zeros(d)
+    for i in range(n):
+        centre += y[i]
+    centre /= n
+    square_sum = 0.0
+    for i in range(n):
+        for a in range(d):
+            y[i, a] -= centre[a]
+            square_sum += y[i, a] * y[i, a]
+    radius = np.sqrt(square_sum / n)
+    return y / radius if radius > 0 else y

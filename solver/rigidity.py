@@ -37,7 +37,7 @@ from zeromode.solver.errors import DomainError
 from zeromode.solver.factorisation import cholesky_csr, minimum_degree, nested_dissection
 from zeromode.solver.frame import Frame
 from zeromode.solver.progress import report_detail
-from zeromode.solver.rank import RTOL, RankGap, complement_within, decide_rank, orthonormal_range
+from zeromode.solver.rank import RTOL, RankGap, complement_within, decide_rank
 
 # Dense linear algebra up to this many degrees of freedom (dN) in the modules that share this
 # crossover (finite motion, eigenmodes, certificates, zero_mode_residual below).
@@ -91,19 +91,11 @@ def rigid_motions(positions: np.ndarray, rtol: float = RTOL) -> np.ndarray:
     elementary skew matrices); ρ = d(d+1)/2 unless the points are degenerate (one point: d;
     collinear in 3D: 5). ``positions`` should be normalised (see Frame.normalised_positions).
     """
-    n, d = positions.shape
-    generators = []
-    for a in range(d):
-        t = np.zeros((n, d))
-        t[:, a] = 1.0
-        generators.append(t.ravel())
-    for a in range(d):
-        for b in range(a + 1, d):
-            r = np.zeros((n, d))
-            r[:, a] = -positions[:, b]
-            r[:, b] = positions[:, a]
-            generators.append(r.ravel())
-    return orthonormal_range(np.column_stack(generators), rtol)
+    if positions.size == 0:
+        return np.zeros((0, 0))
+    u, s = sparse_kernels.rigid_motion_svd(np.ascontiguousarray(positions, dtype=float))
+    rank, _ = decide_rank(s, rtol)
+    return u[:, :rank]
 
 
 def non_rigid_part(positions: np.ndarray, motion: np.ndarray, rtol: float = RTOL) -> np.ndarray:
@@ -348,7 +340,11 @@ NESTED_DISSECTION_MIN_NODES = {(3, True): 500, (3, False): 500, (2, True): 100_0
 # isostatic): the measurements above are of lattice patches (mean degree 2d + 2 and more), whose
 # geometric separators are small; near-isostatic disordered networks (mean degree ≈ 2d) fill
 # less under minimum degree at every size measured (ordering + factorisation, one core: 3D 10³
-# nodes 6.2 ms against 8.2 ms, 10⁴ 0.31 s against 0.32 s; 2D 10⁵ 0.39 s against 0.59 s).
+# nodes 6.2 ms against 8.2 ms, 10⁴ 0.31 s against 0.32 s; 2D 10⁵ 0.39 s against 0.59 s), and
+# under CHOLMOD's own minimum degree of CᵀC than under that of the node graph (whole counts,
+# paired: 2D networks of 10², 10³, 10⁴ nodes 0.39, 2.72, 39 ms against 0.41, 2.76, 41 ms; 3D
+# 0.78, 9.05, 378 ms against 0.82, 9.09, 402 ms), while lattice patches below the dissection's
+# threshold fill less under the node graph's (triangulated 10³: 3.3 ms against 3.8 ms).
 DISSECTION_MIN_DEGREE = 2.5
 
 
@@ -444,8 +440,8 @@ def _sparse_null_spaces(x: np.ndarray, edges: np.ndarray, rigid: np.ndarray, rto
     surplus = ndof - nb
     count_modes = surplus <= rho
     a, b = (c, c.T) if count_modes else (c.T, c)  # the counted side's matrix, the other's
-    rng = np.random.default_rng(0)
-    sigma_max = _largest_singular_value(a, rng)
+    stream = _random_stream()
+    sigma_max = _largest_singular_value(a, stream)
     tol = rtol * sigma_max
     shift = SHIFT * sigma_max**2
     # the Gram matrix of the counted side, CᵀC = b bᵀ or CCᵀ = b bᵀ
@@ -459,11 +455,10 @@ def _sparse_null_spaces(x: np.ndarray, edges: np.ndarray, rigid: np.ndarray, rto
     # the factor's small pivots guess the null space's dimension (SMALL_PIVOT), known ones aside
     small = int(np.count_nonzero(factor.pivots() <= SMALL_PIVOT * shift)) - counted.known.shape[1]
     start = max(bound, min(small, SMALL_PIVOT_MAX_START))
-    found, kept, dropped = _null_by_subspace_iteration(counted, tol, start, rng, shift)
+    found, kept, dropped = _null_by_subspace_iteration(counted, tol, start, stream, shift)
     if rho:  # the rigid motions are zeros of C too: the largest of them may top the found ones
         # ‖C R‖₂ from the ρ × ρ Gram matrix of C R (its entries are round-off, ≈ 1e-16 σ_max)
-        moved = c @ rigid
-        dropped = max(dropped, float(np.sqrt(max(np.linalg.eigvalsh(moved.T @ moved)[-1], 0.0))))
+        dropped = max(dropped, float(sparse_kernels.product_norm(c.indptr, c.indices, c.data, rigid)))
     rank = ndof - rho - found.shape[1] if count_modes else nb - found.shape[1]
     gap = RankGap(kept, dropped)
     report_detail(0.7, "decided the rank")
@@ -482,7 +477,8 @@ def _elimination_order(x: np.ndarray, edges: np.ndarray, count_modes: bool) -> n
     """The order in which the Gram matrix's unknowns (CᵀC if ``count_modes``, else CCᵀ) are
     eliminated: geometric nested dissection of the nodes from NESTED_DISSECTION_MIN_NODES on
     (for CᵀC, only on frames whose mean degree is past DISSECTION_MIN_DEGREE·d); otherwise
-    minimum degree of the nodes for CᵀC and None (CHOLMOD's own minimum degree) for CCᵀ.
+    minimum degree of the nodes for CᵀC of such frames, and None (CHOLMOD's own minimum degree)
+    for CCᵀ and for CᵀC of frames near isostatic.
 
     Both Gram matrices follow the bar graph: (CᵀC)_ij ≠ 0 for the d × d blocks of joined
     nodes, (CCᵀ)_ef ≠ 0 for bars sharing a node. One order of the nodes orders both:
@@ -494,7 +490,7 @@ def _elimination_order(x: np.ndarray, edges: np.ndarray, count_modes: bool) -> n
     threshold = NESTED_DISSECTION_MIN_NODES[d, count_modes]
     dense_enough = not count_modes or 2 * len(edges) > DISSECTION_MIN_DEGREE * d * n
     dissect = threshold is not None and n >= threshold and dense_enough
-    if not (dissect or count_modes):
+    if not (dissect or (count_modes and dense_enough)):
         return None
     node_order = nested_dissection(x, edges) if dissect else minimum_degree(n, edges)
     if count_modes:
@@ -504,30 +500,41 @@ def _elimination_order(x: np.ndarray, edges: np.ndarray, count_modes: bool) -> n
     return np.argsort(np.maximum(position[edges[:, 0]], position[edges[:, 1]]), kind="stable")
 
 
-def _random_block(rng: np.random.Generator, n: int, k: int | None = None) -> np.ndarray:
-    """Random starting columns (n × k; a vector of n for k None), entries uniform in [−1, 1).
+def _random_stream() -> np.ndarray:
+    """The state of a fresh pseudo-random stream (seed 0) for _random_block: each count draws
+    the same numbers, so the same frame gets the same answer."""
+    return np.zeros(1, dtype=np.uint64)
+
+
+def _random_block(stream: np.ndarray, n: int, k: int | None = None) -> np.ndarray:
+    """Random starting columns (n × k; a vector of n for k None), entries uniform in [−1, 1),
+    the next ones of ``stream`` (SplitMix64, sparse_kernels.uniform_block).
 
     A start only needs no direction it must find to be nearly missing: entries independent and
     symmetric give each fixed direction about the same chance of a small part as Gaussian ones
-    do, and uniform ones cost a third to draw (20 000 × 5: 0.26 against 0.87 ms, one core)."""
-    return rng.uniform(-1.0, 1.0, n if k is None else (n, k))
+    do, and uniform ones cost a third to draw (20 000 × 5: 0.26 against 0.87 ms, one core).
+    Compiled rather than NumPy's Generator, whose construction alone took 20 µs inside a count
+    at 10² nodes."""
+    block = sparse_kernels.uniform_block(stream, n, 1 if k is None else k)
+    return block[:, 0] if k is None else block
 
 
-def _largest_singular_value(a: _Sparse, rng: np.random.Generator, steps: int = 6) -> float:
+def _largest_singular_value(a: _Sparse, stream: np.ndarray, steps: int = 6) -> float:
     """σ_max(A) (A: m × n, C or Cᵀ) = √λ_max of AᵀA: the largest eigenvalue of the tridiagonal
     T_k of ``steps`` Lanczos steps on AᵀA from a random start, a Rayleigh quotient on the Krylov
     space, so never above λ_max (round-off allowing; sparse_kernels.largest_singular_value).
     Measured on 2D and 3D lattices of 10²–10⁴ nodes: six steps give σ_max within 3.6 % from
-    below, closer than ten steps of the power iteration (within 4.5 %), ample for a relative
+    below, closer than ten steps of the power iteration (within 4.5 %), and over 400 random
+    starts on five 300-node lattice patches within 6.2 % (median 2–3 %): ample for a relative
     threshold and a shift. AᵀA q is taken as Aᵀ(A q): two products with A's 2d entries a row
     cost less than one with the Gram matrix's (a 10⁴-node 2D network: 0.11 ms against 0.18 ms)."""
-    start = _random_block(rng, a.shape[1])
+    start = _random_block(stream, a.shape[1])
     return float(sparse_kernels.largest_singular_value(a.indptr, a.indices, a.data, a.t_indptr, a.t_indices,
                                                        a.t_data, start, steps))
 
 
 def _null_by_subspace_iteration(
-    problem: _NullProblem, tol: float, expected: int, rng: np.random.Generator, shift: float,
+    problem: _NullProblem, tol: float, expected: int, stream: np.ndarray, shift: float,
     first_steps: int = 2, max_rounds: int = 60,
 ):
     """Orthonormal basis of N(matrix) ⊖ span(known) (columns), the smallest nonzero Ritz
@@ -568,7 +575,7 @@ def _null_by_subspace_iteration(
     if room == 0:
         return np.zeros((n, 0)), 0.0, 0.0
     active = problem  # its known columns grow by the locked null vectors
-    y = problem.deflate(_random_block(rng, n, min(room, expected + OVERSAMPLE)))
+    y = problem.deflate(_random_block(stream, n, min(room, expected + OVERSAMPLE)))
     steps, previous = first_steps, None
     latest = None  # the latest Rayleigh–Ritz step's pairs, while they span every column
     for _ in range(max_rounds):
@@ -596,7 +603,7 @@ def _null_by_subspace_iteration(
                     f"the frame has more than {MAX_NULL_VECTORS} independent zero modes.",
                 )
             more = width if null == width else int(np.count_nonzero((theta > tol) & (theta**2 < shift)))
-            fresh = active.deflate(_random_block(rng, n, min(more, room - width)))
+            fresh = active.deflate(_random_block(stream, n, min(more, room - width)))
             y = np.hstack([y, fresh - y @ (y.T @ fresh)])
             steps, previous, latest = first_steps, None, None
             continue
@@ -640,8 +647,8 @@ def _null_basis(
     n = problem.matrix.shape[1]
     if dim == 0:
         return np.zeros((n, 0))
-    rng = np.random.default_rng(0)
-    y = _random_block(rng, n, dim)
+    stream = _random_stream()
+    y = _random_block(stream, n, dim)
     if start is not None:
         y[:, : start.shape[1]] = start
     y = problem.deflate(y)
@@ -659,7 +666,7 @@ def _null_basis(
         room = n - problem.known.shape[1] - y.shape[1]
         if theta is None or (theta[-1] ** 2 < shift and room > 0):
             extra = min(max(OVERSAMPLE, y.shape[1] - dim), room)
-            y = np.hstack([y, problem.deflate(_random_block(rng, n, extra))])
+            y = np.hstack([y, problem.deflate(_random_block(stream, n, extra))])
         theta, y = _ritz_pairs(problem.matrix, problem.step(y))
         if theta[dim - 1] <= max(target, floor):
             break
