@@ -1,0 +1,525 @@
+"""The numba kernels of the sparse route (solver/sparse_kernels.py), against SciPy and numpy.
+
+Every kernel is checked through a route that shares none of its code: C is built densely from
+the paper's definition (row e holds x_i − x_j in node i's d columns, the negative in node j's);
+transposes and products against ``scipy.sparse.csr_matrix`` (``.T``, ``@``, ``eliminate_zeros``)
+and dense numpy products; σ_max, ‖A·Y‖₂, Ritz values, projections and the rigid motions' SVD
+against ``np.linalg.svd``, ``np.linalg.norm`` and rigid motions built with cross products. Matrices with integer entries in {−2, −1, 1, 2} and frames on an integer grid
+make sums that cancel exactly, so the kernels' dropping of exact zeros is checked bit for bit;
+a 2025-node triangulated lattice checks the Gram product at a size where a slot reused across
+rows once made CᵀC indefinite while small cases passed.
+"""
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from zeromode.solver.sparse_kernels import (
+    compatibility_csr,
+    largest_singular_value,
+    product_norm,
+    project_out_and_orthonormalise,
+    rigid_motion_svd,
+    ritz_pairs,
+    row_gram,
+    times,
+    transpose_csr,
+)
+
+KERNEL_SETTINGS = settings(
+    max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow]
+)
+seeds = st.integers(0, 2**32 - 1)
+
+
+# --- helpers: CSR arrays in and out, dense references ------------------------------------------
+
+
+def arrays_of(a) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The CSR arrays of a (dense or SciPy) matrix as the kernels take them: sorted columns,
+    int64 indices, float64 data, all C-contiguous (numba compiles one version per signature)."""
+    a = sp.csr_matrix(a)
+    a.sort_indices()
+    return (
+        np.ascontiguousarray(a.indptr, dtype=np.int64),
+        np.ascontiguousarray(a.indices, dtype=np.int64),
+        np.ascontiguousarray(a.data, dtype=np.float64),
+    )
+
+
+def dense_of(indptr, indices, data, ncols: int) -> np.ndarray:
+    """The dense matrix of CSR arrays by plain numpy (duplicate entries would add up)."""
+    rows = np.repeat(np.arange(indptr.size - 1), np.diff(indptr))
+    out = np.zeros((indptr.size - 1, ncols))
+    np.add.at(out, (rows, indices), data)
+    return out
+
+
+def scipy_of(arrays, shape) -> sp.csr_matrix:
+    """A SciPy matrix holding the kernels' (indptr, indices, data) as they are."""
+    indptr, indices, data = arrays
+    return sp.csr_matrix((data, indices, indptr), shape=shape)
+
+
+def row_of_each_entry(indptr) -> np.ndarray:
+    return np.repeat(np.arange(indptr.size - 1), np.diff(indptr))
+
+
+def columns_strictly_ascending(indptr, indices) -> bool:
+    """Within every row the column indices increase strictly (sorted, no duplicates)."""
+    rows = row_of_each_entry(indptr)
+    same_row = rows[1:] == rows[:-1]
+    return bool(np.all(np.diff(indices)[same_row] > 0))
+
+
+def no_duplicate_columns(indptr, indices) -> bool:
+    rows = row_of_each_entry(indptr)
+    pairs = np.stack([rows, indices], axis=1)
+    return np.unique(pairs, axis=0).shape[0] == pairs.shape[0]
+
+
+def compatibility_dense(positions: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """C (N_B × dN) from the definition: row e = x_i − x_j in node i's d columns, x_j − x_i in
+    node j's, for bar e = (i, j) in whichever orientation it is given."""
+    n, d = positions.shape
+    c = np.zeros((len(edges), d * n))
+    for e, (i, j) in enumerate(edges):
+        c[e, d * i : d * i + d] = positions[i] - positions[j]
+        c[e, d * j : d * j + d] = positions[j] - positions[i]
+    return c
+
+
+def random_integer_sparse(rng, m: int, n: int, density: float) -> np.ndarray:
+    """A dense m × n matrix, entries in {−2, −1, 1, 2} at random places (so sums of products
+    are exact integers and cancel exactly), with about a quarter of rows and columns emptied."""
+    a = rng.choice(np.array([-2.0, -1.0, 1.0, 2.0]), size=(m, n))
+    a[rng.random((m, n)) >= density] = 0.0
+    a[rng.random(m) < 0.25, :] = 0.0
+    a[:, rng.random(n) < 0.25] = 0.0
+    return a
+
+
+@st.composite
+def integer_matrices(draw, max_rows=40, max_cols=40):
+    rng = np.random.default_rng(draw(seeds))
+    m, n = draw(st.integers(1, max_rows)), draw(st.integers(1, max_cols))
+    return random_integer_sparse(rng, m, n, draw(st.sampled_from([0.05, 0.15, 0.4, 0.8])))
+
+
+@st.composite
+def float_matrices(draw, max_rows=30, max_cols=30):
+    """Sparse Gaussian matrices with some empty rows and columns."""
+    rng = np.random.default_rng(draw(seeds))
+    m, n = draw(st.integers(1, max_rows)), draw(st.integers(1, max_cols))
+    a = rng.standard_normal((m, n))
+    a[rng.random((m, n)) >= draw(st.sampled_from([0.1, 0.3, 0.7, 1.0]))] = 0.0
+    a[rng.random(m) < 0.2, :] = 0.0
+    a[:, rng.random(n) < 0.2] = 0.0
+    return a
+
+
+def triangulated_grid(side: int) -> tuple[np.ndarray, np.ndarray]:
+    """side² nodes at integer points, bars horizontal, vertical and one diagonal a square:
+    every bar vector has an exact zero or equal components, so blocks u uᵀ cancel exactly."""
+    node = np.arange(side * side).reshape(side, side)
+    ii, jj = np.meshgrid(np.arange(side), np.arange(side), indexing="ij")
+    positions = np.stack([ii.ravel(), jj.ravel()], axis=1).astype(float)
+    edges = np.concatenate(
+        [
+            np.stack([node[:-1, :].ravel(), node[1:, :].ravel()], axis=1),
+            np.stack([node[:, :-1].ravel(), node[:, 1:].ravel()], axis=1),
+            np.stack([node[1:, 1:].ravel(), node[:-1, :-1].ravel()], axis=1),  # i > j
+        ]
+    ).astype(np.int64)
+    return positions, edges
+
+
+def check_gram(a, t_arrays=None, rtol=0.0):
+    """row_gram on A against SciPy's A @ Aᵀ with exact zeros eliminated: same pattern row by row
+    (after sorting), values equal (to rtol of the largest entry), no stored 0.0, no duplicate
+    column in a row, symmetric. Aᵀ is SciPy's unless t_arrays are given."""
+    a = sp.csr_matrix(a)
+    indptr, indices, data = arrays_of(a)
+    if t_arrays is None:
+        t_arrays = arrays_of(a.T.tocsr())
+    g_indptr, g_indices, g_data = row_gram(indptr, indices, data, *t_arrays)
+    m = a.shape[0]
+
+    assert g_indptr.shape == (m + 1,) and g_indptr[0] == 0
+    assert g_indices.size == g_data.size == g_indptr[-1]
+    assert not np.any(g_data == 0.0), "an exact zero is stored"
+    assert no_duplicate_columns(g_indptr, g_indices), "a column repeats within a row"
+    assert g_indices.size == 0 or (g_indices.min() >= 0 and g_indices.max() < m)
+
+    reference = (a @ a.T).tocsr()
+    reference.eliminate_zeros()
+    reference.sort_indices()
+    ours = scipy_of((g_indptr, g_indices, g_data), (m, m))
+    ours.sort_indices()
+    assert np.array_equal(ours.indptr, reference.indptr), "row lengths differ from SciPy's"
+    assert np.array_equal(ours.indices, reference.indices), "pattern differs from SciPy's"
+    scale = np.abs(reference.data).max(initial=0.0)
+    np.testing.assert_allclose(ours.data, reference.data, rtol=0, atol=rtol * scale)
+    asymmetry = abs(ours - ours.T).max() if m else 0.0
+    assert asymmetry <= rtol * scale
+    return ours
+
+
+def orthonormal(rng, n: int, k: int) -> np.ndarray:
+    return np.ascontiguousarray(np.linalg.qr(rng.standard_normal((n, k)))[0])
+
+
+# --- compatibility_csr ------------------------------------------------------------------------
+
+
+@KERNEL_SETTINGS
+@given(
+    st.sampled_from([2, 3]),
+    st.integers(2, 12),
+    st.integers(0, 25),
+    st.booleans(),
+    seeds,
+)
+def test_compatibility_matches_the_definition(d, n, n_bars, on_grid, seed):
+    """C from the kernel equals C built densely from the paper's definition, for bars given as
+    (i, j) with i < j or i > j at random; every row holds 2d entries, columns ascending."""
+    rng = np.random.default_rng(seed)
+    if on_grid:  # shared coordinates: differences exactly 0 in some axes
+        positions = rng.integers(-2, 3, size=(n, d)).astype(float)
+    else:
+        positions = rng.standard_normal((n, d))
+    i = rng.integers(0, n, n_bars)
+    j = (i + rng.integers(1, n, n_bars)) % n  # j != i, either side of i
+    edges = np.ascontiguousarray(np.stack([i, j], axis=1), dtype=np.int64)
+
+    indptr, indices, data = compatibility_csr(np.ascontiguousarray(positions), edges)
+    assert indptr.dtype == indices.dtype == np.int64 and data.dtype == np.float64
+    assert np.array_equal(indptr, 2 * d * np.arange(n_bars + 1))
+    assert columns_strictly_ascending(indptr, indices)
+    np.testing.assert_array_equal(
+        dense_of(indptr, indices, data, d * n), compatibility_dense(positions, edges)
+    )
+
+
+def test_compatibility_is_the_same_for_either_orientation():
+    """Flipping every bar (i, j) → (j, i) leaves C unchanged, arrays and all."""
+    rng = np.random.default_rng(7)
+    positions = rng.standard_normal((6, 3))
+    edges = np.array([[0, 1], [4, 2], [5, 0], [3, 5]], dtype=np.int64)
+    forward = compatibility_csr(positions, edges)
+    backward = compatibility_csr(positions, np.ascontiguousarray(edges[:, ::-1]))
+    for a, b in zip(forward, backward, strict=True):
+        np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(
+        dense_of(*forward, 18), compatibility_dense(positions, edges[:, ::-1])
+    )
+
+
+# --- rigid_motion_svd ------------------------------------------------------------------------
+
+
+def rigid_generators(positions: np.ndarray) -> np.ndarray:
+    """dN × d(d+1)/2 generators of the rigid motions, node-major: the d translations, then the
+    rotations about the axes ω, u_i = ω × x_i (in 2D the one rotation u_i = (−y_i, x_i))."""
+    n, d = positions.shape
+    columns = [np.tile(np.eye(d)[a], n) for a in range(d)]
+    if d == 2:
+        columns.append(np.stack([-positions[:, 1], positions[:, 0]], axis=1).ravel())
+    else:
+        columns += [np.cross(np.eye(3)[a], positions).ravel() for a in range(3)]
+    return np.stack(columns, axis=1)
+
+
+@KERNEL_SETTINGS
+@given(
+    st.sampled_from([2, 3]), st.integers(1, 10), st.sampled_from(["random", "line", "grid"]), seeds
+)
+def test_rigid_motion_svd_spans_the_rigid_motions(d, n, kind, seed):
+    """U (dN × d(d+1)/2) is orthonormal, s are the singular values (descending) of the rigid
+    motion generators built with cross products (the same up to column signs), and the columns
+    of U belonging to nonzero s span the same space as those generators (equal projectors);
+    collinear and grid points make some s vanish."""
+    rng = np.random.default_rng(seed)
+    if kind == "random":
+        positions = rng.standard_normal((n, d))
+    elif kind == "line":
+        positions = rng.standard_normal((n, 1)) * rng.standard_normal(d) + rng.standard_normal(d)
+    else:
+        positions = rng.integers(-1, 2, size=(n, d)).astype(float)
+    u, s = rigid_motion_svd(np.ascontiguousarray(positions))
+    g = rigid_generators(positions)
+    size = d * (d + 1) // 2
+    assert u.shape == (d * n, min(d * n, size)) and s.shape == (min(d * n, size),)
+
+    u_ref, s_ref, _ = np.linalg.svd(g, full_matrices=False)
+    np.testing.assert_allclose(s, s_ref, rtol=0, atol=1e-12 * s_ref[0])
+    np.testing.assert_allclose(u.T @ u, np.eye(u.shape[1]), rtol=0, atol=1e-12)
+    r = int(np.sum(s_ref > 1e-8 * s_ref[0]))
+    np.testing.assert_allclose(
+        u[:, :r] @ u[:, :r].T, u_ref[:, :r] @ u_ref[:, :r].T, rtol=0, atol=1e-8
+    )
+
+
+# --- transpose_csr ----------------------------------------------------------------------------
+
+
+def check_transpose(a: np.ndarray):
+    indptr, indices, data = arrays_of(a)
+    m, n = a.shape
+    t_indptr, t_indices, t_data = transpose_csr(indptr, indices, data, n)
+    reference = sp.csr_matrix(a).T.tocsr()
+    assert t_indptr.shape == (n + 1,)
+    assert np.array_equal(t_indptr, reference.indptr.astype(np.int64))
+    assert columns_strictly_ascending(t_indptr, t_indices)
+    assert t_indices.size == 0 or (t_indices.min() >= 0 and t_indices.max() < m)
+    np.testing.assert_array_equal(dense_of(t_indptr, t_indices, t_data, m), reference.toarray())
+
+
+@KERNEL_SETTINGS
+@given(float_matrices(max_rows=40, max_cols=40))
+def test_transpose_matches_scipy(a):
+    """Aᵀ from the kernel equals SciPy's A.T.tocsr() exactly (values only move), with the same
+    row lengths and columns ascending in every row; empty rows and columns included."""
+    check_transpose(a)
+
+
+@pytest.mark.parametrize(
+    "a",
+    [
+        np.zeros((3, 4)),  # nothing stored
+        np.array([[0.0, 0.0, 0.0, 0.0, 0.0], [0.0, 2.0, 0.0, -1.0, 0.0]]),  # empty row, columns
+        np.array([[1.0], [0.0], [3.0]]),
+        np.eye(1, 6, 5),  # only the last column
+    ],
+)
+def test_transpose_edge_cases(a):
+    """Empty matrices, empty leading and trailing rows and columns."""
+    check_transpose(a)
+
+
+# --- row_gram ---------------------------------------------------------------------------------
+
+
+@KERNEL_SETTINGS
+@given(integer_matrices())
+def test_row_gram_matches_scipy_with_exact_cancellation(a):
+    """A Aᵀ from the kernel equals SciPy's product bit for bit (integer entries: every sum is
+    exact) with SciPy's pattern once exact zeros are eliminated: no stored 0.0, no column twice
+    in a row, symmetric. Aᵀ given both by SciPy and by transpose_csr."""
+    check_gram(a)
+    indptr, indices, data = arrays_of(a)
+    ours = check_gram(a, transpose_csr(indptr, indices, data, a.shape[1]))
+    np.testing.assert_array_equal(ours.toarray(), a @ a.T)
+
+
+@KERNEL_SETTINGS
+@given(float_matrices())
+def test_row_gram_matches_the_dense_product(a):
+    """For Gaussian entries (no exact cancellation but for empty rows) A Aᵀ equals a @ a.T."""
+    indptr, indices, data = arrays_of(a)
+    g = row_gram(indptr, indices, data, *arrays_of(sp.csr_matrix(a).T.tocsr()))
+    assert not np.any(g[2] == 0.0)
+    assert no_duplicate_columns(g[0], g[1])
+    np.testing.assert_allclose(dense_of(*g, a.shape[0]), a @ a.T, rtol=0, atol=1e-12)
+
+
+def test_row_gram_cancels_exactly_in_small_rows():
+    """Rows (1, 1, 0), (1, −1, 0), (0, 0, 1): their products cancel to exact zeros (0 at (0, 1),
+    (1, 0) and all of row and column 2 but the diagonal), which are not stored."""
+    a = np.array([[1.0, 1.0, 0.0], [1.0, -1.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, 0.0]])
+    ours = check_gram(a)
+    assert ours.nnz == 3
+    np.testing.assert_array_equal(ours.toarray(), np.diag([2.0, 2.0, 1.0, 0.0]))
+
+
+@pytest.mark.parametrize("scale", [1.0, 0.25])
+def test_row_gram_on_a_triangulated_lattice(scale):
+    """On a 45 × 45 triangulated grid (2025 nodes, 5896 bars, Cᵀ by transpose_csr), CᵀC and CCᵀ
+    equal SciPy's products to 1e-12 relative with SciPy's pattern after eliminate_zeros: the
+    axis-aligned bars' blocks u uᵀ are mostly exact zeros, none stored; a slot reused across
+    rows (a past bug) made CᵀC indefinite at this size while small cases passed."""
+    positions, edges = triangulated_grid(45)
+    positions = np.ascontiguousarray(scale * positions)
+    c_arrays = compatibility_csr(positions, edges)
+    ndof = positions.size
+    c = scipy_of(c_arrays, (len(edges), ndof))
+    np.testing.assert_array_equal(c.toarray(), compatibility_dense(positions, edges))
+    t_arrays = transpose_csr(*c_arrays, ndof)
+
+    ctc = check_gram(c.T.tocsr(), c_arrays, rtol=1e-12)  # A = Cᵀ, Aᵀ = C
+    assert ctc.shape == (ndof, ndof)
+    # fewer entries than the structural 2 × 2 blocks (4 a node, 8 a bar): zeros were dropped
+    assert ctc.nnz < 4 * len(positions) + 8 * len(edges)
+    ours = scipy_of(row_gram(*t_arrays, *c_arrays), (ndof, ndof))
+    np.testing.assert_array_equal(ours.toarray(), (c.T @ c).toarray())  # exact: dyadic values
+
+    cct = check_gram(c, t_arrays, rtol=1e-12)  # A = C, Aᵀ by transpose_csr
+    assert cct.shape == (len(edges), len(edges))
+
+
+# --- times ------------------------------------------------------------------------------------
+
+
+@KERNEL_SETTINGS
+@given(float_matrices(), st.integers(1, 6), seeds)
+def test_times_matches_the_dense_product(a, k, seed):
+    """A·Y for Y (n, k), k = 1…6, equals the dense a @ y; empty rows give zero rows."""
+    y = np.random.default_rng(seed).standard_normal((a.shape[1], k))
+    out = times(*arrays_of(a), y)
+    assert out.shape == (a.shape[0], k)
+    np.testing.assert_allclose(out, a @ y, rtol=0, atol=1e-12 * max(1.0, np.abs(a @ y).max()))
+    np.testing.assert_array_equal(out[~a.any(axis=1)], 0.0)
+
+
+# --- product_norm -----------------------------------------------------------------------------
+
+
+@KERNEL_SETTINGS
+@given(float_matrices(), st.integers(1, 6), seeds)
+def test_product_norm_is_the_spectral_norm(a, k, seed):
+    """‖A·Y‖₂ equals np.linalg.norm(a @ y, 2) (its largest singular value) to 1e-12 relative;
+    0 for A·Y = 0."""
+    y = np.random.default_rng(seed).standard_normal((a.shape[1], k))
+    expected = np.linalg.norm(a @ y, 2)
+    value = product_norm(*arrays_of(a), y)
+    assert value == pytest.approx(expected, rel=1e-12, abs=1e-300)
+
+
+# --- largest_singular_value -------------------------------------------------------------------
+
+
+def sigma_max(a, steps: int, seed: int) -> float:
+    a = sp.csr_matrix(a)
+    start = np.random.default_rng(seed).standard_normal(a.shape[1])
+    return largest_singular_value(*arrays_of(a), *arrays_of(a.T.tocsr()), start, steps)
+
+
+@KERNEL_SETTINGS
+@given(float_matrices(max_rows=25, max_cols=25), seeds)
+def test_largest_singular_value(a, seed):
+    """Lanczos on AᵀA gives a Rayleigh quotient of the Krylov space, so √θ never exceeds
+    σ_max = np.linalg.svd(a)[0] beyond round-off, for any number of steps; with steps ≥ n it
+    is σ_max to 1e-10 relative."""
+    reference = np.linalg.svd(a, compute_uv=False)[0]
+    n = a.shape[1]
+    for steps in (1, 2, 5, n, n + 3):
+        value = sigma_max(a, steps, seed)
+        assert np.isfinite(value) and value >= 0.0
+        assert value <= reference * (1 + 1e-12) + 1e-300
+    assert sigma_max(a, n, seed) == pytest.approx(reference, rel=1e-10, abs=1e-300)
+
+
+def test_largest_singular_value_of_special_matrices():
+    """The zero matrix gives 0 (not NaN); a rank-one u vᵀ gives ‖u‖‖v‖ to round-off from two
+    steps (the Krylov space from q is span{q, v}); a diagonal matrix gives its largest |entry|."""
+    assert sigma_max(np.zeros((4, 6)), 6, 0) == 0.0
+    assert sigma_max(np.zeros((1, 1)), 3, 0) == 0.0
+    rng = np.random.default_rng(5)
+    u, v = rng.standard_normal(7), rng.standard_normal(9)
+    v[[2, 5]] = 0.0
+    rank_one = np.outer(u, v)
+    expected = np.linalg.norm(u) * np.linalg.norm(v)
+    for steps in (2, 3, 9):
+        assert sigma_max(rank_one, steps, 1) == pytest.approx(expected, rel=1e-12)
+    diagonal = np.diag([0.5, -3.0, 2.0, 0.0, 1.0])
+    assert sigma_max(diagonal, 5, 2) == pytest.approx(3.0, rel=1e-12)
+
+
+# --- ritz_pairs -------------------------------------------------------------------------------
+
+
+def check_ritz(a: np.ndarray, y: np.ndarray):
+    k = y.shape[1]
+    theta, v = ritz_pairs(*arrays_of(a), y)
+    assert theta.shape == (k,) and v.shape == y.shape
+    assert np.all(np.diff(theta) >= 0.0), "θ not ascending"
+    reference = np.zeros(k)
+    s = np.linalg.svd(a @ y, compute_uv=False)
+    reference[k - s.size :] = np.sort(s)  # padded with zeros below
+    scale = max(1.0, reference[-1])
+    np.testing.assert_allclose(theta, reference, rtol=0, atol=1e-12 * scale)
+    np.testing.assert_allclose(v.T @ v, np.eye(k), rtol=0, atol=1e-12)
+    assert np.linalg.norm(v - y @ (y.T @ v)) <= 1e-12, "V leaves span(Y)"
+    # Rayleigh–Ritz: (A V)ᵀ (A V) = diag(θ²), so ‖A v_i‖ = θ_i and A v_i ⟂ A v_j
+    av = a @ v
+    np.testing.assert_allclose(np.linalg.norm(av, axis=0), theta, rtol=0, atol=1e-12 * scale)
+    np.testing.assert_allclose(av.T @ av, np.diag(theta**2), rtol=0, atol=1e-12 * scale**2)
+
+
+@KERNEL_SETTINGS
+@given(float_matrices(max_rows=15, max_cols=15), st.data())
+def test_ritz_pairs_match_the_svd_on_the_subspace(a, data):
+    """For Y (n, k) orthonormal, θ are the singular values of a @ y ascending (zeros added when
+    A has fewer rows than k); V is orthonormal, inside span(Y), and (AV)ᵀ(AV) = diag(θ²)."""
+    n = a.shape[1]
+    k = data.draw(st.integers(1, n))
+    check_ritz(a, orthonormal(np.random.default_rng(data.draw(seeds)), n, k))
+
+
+@pytest.mark.parametrize("shape", [(12, 8), (3, 8), (8, 8), (1, 5)])
+def test_ritz_pairs_on_the_whole_space(shape):
+    """k = n: Y spans everything, so θ are A's singular values (padded with zeros when A has
+    fewer rows than columns) and V are right singular vectors."""
+    rng = np.random.default_rng(sum(shape))
+    a = rng.standard_normal(shape)
+    a[rng.random(shape) < 0.3] = 0.0
+    n = shape[1]
+    y = orthonormal(rng, n, n)
+    check_ritz(a, y)
+    theta, _ = ritz_pairs(*arrays_of(a), y)
+    expected = np.zeros(n)
+    s = np.linalg.svd(a, compute_uv=False)
+    expected[n - s.size :] = np.sort(s)
+    np.testing.assert_allclose(theta, expected, rtol=0, atol=1e-12 * expected[-1])
+
+
+def test_ritz_pairs_with_fewer_rows_than_columns_of_y():
+    """A with 2 rows and Y with 4 columns: θ has two exact zeros first."""
+    rng = np.random.default_rng(11)
+    a = rng.standard_normal((2, 10))
+    y = orthonormal(rng, 10, 4)
+    check_ritz(a, y)
+    theta, _ = ritz_pairs(*arrays_of(a), y)
+    assert theta[0] == theta[1] == 0.0 and theta[2] > 0.0
+
+
+# --- project_out_and_orthonormalise -----------------------------------------------------------
+
+
+@KERNEL_SETTINGS
+@given(st.integers(1, 20), st.data())
+def test_project_out_and_orthonormalise(n, data):
+    """Q is orthonormal, orthogonal to K (KᵀQ = 0), and spans (I − K Kᵀ) Y: its projector equals
+    the one from np.linalg.svd's left singular vectors of (I − K Kᵀ) Y, and that block equals
+    Q Qᵀ of itself. K may have no columns. One projection pass leaves KᵀQ at round-off times
+    κ = ‖Y‖ / σ_min((I − K Kᵀ) Y) (large when Y nearly lies in span(K)), and the two routes'
+    subspaces differ by as much, so those two checks are scaled by κ."""
+    rng = np.random.default_rng(data.draw(seeds))
+    rho = data.draw(st.integers(0, n - 1))
+    k = data.draw(st.integers(1, n - rho))
+    y = np.ascontiguousarray(rng.standard_normal((n, k)))
+    known = orthonormal(rng, n, rho) if rho else np.zeros((n, 0))
+    q = project_out_and_orthonormalise(y, known)
+
+    assert q.shape == (n, k)
+    np.testing.assert_allclose(q.T @ q, np.eye(k), rtol=0, atol=1e-12)
+    projected = y - known @ (known.T @ y)
+    u, s, _ = np.linalg.svd(projected, full_matrices=False)
+    kappa = np.linalg.norm(y, 2) / s[-1]
+    np.testing.assert_allclose(known.T @ q, 0.0, rtol=0, atol=1e-14 * n * kappa)
+    np.testing.assert_allclose(q @ q.T, u @ u.T, rtol=0, atol=1e-14 * n * kappa)
+    residual = projected - q @ (q.T @ projected)
+    assert np.linalg.norm(residual) <= 1e-14 * n * np.linalg.norm(projected)
+
+
+def test_project_out_leaves_its_inputs_alone():
+    """The kernel returns a new array; Y and K are unchanged."""
+    rng = np.random.default_rng(3)
+    y, known = rng.standard_normal((9, 3)), orthonormal(rng, 9, 2)
+    y_copy, known_copy = y.copy(), known.copy()
+    q = project_out_and_orthonormalise(y, known)
+    np.testing.assert_array_equal(y, y_copy)
+    np.testing.assert_array_equal(known, known_copy)
+    np.testing.assert_allclose(known.T @ q, 0.0, atol=1e-13)
