@@ -7,9 +7,11 @@ in an environment):
 
   * ``compatibility_csr``: C (N_B × dN) from the bars, row e = (x_i − x_j) at node i, its
     negative at node j (paper, Eq. 3);
+  * ``rigid_motion_svd``: the SVD of the rigid motions' generators (the known null vectors);
+  * ``uniform_block``: the starting blocks' pseudo-random numbers (SplitMix64);
   * ``transpose_csr``: Aᵀ; ``row_gram``: A Aᵀ (CᵀC from A = Cᵀ, CCᵀ from A = C);
   * ``times``: A·Y;
-  * ``largest_singular_value``: σ_max(A) by Lanczos on AᵀA;
+  * ``largest_singular_value``: σ_max(A) by Lanczos on AᵀA; ``product_norm``: ‖A·Y‖₂;
   * ``ritz_pairs``: Rayleigh–Ritz singular values and vectors of A on span(Y);
   * ``project_out_and_orthonormalise``: Q of (I − K Kᵀ) Y.
 
@@ -18,8 +20,10 @@ wraparound, which made a product with C 1.7× slower than SciPy's at 10⁴ nodes
 with the casts the two are level.
 
 Why compiled: at 10² nodes every step handles a few hundred numbers, and the count made some
-forty NumPy and SciPy calls whose per-call overhead (1–60 µs each) cost more than the CHOLMOD
-factorisation itself (0.2–0.7 ms); at 10⁴ nodes and more the same loops run as fast as SciPy's.
+forty NumPy and SciPy calls whose per-call overhead (1–60 µs each, more inside a count than
+alone: the cache is cold) cost more than the CHOLMOD factorisation itself (0.2–0.7 ms); at 10⁴
+nodes and more the same loops run as fast as SciPy's. ``warm_up`` compiles them all ahead of
+the first request.
 """
 
 from __future__ import annotations
@@ -176,7 +180,8 @@ def times(indptr, indices, data, y):
 
 @compiled
 def product_norm(indptr, indices, data, y):
-    """‖A·Y‖₂ for A (m × n) in CSR arrays and Y (n, k ≥ 1): √λ_max of the k × k Gram matrix of A·Y."""
+    """‖A·Y‖₂ for A (m × n) in CSR arrays and Y (n, k ≥ 1): √λ_max of the k × k Gram matrix
+    of A·Y."""
     product = times(indptr, indices, data, y)
     return np.sqrt(max(np.linalg.eigvalsh(product.T @ product)[-1], 0.0))
 

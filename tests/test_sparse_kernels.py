@@ -10,12 +10,17 @@ a 2025-node triangulated lattice checks the Gram product at a size where a slot 
 rows once made CᵀC indefinite while small cases passed.
 """
 
+import os
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 import scipy.sparse as sp
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from zeromode.solver.normalisation import normalised
 from zeromode.solver.sparse_kernels import (
     compatibility_csr,
     largest_singular_value,
@@ -26,6 +31,7 @@ from zeromode.solver.sparse_kernels import (
     row_gram,
     times,
     transpose_csr,
+    uniform_block,
 )
 
 KERNEL_SETTINGS = settings(
@@ -523,3 +529,100 @@ def test_project_out_leaves_its_inputs_alone():
     np.testing.assert_array_equal(y, y_copy)
     np.testing.assert_array_equal(known, known_copy)
     np.testing.assert_allclose(known.T @ q, 0.0, atol=1e-13)
+
+
+# --- the random stream, the normalisation, the cache ---------------------------------------------
+
+
+def splitmix64(state: int, count: int) -> list[int]:
+    """The next ``count`` outputs of SplitMix64 from ``state``, in Python integers (Steele, Lea &
+    Flood 2014; Vigna's reference C code)."""
+    out, mask = [], 2**64 - 1
+    for _ in range(count):
+        state = (state + 0x9E3779B97F4A7C15) & mask
+        z = ((state ^ (state >> 30)) * 0xBF58476D1CE4E5B9) & mask
+        z = ((z ^ (z >> 27)) * 0x94D049BB133111EB) & mask
+        out.append(z ^ (z >> 31))
+    return out
+
+
+def test_splitmix64_reference_starts_with_its_published_output():
+    assert splitmix64(0, 1) == [0xE220A8397B1DCDAF]
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(0, 2**64 - 1), st.integers(1, 7), st.integers(1, 5))
+def test_uniform_block_is_the_splitmix64_sequence_in_order(seed, rows, cols):
+    """Row-major outputs b·2⁻⁵² − 1 (b the top 53 bits) in [−1, 1); the state advances in place,
+    so two draws give the same numbers as one draw of both."""
+    state = np.array([seed], dtype=np.uint64)
+    first = uniform_block(state, rows, cols)
+    second = uniform_block(state, 1, 2)
+    outputs = splitmix64(seed, rows * cols + 2)
+    expected = np.array([(z >> 11) * 2.0**-52 - 1.0 for z in outputs])
+    np.testing.assert_array_equal(np.concatenate([first.ravel(), second.ravel()]), expected)
+    assert np.all((-1.0 <= expected) & (expected < 1.0))
+    assert int(state[0]) == (seed + (rows * cols + 2) * 0x9E3779B97F4A7C15) % 2**64
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.integers(1, 30),
+    st.integers(1, 3),
+    st.integers(-300, 300),
+    seeds,
+)
+def test_normalised_centres_and_scales_like_numpy(n, d, exponent, seed):
+    """Centroid 0 and RMS radius 1 (unchanged for coincident points), computed without overflow
+    at any scale: numpy's mean and RMS of the same points, in units of max |x|."""
+    x = np.random.default_rng(seed).uniform(-1.0, 1.0, (n, d)) * 10.0**exponent
+    got = normalised(x)
+    y = x / np.max(np.abs(x))
+    y = y - y.mean(axis=0)
+    radius = np.sqrt(np.mean(np.sum(y**2, axis=1)))
+    np.testing.assert_allclose(got, y / radius if radius > 0 else y, rtol=1e-12, atol=1e-12)
+    frozen = x.copy()
+    frozen.flags.writeable = False
+    np.testing.assert_array_equal(normalised(frozen), got)
+    coincident = np.repeat(x[:1], n, axis=0)
+    np.testing.assert_array_equal(normalised(coincident), np.zeros((n, d)))
+
+
+NOWHERE = """
+from numba.core.caching import _CacheLocator
+
+
+class Nowhere(_CacheLocator):
+    @classmethod
+    def from_function(cls, py_func, py_file):
+        return None  # as on a read-only install run by a user without a home
+"""
+
+
+def test_kernels_compile_where_no_cache_directory_is_writable(tmp_path):
+    """numba refuses ``cache=True`` when it finds no writable cache directory (a RuntimeError at
+    import); the kernels then compile in the process instead, and the count still works."""
+    (tmp_path / "nowhere.py").write_text(NOWHERE)
+    script = (
+        "from zeromode.solver import Frame, analyze\n"
+        "from zeromode.solver.sparse_kernels import times\n"
+        "square = Frame.build([[0, 0], [1, 0], [1, 1], [0, 1]], [[0, 1], [1, 2], [2, 3], [3, 0]])\n"
+        "a = analyze(square, method='sparse')\n"
+        "print(type(times._cache).__name__, a.rank, a.nontrivial_zero_modes)\n"
+    )
+    env = {
+        **os.environ,
+        "PYTHONPATH": str(tmp_path),
+        "NUMBA_CACHE_LOCATOR_CLASSES": "nowhere.Nowhere",
+    }
+    env.pop("NUMBA_CACHE_DIR", None)
+    out = subprocess.run(
+        [sys.executable, "-c", script],
+        check=False,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["NullCache", "4", "1"]
