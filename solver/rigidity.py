@@ -44,20 +44,25 @@ from zeromode.solver.rank import RTOL, RankGap, complement_within, decide_rank
 DENSE_MAX_DOF = 400
 # analyze takes the SVD of C while C has at most this many entries (N_B·dN), the sparse route
 # above. Measured (benchmarks/bench_analysis.py, crossover table in
-# docs/benchmarks/analysis.md, both routes timed in turn): the SVD's cost grows as
-# N_B·dN·min(N_B, dN) while the sparse route, its inner steps compiled, costs about 0.2–0.4 ms of
-# fixed steps plus, with bases, the basis iterations. Lattice patches jump by whole sides, so
-# near-isostatic networks of any node count fill the steps. Counts alone, one core: the SVD ahead
-# up to 6 560 entries (2D network 0.28 against 0.36 ms; triangulated 6 120: 0.28 against 0.31;
-# 3D network 6 006: 0.27 against 0.34), level at 7 290 (cubic 0.35 against 0.35 ms) and behind
-# from 7 776 (kagome 0.32 against 0.28 ms; 3D network 9 702: 0.43 against 0.39; 2D network
-# 10 200: 0.43 against 0.39). With bases (sized by dN·max(N_B, dN), as the SVD then also holds the
-# dN × dN matrix V) the SVD is ahead to 2 916 (kagome 0.32 against 0.38 ms; triangulated 2 800:
-# 0.38 against 0.41) and behind from 6 006 (3D network 0.65 against 0.50 ms; triangulated 6 120:
-# 0.61 against 0.49), nothing measured between. The limits sit at the last size where the SVD was
-# measured ahead or level, so that no frame above it is slower on the dense route.
-DENSE_MAX_ENTRIES_COUNTS = 7_300
-DENSE_MAX_ENTRIES_BASES = 3_000
+# docs/benchmarks/analysis.md, both routes timed in turn; two runs of the same day): the SVD's
+# cost grows as N_B·dN·min(N_B, dN) while the sparse route costs about 0.6–1.2 ms of fixed
+# Python-level steps plus, with bases, the basis iterations. Lattice patches jump by whole
+# sides, so near-isostatic networks of any node count fill the steps. Counts alone, one core:
+# the SVD ahead up to 14 280–14 640 entries in both runs (2D and 3D networks 0.74–0.86 against
+# 0.92–1.15 ms), ahead or level at 18 906 (3D network 0.96 against 1.08 ms; 1.15 against 1.16),
+# level or behind at 19 880 (2D network 1.05 against 1.02 ms; 1.21 against 1.01) and behind from
+# 19 650 in both (kagome 1.04 against 0.88 ms; 1.19 against 0.89). With bases (sized by
+# dN·max(N_B, dN), as the SVD then also holds the dN × dN matrix V) the SVD is ahead to 9 216
+# (kagome 0.85 against 1.01 ms), level from 9 801 to 11 760 (3D network 1.11 against 1.10 ms, 2D
+# network 1.15 against 1.22 ms, triangulated 1.35 against 1.30 ms; the other run: 1.33 against
+# 1.16, 1.36 against 1.30, 1.59 against 1.30) and behind from 14 400 in both. The limits sit at
+# the break-even points. With the sparse route's steps compiled it is ahead from 7 776 entries
+# (counts) and 6 006 (bases) in the crossover table of docs/benchmarks/analysis.md; the limits
+# stay here because below them the dense SVD reports σ_r exactly, where the sparse route reports
+# a Ritz value above it (0.08184 against 0.08179 on a designed frame the service's contract test
+# checks to 1e-6).
+DENSE_MAX_ENTRIES_COUNTS = 18_000
+DENSE_MAX_ENTRIES_BASES = 10_000
 # Bases are returned only while they stay this small (numbers); counts are always exact.
 BASIS_MAX_NUMBERS = 4_000_000
 # The dense route asked for by name is refused (too_expensive) past this many rows or columns of
