@@ -81,11 +81,12 @@ def compatibility_matrix(positions: np.ndarray, edges: np.ndarray, dense: bool =
     indptr, indices, data = sparse_kernels.compatibility_csr(
         np.ascontiguousarray(positions, dtype=float), np.asarray(edges, dtype=np.int64).reshape(-1, 2)
     )
+    nb = indptr.size - 1
     if dense:
-        c = np.zeros((len(indptr) - 1, n * d))
-        c[np.repeat(np.arange(len(indptr) - 1), 2 * d), indices] = data  # (row, col) pairs are distinct
+        c = np.zeros((nb, n * d))
+        c[np.repeat(np.arange(nb), 2 * d), indices] = data  # (row, col) pairs are distinct
         return c
-    return sp.csr_matrix((data, indices, indptr), shape=(len(indptr) - 1, n * d))
+    return sp.csr_matrix((data, indices, indptr), shape=(nb, n * d))
 
 
 def rigid_motions(positions: np.ndarray, rtol: float = RTOL) -> np.ndarray:
@@ -271,8 +272,9 @@ SHIFT = 1e-13
 # same answer every time), and a single column whose part along σ_r's singular vector happens
 # to be small converges to a larger singular value first and stalls there, which the gap then
 # reports as σ_r (20 000 random frames of 10–80 nodes, 2D and 3D, N_B within 12 of dN, against
-# numpy's SVD: the Ritz value over σ_r above 2 in 23 frames with one column, up to 2.6; at most
-# 1.53 with two; from Gaussian starting columns 16 frames and 3.3, at most 1.48). The second
+# numpy's SVD: the Ritz value over σ_r above 2 in 14 frames with one column, up to 2.37; at most
+# 1.80 with two; from NumPy's uniform starting columns 23 frames and 2.6, at most 1.53; from
+# Gaussian ones 16 frames and 3.3, at most 1.48). The second
 # column costs 5–13 % of the count's time on the benchmark's frames of 10²–10⁴ nodes (measured
 # in turn).
 OVERSAMPLE = 2
@@ -402,6 +404,8 @@ class _NullProblem:
 
     def step(self, y: np.ndarray) -> np.ndarray:
         """One shift-invert step: the inverse, the known null vectors projected out, QR."""
+        # A thin block's projection and Householder QR in one compiled call (the NumPy and
+        # LAPACK calls' overhead outweighed their work at 10² nodes); wider ones as _orthonormal.
         if y.shape[1] <= HOUSEHOLDER_MAX_COLUMNS:
             return sparse_kernels.project_out_and_orthonormalise(np.ascontiguousarray(self.inverse(y)), self.known)
         return _orthonormal(self.deflate(self.inverse(y)))
