@@ -39,7 +39,7 @@ from zeromode.service.routes import (
 )
 from zeromode.service.settings import Settings, settings_scope
 from zeromode.solver.budget import time_budget
-from zeromode.solver.sparse_kernels import warm_up
+from zeromode.solver.rigidity import warm_up
 
 log = logging.getLogger("zeromode")
 # A caller's request id is kept only if it is this kind of token (no control characters in logs).

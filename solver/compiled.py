@@ -10,7 +10,7 @@ def compiled(function):
     NUMBA_CACHE_DIR or in the user's cache directory, the first of them writable); where none is
     writable (a read-only install run by a user without a home), compiled in each process.
 
-    Compiled when first called with new argument types: see sparse_kernels.warm_up."""
+    Compiled when first called with new argument types: see rigidity.warm_up."""
     try:
         return njit(cache=True)(function)
     except RuntimeError:  # numba's "cannot cache function …: no locator available"

@@ -24,7 +24,8 @@ Two routes, with identical counts and subspaces where both apply:
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
+from itertools import product
 
 import numpy as np
 import scipy.sparse as sp
@@ -36,6 +37,7 @@ from zeromode.solver.budget import check_budget
 from zeromode.solver.errors import DomainError
 from zeromode.solver.factorisation import cholesky_csr, minimum_degree, nested_dissection
 from zeromode.solver.frame import Frame
+from zeromode.solver.normalisation import normalised
 from zeromode.solver.progress import report_detail
 from zeromode.solver.rank import RTOL, RankGap, complement_within, decide_rank
 
@@ -295,6 +297,16 @@ SMALL_PIVOT = 1e6
 # than on null vectors found, which widening doubles to anyway (a 64-column start saves at most
 # six widenings).
 SMALL_PIVOT_MAX_START = 64
+# σ_max(C) (for the rank's relative threshold and the shift) is √λ_max of AᵀA (A = C or Cᵀ,
+# the counted side), the largest eigenvalue of the tridiagonal T_k of this many Lanczos steps on
+# AᵀA from a random start (sparse_kernels.largest_singular_value): a Rayleigh quotient on the
+# Krylov space, so never above λ_max (round-off allowing). Measured on 2D and 3D lattices of
+# 10²–10⁴ nodes: six steps give σ_max within 3.6 % from below, closer than ten steps of the power
+# iteration (within 4.5 %), and over 400 random starts on five 300-node lattice patches within
+# 6.2 % (median 2–3 %): ample for a relative threshold and a shift. AᵀA q is taken as Aᵀ(A q):
+# two products with A's 2d entries a row cost less than one with the Gram matrix's (a 10⁴-node 2D
+# network: 0.11 ms against 0.18 ms).
+LANCZOS_STEPS = 6
 # Bases are iterated until ‖C v‖ ≤ BASIS_ANGLE·σ_r for every basis vector v, which bounds
 # the angle between the returned and the exact null space by BASIS_ANGLE (round-off allowing).
 BASIS_ANGLE = 1e-10
@@ -367,11 +379,6 @@ class _Sparse:
     t_data: np.ndarray
     shape: tuple[int, int]
 
-    @classmethod
-    def of(cls, indptr: np.ndarray, indices: np.ndarray, data: np.ndarray, ncols: int) -> _Sparse:
-        transposed = sparse_kernels.transpose_csr(indptr, indices, data, ncols)
-        return cls(indptr, indices, data, *transposed, (indptr.size - 1, ncols))
-
     @property
     def T(self) -> _Sparse:
         return _Sparse(self.t_indptr, self.t_indices, self.t_data, self.indptr, self.indices, self.data,
@@ -382,11 +389,6 @@ class _Sparse:
         block = np.ascontiguousarray(y, dtype=float).reshape(self.shape[1], -1)
         out = sparse_kernels.times(self.indptr, self.indices, self.data, block)
         return out.reshape(self.shape[0]) if y.ndim == 1 else out
-
-    def gram(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """CSR arrays of A Aᵀ (m × m)."""
-        return sparse_kernels.row_gram(self.indptr, self.indices, self.data, self.t_indptr, self.t_indices,
-                                       self.t_data)
 
 
 @dataclass(frozen=True, eq=False)
@@ -443,17 +445,19 @@ def _sparse_null_spaces(x: np.ndarray, edges: np.ndarray, rigid: np.ndarray, rto
         modes = complement_within(np.eye(ndof), rigid) if empty else None
         return modes, np.zeros((0, 0)), 0, RankGap(0.0, 0.0)
     edges = np.asarray(edges, dtype=np.int64).reshape(-1, 2)
-    c = _Sparse.of(*sparse_kernels.compatibility_csr(np.ascontiguousarray(x, dtype=float), edges), ndof)
     rigid = np.ascontiguousarray(rigid)
     surplus = ndof - nb
     count_modes = surplus <= rho
-    a, b = (c, c.T) if count_modes else (c.T, c)  # the counted side's matrix, the other's
     stream = _random_stream()
-    sigma_max = _largest_singular_value(a, stream)
+    # C, Cᵀ, σ_max and the Gram matrix of the counted side (CᵀC or CCᵀ), see LANCZOS_STEPS
+    rows, columns, sigma_max, gram = sparse_kernels.count_setup(
+        np.ascontiguousarray(x, dtype=float), edges, count_modes, stream, LANCZOS_STEPS
+    )
+    c = _Sparse(*rows, *columns, (nb, ndof))
+    a, b = (c, c.T) if count_modes else (c.T, c)  # the counted side's matrix, the other's
     tol = rtol * sigma_max
     shift = SHIFT * sigma_max**2
-    # the Gram matrix of the counted side, CᵀC = b bᵀ or CCᵀ = b bᵀ
-    factor = cholesky_csr(*b.gram(), _elimination_order(x, edges, count_modes), shift=shift)
+    factor = cholesky_csr(*gram, _elimination_order(x, edges, count_modes), shift=shift)
     report_detail(0.3, "factorised the Gram matrix")
     floor = max(surplus, rho)
     bound = floor - rho if count_modes else floor - surplus
@@ -527,20 +531,6 @@ def _random_block(stream: np.ndarray, n: int, k: int | None = None) -> np.ndarra
     return block[:, 0] if k is None else block
 
 
-def _largest_singular_value(a: _Sparse, stream: np.ndarray, steps: int = 6) -> float:
-    """σ_max(A) (A: m × n, C or Cᵀ) = √λ_max of AᵀA: the largest eigenvalue of the tridiagonal
-    T_k of ``steps`` Lanczos steps on AᵀA from a random start, a Rayleigh quotient on the Krylov
-    space, so never above λ_max (round-off allowing; sparse_kernels.largest_singular_value).
-    Measured on 2D and 3D lattices of 10²–10⁴ nodes: six steps give σ_max within 3.6 % from
-    below, closer than ten steps of the power iteration (within 4.5 %), and over 400 random
-    starts on five 300-node lattice patches within 6.2 % (median 2–3 %): ample for a relative
-    threshold and a shift. AᵀA q is taken as Aᵀ(A q): two products with A's 2d entries a row
-    cost less than one with the Gram matrix's (a 10⁴-node 2D network: 0.11 ms against 0.18 ms)."""
-    start = _random_block(stream, a.shape[1])
-    return float(sparse_kernels.largest_singular_value(a.indptr, a.indices, a.data, a.t_indptr, a.t_indices,
-                                                       a.t_data, start, steps))
-
-
 def _null_by_subspace_iteration(
     problem: _NullProblem, tol: float, expected: int, stream: np.ndarray, shift: float,
     first_steps: int = 2, max_rounds: int = 60,
@@ -548,85 +538,28 @@ def _null_by_subspace_iteration(
     """Orthonormal basis of N(matrix) ⊖ span(known) (columns), the smallest nonzero Ritz
     singular value and the largest zero one: the count behind the rank.
 
-    Shift-invert subspace iteration: each step applies (matrixᵀmatrix + δI)⁻¹ (δ = ``shift``),
-    which damps a singular direction σ by δ/(σ² + δ) relative to the null space, and
-    re-orthonormalises the block (``expected`` + OVERSAMPLE columns, ⟂ known; ``expected`` is a
-    guess at the null space's dimension, which only sets the starting width). After each round
-    a Rayleigh–Ritz step on the matrix itself gives the Ritz singular values θ ≥ σ on the
-    block; those with θ ≤ tol are null, and once θ ≤ SETTLED·tol they are locked: kept aside
-    and projected out of the block, which goes on with its other columns only (the null space
-    is invariant under the shifted inverse, so this spans what iterating the whole block would,
-    without solving for vectors already found). A null direction not yet found shows up as a
-    small nonzero θ that keeps falling by δ/(σ² + δ) per step, so the rounds (one step each
-    after the first) stop only when a round finds no new null vector and no θ it watches fell by
-    10 % or more from the θ in the same place a round before (locked ones leave the block,
-    settled). It watches the null θ not yet locked and the nonzero θ with θ² < DAMPED·δ (in a
-    wider block a falling θ is a block still turning towards the directions the shift
-    amplifies, and a null vector may be mixed into a smaller θ that does not fall; a null θ not
-    yet settled that still falls is a null vector still shedding singular directions the shift
-    barely damps, whose θ would be reported as σ_{r+1}: a 10⁵-node network started at its
-    guessed width reported 1.4e-11 against σ_r 7.7e-11 when only the nonzero θ were watched,
-    3e-14 watching all).
-    Two kinds of block may miss part of the null space, and take fresh random directions before
-    the rounds start again: one whose columns are all null takes as many as its width (locked
-    columns included), and one whose largest θ has θ² < δ (all of it lies in directions the
-    shift barely damps, which may extend beyond it; see SHIFT) as many as it has such nonzero
-    θ (doubling there added columns past the first damped one: 2D 10⁴-node networks, column
-    solves over seeds 0–7, 128 against 137). The count is that of a last
-    Rayleigh–Ritz step on the locked and the other columns together, which by interlacing never
-    exceeds the null space's dimension; when every locked column was locked by the latest
-    Rayleigh–Ritz step and the other columns are that step's Ritz vectors, the two span the same
-    space and that step's pairs are its pairs (one product with the matrix and one QR saved).
+    Shift-invert subspace iteration (δ = ``shift``) from a block of ``expected`` + OVERSAMPLE
+    columns (``expected`` is a guess at the null space's dimension, which only sets the starting
+    width), compiled as sparse_kernels.null_space_rounds (its docstring states the rounds,
+    the locking, the widening and the stop); this drives it: applies the shifted inverse and
+    the QR of wide blocks where it asks, checks the time budget once a round, and refuses a null
+    space of more than MAX_NULL_VECTORS vectors.
     """
-    n = problem.matrix.shape[1]
-    room = n - problem.known.shape[1]
-    if room == 0:
-        return np.zeros((n, 0)), 0.0, 0.0
-    active = problem  # its known columns grow by the locked null vectors
-    y = problem.deflate(_random_block(stream, n, min(room, expected + OVERSAMPLE)))
-    steps, previous = first_steps, None
-    latest = None  # the latest Rayleigh–Ritz step's pairs, while they span every column
-    for _ in range(max_rounds):
-        check_budget()
-        for _ in range(steps):
-            y = active.step(y)
-        older_locks = active.known.shape[1] > problem.known.shape[1]
-        theta, y = _ritz_pairs(problem.matrix, y)
-        latest = None if older_locks else (theta, y)
-        settled = int(np.count_nonzero(theta <= SETTLED * tol))
-        if settled:
-            active = replace(active, known=np.hstack([active.known, y[:, :settled]]))
-            theta, y = theta[settled:], y[:, settled:]
-            if previous is not None:  # compare what stays with the same places a round before
-                previous = previous[0], previous[1][settled:]
-        locked = active.known.shape[1] - problem.known.shape[1]
-        z = int(np.count_nonzero(theta <= tol))
-        null, width = locked + z, locked + y.shape[1]
-        if null == width or theta[-1] ** 2 < shift:
-            if width == room:
-                break
-            if width >= MAX_NULL_VECTORS:
-                raise DomainError(
-                    "too_expensive",
-                    f"the frame has more than {MAX_NULL_VECTORS} independent zero modes.",
-                )
-            more = width if null == width else int(np.count_nonzero((theta > tol) & (theta**2 < shift)))
-            fresh = active.deflate(_random_block(stream, n, min(more, room - width)))
-            y = np.hstack([y, fresh - y @ (y.T @ fresh)])
-            steps, previous, latest = first_steps, None, None
-            continue
-        watched = (theta <= tol) | (theta**2 < DAMPED * shift)
-        if previous is not None and null == previous[0] and np.all((theta >= 0.9 * previous[1]) | ~watched):
-            break
-        steps, previous = 1, (null, theta)
-    if latest is None:
-        locked_columns = active.known[:, problem.known.shape[1] :]
-        latest = _ritz_pairs(problem.matrix, np.hstack([locked_columns, y]))
-    theta, y = latest
-    z = int(np.count_nonzero(theta <= tol))
-    kept = float(theta[z]) if z < theta.size else 0.0
-    dropped = float(theta[z - 1]) if z > 0 else 0.0
-    return y[:, :z], kept, dropped
+    a = problem.matrix
+    rounds = sparse_kernels.null_space_rounds(
+        a.indptr, a.indices, a.data, np.array(problem.known, dtype=float, order="C"), expected + OVERSAMPLE,
+        stream, tol, shift, SETTLED, DAMPED, HOUSEHOLDER_MAX_COLUMNS, MAX_NULL_VECTORS, first_steps, max_rounds,
+    )
+    for request, block, kept, dropped in rounds:
+        if request == sparse_kernels.SOLVE:
+            block[...] = problem.inverse(block)
+        elif request == sparse_kernels.ORTHONORMALISE:
+            block[...] = _orthonormal(block)
+        elif request == sparse_kernels.ROUND:
+            check_budget()
+        elif request == sparse_kernels.TOO_MANY:
+            raise DomainError("too_expensive", f"the frame has more than {MAX_NULL_VECTORS} independent zero modes.")
+    return block, kept, dropped  # the last message, DONE
 
 
 def _null_basis(
@@ -719,3 +652,25 @@ def _ritz_pairs(matrix: _Sparse, y: np.ndarray):
     if y.shape[1] == 0:
         return np.zeros(0), y
     return sparse_kernels.ritz_pairs(matrix.indptr, matrix.indices, matrix.data, np.ascontiguousarray(y))
+
+
+def warm_up() -> None:
+    """Compile the sparse route's kernels (solver/sparse_kernels.py)
+    for the argument types it passes them (int64 indices, float64 C-contiguous blocks; positions
+    and bars writable or read-only), or load them from numba's cache: about 12 s to compile in a
+    fresh environment, 0.2 s from the cache. The service calls this when it starts and the
+    container image when it is built, so that no request pays for compilation within its time
+    budget. The complete graph on four nodes in the plane counts its zero modes (one
+    self-stress), the square its self-stresses (one mechanism), both with bases."""
+    positions = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    bars = np.array([[0, 1], [1, 2], [2, 3], [0, 3], [0, 2], [1, 3]], dtype=np.int64)
+    frozen_positions, frozen_bars = positions.copy(), bars.copy()
+    frozen_positions.flags.writeable = frozen_bars.flags.writeable = False
+    for x, e in product((positions, frozen_positions), (bars, frozen_bars)):
+        sparse_kernels.compatibility_csr(x, e)
+    for x in (positions, frozen_positions):
+        normalised(x)
+        sparse_kernels.rigid_motion_svd(x)
+    for frame in (Frame(positions, bars), Frame(positions, bars[:4])):
+        for bases in (False, True):
+            analyze(frame, method="sparse", bases=bases)

@@ -12,8 +12,30 @@ in an environment):
   * ``transpose_csr``: Aᵀ; ``row_gram``: A Aᵀ (CᵀC from A = Cᵀ, CCᵀ from A = C);
   * ``times``: A·Y;
   * ``largest_singular_value``: σ_max(A) by Lanczos on AᵀA; ``product_norm``: ‖A·Y‖₂;
-  * ``ritz_pairs``: Rayleigh–Ritz singular values and vectors of A on span(Y);
-  * ``project_out_and_orthonormalise``: Q of (I − K Kᵀ) Y.
+  * ``count_setup``: C, Cᵀ, σ_max and the Gram matrix of the counted side in one call;
+  * ``ritz_pairs``: Rayleigh–Ritz singular values and vectors of A on span(Y) (``jacobi_svd``:
+    the SVD of a few columns);
+  * ``project_out``: (I − K Kᵀ) Y; ``project_out_and_orthonormalise``: Q of (I − K Kᵀ) Y;
+  * ``null_space_rounds``: the count's whole shift-invert subspace iteration, a generator that
+    hands its block to the caller for each shifted solve (CHOLMOD's, solver/factorisation.py).
+
+The iteration is one generator rather than a Python loop over the steps: at 10² nodes a round
+is a few microseconds of arithmetic, and the loop's decisions, array bookkeeping and calls cost
+more than the steps (2D network of 100 nodes: 0.12 ms of Python-level work in a 0.36 ms count
+against a 0.14 ms CHOLMOD factorisation). Each of its yields is ``(request, block, kept,
+dropped)``:
+
+  * SOLVE: the caller replaces ``block`` in place by a positive multiple of (AᵀA + δI)⁻¹ block;
+  * ORTHONORMALISE: the caller replaces ``block`` in place by an orthonormal basis of its columns
+    (blocks too wide for the compiled Householder QR, where its Cholesky QR is faster);
+  * ROUND: a round begins (the caller checks its time budget; ``block`` is read only);
+  * TOO_MANY: the block would pass ``max_null`` columns (the caller refuses the frame);
+  * DONE: ``block`` is the basis, ``kept`` the smallest nonzero Ritz value, ``dropped`` the
+    largest zero one; the generator ends.
+
+The compiled functions that call one another live in this one module on purpose: numba's disk
+cache is invalidated by a change of the file that holds a cached function, not of the files of
+the functions it calls.
 
 Hot loops index through np.uint64 casts (``_u``): numba checks every signed index for
 wraparound, which made a product with C 1.7× slower than SciPy's at 10⁴ nodes (69 against 40 µs);
@@ -22,20 +44,28 @@ with the casts the two are level.
 Why compiled: at 10² nodes every step handles a few hundred numbers, and the count made some
 forty NumPy and SciPy calls whose per-call overhead (1–60 µs each, more inside a count than
 alone: the cache is cold) cost more than the CHOLMOD factorisation itself (0.2–0.7 ms); at 10⁴
-nodes and more the same loops run as fast as SciPy's. ``warm_up`` compiles them all ahead of
-the first request.
+nodes and more the same loops run as fast as SciPy's. ``rigidity.warm_up`` compiles them all
+ahead of the first request.
 """
 
 from __future__ import annotations
 
-from itertools import product
-
 import numpy as np
 
 from zeromode.solver.compiled import compiled
-from zeromode.solver.normalisation import normalised
 
 _u = np.uint64
+# null_space_rounds' requests to its caller
+SOLVE, ORTHONORMALISE, ROUND, TOO_MANY, DONE = range(5)
+# Rayleigh–Ritz takes the SVD of its k × k triangular factor by one-sided Jacobi up to this many
+# columns: LAPACK's gesdd costs a few microseconds of set-up at any size (measured, one core,
+# inside numba: k = 5 1.7 µs against 4.2 µs, 8 4.4 against 7.1, level at 12, 16 24 against 18).
+JACOBI_MAX_COLUMNS = 8
+# A column pair counts as orthogonal once |r_jᵀ r_l| ≤ JACOBI_TOL ‖r_j‖ ‖r_l‖: a few units of
+# round-off, the accuracy the rotations themselves reach; Jacobi converges quadratically, and
+# past JACOBI_MAX_SWEEPS sweeps (never seen) the SVD falls back to LAPACK's.
+JACOBI_TOL = 1e-15
+JACOBI_MAX_SWEEPS = 30
 
 
 @compiled
@@ -230,50 +260,227 @@ def largest_singular_value(indptr, indices, data, t_indptr, t_indices, t_data, s
 
 
 @compiled
+def count_setup(positions, edges, count_modes, stream, steps):
+    """The sparse count's set-up in one call (one dispatch instead of five at 10² nodes): the
+    CSR arrays of C (N_B × dN, ``compatibility_csr``) and of Cᵀ; σ_max(C) by ``steps`` Lanczos
+    steps on AᵀA (``largest_singular_value``) from a start of ``uniform_block(stream, n, 1)``; and
+    the CSR arrays of AᵀA (``row_gram``), for A = C (n = dN, AᵀA = CᵀC) if ``count_modes``,
+    else A = Cᵀ (n = N_B, AᵀA = CCᵀ): the side whose null space the count iterates on."""
+    indptr, indices, data = compatibility_csr(positions, edges)
+    t_indptr, t_indices, t_data = transpose_csr(indptr, indices, data, positions.size)
+    if count_modes:
+        start = uniform_block(stream, positions.size, 1).reshape(positions.size)
+        sigma_max = largest_singular_value(indptr, indices, data, t_indptr, t_indices, t_data, start, steps)
+        gram = row_gram(t_indptr, t_indices, t_data, indptr, indices, data)
+    else:
+        start = uniform_block(stream, edges.shape[0], 1).reshape(edges.shape[0])
+        sigma_max = largest_singular_value(t_indptr, t_indices, t_data, indptr, indices, data, start, steps)
+        gram = row_gram(indptr, indices, data, t_indptr, t_indices, t_data)
+    return (indptr, indices, data), (t_indptr, t_indices, t_data), sigma_max, gram
+
+
+@compiled
 def ritz_pairs(indptr, indices, data, y):
     """Ritz singular values θ (ascending) and vectors (n, k) of A on span(Y), Y (n, k ≥ 1)
     orthonormal: the singular values of A·Y are those of its triangular factor R (A·Y = QR),
     whose SVD R = U Σ Wᵀ gives the right singular vectors Y W (θ completed with zeros when A
-    has fewer rows than Y has columns)."""
+    has fewer rows than Y has columns). R's SVD by one-sided Jacobi when R is square with at
+    most JACOBI_MAX_COLUMNS columns, else LAPACK's."""
     k = y.shape[1]
     r = np.linalg.qr(times(indptr, indices, data, y))[1]
-    _, s, wt = np.linalg.svd(r)
     theta = np.zeros(k)
-    theta[: s.size] = s
+    converged = False
+    if k <= JACOBI_MAX_COLUMNS and r.shape[0] == k:  # else LAPACK's zeros are exact
+        theta, w, converged = jacobi_svd(r)
+    if not converged:
+        _, s, wt = np.linalg.svd(r)
+        theta = np.zeros(k)
+        theta[: s.size] = s
+        w = np.ascontiguousarray(wt.T)
     order = np.argsort(theta, kind="mergesort")
-    return theta[order], y @ np.ascontiguousarray(wt[order].T)
+    return theta[order], y @ np.ascontiguousarray(w[:, order])
+
+
+@compiled
+def jacobi_svd(r):
+    """Singular values s (k,), right singular vectors W (k × k, orthogonal) of r (p × k, any
+    p ≥ 1), and whether the rotations converged: one-sided Jacobi (Hestenes 1958), plane
+    rotations of column pairs, accumulated in W, until the columns of r W are mutually
+    orthogonal (|r_jᵀ r_l| ≤ JACOBI_TOL ‖r_j‖ ‖r_l‖ for every pair of columns above JACOBI_TOL
+    ‖R‖_F, within JACOBI_MAX_SWEEPS sweeps); s are their norms, in W's column order (zeros, to
+    round-off, where p < k). Small singular values above that come out with a small relative
+    error, not just small against the largest (Demmel and Veselić 1992)."""
+    p, k = r.shape
+    a = np.asfortranarray(r).copy()
+    w = np.eye(k)
+    # a column this small against the whole (‖R‖_F, which rotations keep) is round-off: never
+    # rotated, as no rotation can make it orthogonal to another beyond that (one row: any two
+    # columns are parallel, and the rotation that zeroes one leaves round-off behind)
+    negligible = JACOBI_TOL**2 * np.sum(a * a)
+    converged = False
+    for _ in range(JACOBI_MAX_SWEEPS):
+        rotated = False
+        for j in range(k - 1):
+            for l in range(j + 1, k):
+                alpha, beta, gamma = 0.0, 0.0, 0.0
+                for i in range(p):
+                    alpha += a[i, j] * a[i, j]
+                    beta += a[i, l] * a[i, l]
+                    gamma += a[i, j] * a[i, l]
+                if abs(gamma) <= JACOBI_TOL * np.sqrt(alpha * beta) or min(alpha, beta) <= negligible:
+                    continue
+                rotated = True
+                # the rotation that zeroes the pair's inner product (tangent of the smaller angle)
+                zeta = (beta - alpha) / (2.0 * gamma)
+                t = (1.0 if zeta >= 0.0 else -1.0) / (abs(zeta) + np.sqrt(1.0 + zeta * zeta))
+                c = 1.0 / np.sqrt(1.0 + t * t)
+                s = c * t
+                for i in range(p):
+                    aj, al = a[i, j], a[i, l]
+                    a[i, j], a[i, l] = c * aj - s * al, s * aj + c * al
+                for i in range(k):
+                    wj, wl = w[i, j], w[i, l]
+                    w[i, j], w[i, l] = c * wj - s * wl, s * wj + c * wl
+        if not rotated:
+            converged = True
+            break
+    norms = np.empty(k)
+    for j in range(k):
+        norms[j] = np.sqrt(np.sum(a[:, j] * a[:, j]))
+    return norms, w, converged
+
+
+@compiled
+def project_out(y, known):
+    """(I − K Kᵀ) Y, a new array, for Y (n, k) and K (n, ρ) orthonormal (ρ may be 0)."""
+    if known.shape[1] == 0:
+        return y.copy()
+    return y - known @ (known.T @ y)
 
 
 @compiled
 def project_out_and_orthonormalise(y, known):
-    """Q (n, k) of the QR factorisation of (I − K Kᵀ) Y, for Y (n, k ≤ n) and K (n, ρ) orthonormal
-    (ρ may be 0); Householder QR (LAPACK geqrf, orgqr)."""
+    """Q (n, k), C-contiguous, of the QR factorisation of (I − K Kᵀ) Y, for Y (n, k ≤ n) and
+    K (n, ρ) orthonormal (ρ may be 0); Householder QR (LAPACK geqrf, orgqr, whose Q is
+    column-major)."""
     if known.shape[1]:
-        y = y - known @ (known.T @ y)
-    return np.linalg.qr(y)[0]
+        y = project_out(y, known)
+    return np.ascontiguousarray(np.linalg.qr(y)[0])
 
 
-def warm_up() -> None:
-    """Compile every kernel for the argument types the sparse route passes them (int64 indices,
-    float64 C-contiguous blocks; positions and bars writable or read-only), or load it from
-    numba's cache: about 6 s to compile in a fresh environment, 0.2 s from the cache. The
-    service calls this when it starts and the container image when it is built, so that no
-    request pays for compilation within its time budget."""
-    positions = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
-    bars = np.array([[0, 1], [1, 2], [0, 2]], dtype=np.int64)
-    frozen_positions, frozen_bars = positions.copy(), bars.copy()
-    frozen_positions.flags.writeable = frozen_bars.flags.writeable = False
-    for x, e in product((positions, frozen_positions), (bars, frozen_bars)):
-        c = compatibility_csr(x, e)
-    for x in (positions, frozen_positions):
-        normalised(x)
-        rigid = rigid_motion_svd(x)[0]
-    ct = transpose_csr(*c, positions.size)
-    row_gram(*ct, *c)
-    block = np.eye(positions.size)[:, :2].copy()
-    times(*c, block)
-    largest_singular_value(*c, *ct, np.ones(positions.size), 2)
-    product_norm(*c, np.ascontiguousarray(rigid))
-    ritz_pairs(*c, block)
-    uniform_block(np.zeros(1, np.uint64), 2, 2)
-    project_out_and_orthonormalise(block, np.zeros((positions.size, 0)))
+@compiled
+def null_space_rounds(indptr, indices, data, known, width, stream, tol, shift, settled, damped,
+                      householder_max, max_null, first_steps, max_rounds):
+    """Orthonormal basis of N(A) ⊖ span(K), yielding as the module docstring says.
+
+    A: m × n in CSR arrays; known: K (n × ρ, C-contiguous, orthonormal); width: the block's
+    starting width (a guess at the dimension plus oversampling); stream: the SplitMix64 state
+    of the starting columns (sparse_kernels.uniform_block); tol: the rank's threshold on the
+    Ritz values; shift: δ.
+
+    Shift-invert subspace iteration: each step applies (AᵀA + δI)⁻¹, which damps a singular
+    direction σ by δ/(σ² + δ) relative to the null space, and re-orthonormalises the block
+    (⟂ K). After each round a Rayleigh–Ritz step on A itself gives the Ritz singular values
+    θ ≥ σ on the block; those with θ ≤ tol are null, and once θ ≤ ``settled``·tol they are
+    locked: kept aside and projected out of the block, which goes on with its other columns
+    only (the null space is invariant under the shifted inverse, so this spans what iterating
+    the whole block would, without solving for vectors already found). A null direction not yet
+    found shows up as a small nonzero θ that keeps falling by δ/(σ² + δ) per step, so the rounds
+    (``first_steps`` steps in the first, one after) stop only when a round finds no new null
+    vector and no θ it watches fell by 10 % or more from the θ in the same place a round before
+    (locked ones leave the block, settled). It watches the null θ not yet locked and the
+    nonzero θ with θ² < ``damped``·δ (in a wider block a falling θ is a block still turning
+    towards the directions the shift amplifies, and a null vector may be mixed into a smaller θ
+    that does not fall; a null θ not yet settled that still falls is a null vector still
+    shedding singular directions the shift barely damps, whose θ would be reported as σ_{r+1}:
+    a 10⁵-node network started at its guessed width reported 1.4e-11 against σ_r 7.7e-11 when
+    only the nonzero θ were watched, 3e-14 watching all).
+
+    Two kinds of block may miss part of the null space, and take fresh random directions before
+    the rounds start again: one whose columns are all null takes as many as its width (locked
+    columns included), and one whose largest θ has θ² < δ (all of it lies in directions the
+    shift barely damps, which may extend beyond it) as many as it has such nonzero θ (doubling
+    there added columns past the first damped one: 2D 10⁴-node networks, column solves over
+    seeds 0–7, 128 against 137). The count is that of a last Rayleigh–Ritz step on the locked
+    and the other columns together, which by interlacing never exceeds the null space's
+    dimension; when every locked column was locked by the latest Rayleigh–Ritz step and the
+    other columns are that step's Ritz vectors, the two span the same space and that step's
+    pairs are its pairs (one product with A and one QR saved).
+    """
+    n = known.shape[0]
+    base = known.shape[1]
+    room = n - base
+    if room == 0:
+        yield DONE, np.zeros((n, 0)), 0.0, 0.0
+        return
+    active = known  # the known columns and the locked null vectors
+    y = project_out(uniform_block(stream, n, min(room, width)), active)
+    steps = first_steps
+    watching = False  # whether the previous round's null count and θ are there to compare
+    previous_null = 0
+    previous_theta = np.zeros(0)
+    latest = False  # whether the latest Rayleigh–Ritz step's pairs span every column
+    latest_theta = np.zeros(0)
+    latest_y = y
+    for _ in range(max_rounds):
+        yield ROUND, y, 0.0, 0.0
+        for _ in range(steps):
+            yield SOLVE, y, 0.0, 0.0
+            if y.shape[1] <= householder_max:
+                y = project_out_and_orthonormalise(y, active)
+            else:
+                y = project_out(y, active)
+                yield ORTHONORMALISE, y, 0.0, 0.0
+        older_locks = active.shape[1] > base
+        theta, y = ritz_pairs(indptr, indices, data, y)
+        latest = not older_locks
+        latest_theta, latest_y = theta, y
+        newly = 0
+        while newly < theta.size and theta[newly] <= settled * tol:
+            newly += 1
+        if newly:
+            active = np.hstack((active, np.ascontiguousarray(y[:, :newly])))
+            theta, y = theta[newly:].copy(), np.ascontiguousarray(y[:, newly:])
+            if watching:  # compare what stays with the same places a round before
+                previous_theta = previous_theta[newly:].copy()
+        locked = active.shape[1] - base
+        z = 0
+        while z < theta.size and theta[z] <= tol:
+            z += 1
+        null, width = locked + z, locked + y.shape[1]
+        if null == width or theta[-1] ** 2 < shift:
+            if width == room:
+                break
+            if width >= max_null:
+                yield TOO_MANY, y, 0.0, 0.0
+                return
+            if null == width:
+                more = width
+            else:
+                more = 0
+                for value in theta:
+                    if value > tol and value**2 < shift:
+                        more += 1
+            fresh = project_out(uniform_block(stream, n, min(more, room - width)), active)
+            y = np.hstack((y, fresh - y @ (y.T @ fresh)))
+            steps, watching, latest = first_steps, False, False
+            continue
+        if watching and null == previous_null:
+            still = True
+            for i in range(theta.size):
+                if theta[i] < 0.9 * previous_theta[i] and (theta[i] <= tol or theta[i] ** 2 < damped * shift):
+                    still = False
+                    break
+            if still:
+                break
+        steps, watching, previous_null, previous_theta = 1, True, null, theta
+    if latest:
+        theta, y = latest_theta, latest_y
+    else:
+        theta, y = ritz_pairs(indptr, indices, data, np.hstack((np.ascontiguousarray(active[:, base:]), y)))
+    z = 0
+    while z < theta.size and theta[z] <= tol:
+        z += 1
+    kept = theta[z] if z < theta.size else 0.0
+    dropped = theta[z - 1] if z > 0 else 0.0
+    yield DONE, np.ascontiguousarray(y[:, :z]), kept, dropped

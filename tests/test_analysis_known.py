@@ -310,16 +310,21 @@ def test_sigma_max_estimate_is_a_close_lower_bound(name):
     # (and on CCᵀ, through Cᵀ): a Rayleigh quotient, so never above numpy's σ_max, and within
     # 8 % of it (over 400 random starts on these frames, at most 6.2 % below, median 2–3 %).
     from benchmarks.lattices import LATTICES
-    from zeromode.solver.rigidity import _largest_singular_value, _Sparse
+    from zeromode.solver.rigidity import LANCZOS_STEPS
+    from zeromode.solver.sparse_kernels import largest_singular_value, uniform_block
 
     frame = LATTICES[name](300, jitter=0.1, seed=3)
     c = compatibility_matrix(normalised(np.asarray(frame.positions)), frame.edges)
     exact = singular_values(c)[0]
-    rows = sp.csr_matrix(c)  # the oracle's dense C
-    arrays = _Sparse.of(rows.indptr.astype(np.int64), rows.indices.astype(np.int64), rows.data, c.shape[1])
+
+    def arrays(a):
+        a = sp.csr_matrix(a)
+        return a.indptr.astype(np.int64), a.indices.astype(np.int64), a.data.astype(float)
+
     for seed in range(3):  # the random stream's state: three different starts
-        for side in (arrays, arrays.T):
-            estimate = _largest_singular_value(side, np.array([seed], dtype=np.uint64))
+        for side in (c, c.T):  # the oracle's dense C
+            start = uniform_block(np.array([seed], dtype=np.uint64), side.shape[1], 1)[:, 0]
+            estimate = largest_singular_value(*arrays(side), *arrays(side.T), start, LANCZOS_STEPS)
             assert 0.92 * exact <= estimate <= exact * (1 + 1e-12)
 
 

@@ -22,8 +22,16 @@ from hypothesis import strategies as st
 
 from zeromode.solver.normalisation import normalised
 from zeromode.solver.sparse_kernels import (
+    DONE,
+    ORTHONORMALISE,
+    ROUND,
+    SOLVE,
+    TOO_MANY,
     compatibility_csr,
+    count_setup,
+    jacobi_svd,
     largest_singular_value,
+    null_space_rounds,
     product_norm,
     project_out_and_orthonormalise,
     rigid_motion_svd,
@@ -529,6 +537,131 @@ def test_project_out_leaves_its_inputs_alone():
     np.testing.assert_array_equal(y, y_copy)
     np.testing.assert_array_equal(known, known_copy)
     np.testing.assert_allclose(known.T @ q, 0.0, atol=1e-13)
+
+
+# --- jacobi_svd ---------------------------------------------------------------------------------
+
+
+@KERNEL_SETTINGS
+@given(st.integers(1, 10), st.integers(1, 10), seeds, st.booleans())
+def test_jacobi_svd_against_lapack(p, k, seed, graded):
+    """Singular values as np.linalg.svd's (zeros where p < k), W orthogonal, and r W with
+    orthogonal columns whose norms are s. Graded columns (scales 1 … 1e-16, as R's of a block
+    holding null vectors) keep their small singular values to a small relative error."""
+    rng = np.random.default_rng(seed)
+    scales = 10.0 ** rng.uniform(-16, 0, size=k) if graded else np.ones(k)
+    r = rng.standard_normal((p, k)) * scales
+    s, w, converged = jacobi_svd(r)
+    assert converged
+    reference = np.zeros(k)
+    values = np.linalg.svd(r, compute_uv=False)
+    reference[k - values.size :] = np.sort(values)
+    np.testing.assert_allclose(np.sort(s), reference, rtol=0, atol=1e-14 * reference[-1])
+    np.testing.assert_allclose(w.T @ w, np.eye(k), rtol=0, atol=1e-13)
+    rw = r @ w
+    np.testing.assert_allclose(np.linalg.norm(rw, axis=0), s, rtol=0, atol=1e-14 * reference[-1])
+    off = rw.T @ rw - np.diag(s**2)
+    assert np.abs(off).max() <= 1e-13 * reference[-1] ** 2
+    if graded and p >= k:  # R's small singular values, relative to themselves
+        square = np.linalg.qr(r)[1]  # triangular, as Rayleigh–Ritz passes it
+        s_square = np.sort(jacobi_svd(square)[0])
+        tiny = reference > 1e-10 * reference[-1]
+        np.testing.assert_allclose(s_square[tiny], reference[tiny], rtol=1e-6)
+
+
+def test_jacobi_svd_of_exact_cases():
+    """A zero matrix, a matrix with a repeated column and a diagonal one."""
+    s, w, converged = jacobi_svd(np.zeros((3, 3)))
+    assert converged and np.all(s == 0.0) and np.array_equal(w, np.eye(3))
+    twin = np.array([[1.0, 1.0], [2.0, 2.0]])
+    s, _, _ = jacobi_svd(twin)
+    np.testing.assert_allclose(np.sort(s), [0.0, np.sqrt(10.0)], atol=1e-15)
+    s, _, _ = jacobi_svd(np.diag([3.0, -1.0, 2.0]))
+    np.testing.assert_allclose(s, [3.0, 1.0, 2.0], rtol=1e-15)
+
+
+# --- count_setup --------------------------------------------------------------------------------
+
+
+@KERNEL_SETTINGS
+@given(st.integers(2, 3), st.integers(3, 25), seeds, st.booleans())
+def test_count_setup_against_its_parts(d, n, seed, count_modes):
+    """C and Cᵀ as the definition builds them (dense), σ_max a Lanczos estimate never above
+    numpy's and equal to it when the steps span the space, and the Gram matrix of the counted
+    side (CᵀC or CCᵀ) as numpy's product."""
+    rng = np.random.default_rng(seed)
+    positions = rng.standard_normal((n, d))
+    pairs = np.array([(i, j) for i in range(n) for j in range(i + 1, n)], dtype=np.int64)
+    edges = pairs[rng.choice(len(pairs), size=min(len(pairs), int(rng.integers(1, 3 * n))), replace=False)]
+    c = compatibility_dense(positions, edges)
+    a = c if count_modes else c.T
+    steps = a.shape[1] + 1
+    rows, columns, sigma, gram = count_setup(positions, edges, count_modes, np.zeros(1, np.uint64), steps)
+    np.testing.assert_array_equal(dense_of(*rows, d * n), c)
+    np.testing.assert_array_equal(dense_of(*columns, len(edges)), c.T)
+    reference = np.linalg.svd(c, compute_uv=False)[0]
+    assert sigma <= reference * (1 + 1e-12)
+    assert sigma == pytest.approx(reference, rel=1e-9)
+    np.testing.assert_allclose(dense_of(*gram, a.shape[1]), a.T @ a, rtol=0, atol=1e-12 * reference**2)
+
+
+# --- null_space_rounds -----------------------------------------------------------------------------
+
+
+def drive_rounds(c: np.ndarray, known: np.ndarray, width: int, householder_max: int = 16, max_null: int = 20_000):
+    """Drive the compiled rounds on dense C with dense solves of CᵀC + δI (numpy): the basis,
+    its Ritz values' gap and the requests made."""
+    sigma = np.linalg.svd(c, compute_uv=False)[0]
+    shift = 1e-13 * sigma**2
+    gram = c.T @ c + shift * np.eye(c.shape[1])
+    requests = []
+    rounds = null_space_rounds(
+        *arrays_of(c), np.ascontiguousarray(known), width, np.zeros(1, np.uint64), 1e-10 * sigma, shift,
+        1e-3, 1e4, householder_max, max_null, 2, 60,
+    )
+    for request, block, kept, dropped in rounds:
+        requests.append(request)
+        if request == SOLVE:
+            block[...] = shift * np.linalg.solve(gram, block)
+        elif request == ORTHONORMALISE:
+            block[...] = np.linalg.qr(block)[0]
+    return block, kept, dropped, requests
+
+
+@pytest.mark.parametrize("householder_max", [16, 0])
+@pytest.mark.parametrize("seed", range(6))
+def test_null_space_rounds_find_the_null_space(seed, householder_max):
+    """A random frame with bars removed, its rigid motions known: the rounds return an
+    orthonormal basis of N(C) ⊖ rigid of numpy's dimension (σ < 1e-10 σ_max), inside N(C) to
+    round-off, the gap bracketing the threshold; blocks QR'd by the caller (householder_max 0)
+    give the same. Every round is announced, the answer comes last."""
+    rng = np.random.default_rng(seed)
+    d, n = 2 + seed % 2, 12 + 3 * seed
+    positions = rng.standard_normal((n, d))
+    pairs = np.array([(i, j) for i in range(n) for j in range(i + 1, n)], dtype=np.int64)
+    edges = pairs[rng.choice(len(pairs), size=d * n - 4 - seed, replace=False)]
+    c = compatibility_dense(positions, edges)
+    rigid = rigid_motion_svd(positions)[0]
+    s = np.linalg.svd(c, compute_uv=False)
+    expected = d * n - int(np.count_nonzero(s > 1e-10 * s[0])) - rigid.shape[1]
+    basis, kept, dropped, requests = drive_rounds(c, rigid, 2, householder_max)
+    assert basis.shape == (d * n, expected)
+    np.testing.assert_allclose(basis.T @ basis, np.eye(expected), atol=1e-12)
+    np.testing.assert_allclose(rigid.T @ basis, 0.0, atol=1e-12)
+    assert np.linalg.norm(c @ basis) <= 1e-12 * s[0]
+    assert dropped <= 1e-10 * s[0] < kept
+    assert requests[0] == ROUND and requests[-1] == DONE and requests.count(DONE) == 1
+    assert (ORTHONORMALISE in requests) == (householder_max == 0)
+
+
+def test_null_space_rounds_refuse_past_max_null():
+    """Forty free nodes (no bars) have 80 − 3 nontrivial zero modes: with room for 10 the rounds
+    ask the caller to refuse and stop there."""
+    rng = np.random.default_rng(1)
+    positions = rng.standard_normal((40, 2))
+    c = compatibility_dense(positions, np.array([[0, 1]], dtype=np.int64))
+    _, _, _, requests = drive_rounds(c, rigid_motion_svd(positions)[0], 2, max_null=10)
+    assert requests[-1] == TOO_MANY and DONE not in requests
 
 
 # --- the random stream, the normalisation, the cache ---------------------------------------------
