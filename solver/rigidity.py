@@ -513,8 +513,9 @@ def _elimination_order(x: np.ndarray, edges: np.ndarray, count_modes: bool) -> n
 
 
 def _random_stream() -> np.ndarray:
-    """The state of a fresh pseudo-random stream (seed 0) for _random_block: each count draws
-    the same numbers, so the same frame gets the same answer."""
+    """The state of a fresh pseudo-random stream (seed 0) for sparse_kernels.uniform_block (its
+    callers' random starts): each count draws the same numbers, so the same frame gets the same
+    answer."""
     return np.zeros(1, dtype=np.uint64)
 
 
@@ -547,7 +548,7 @@ def _null_by_subspace_iteration(
     """
     a = problem.matrix
     rounds = sparse_kernels.null_space_rounds(
-        a.indptr, a.indices, a.data, np.array(problem.known, dtype=float, order="C"), expected + OVERSAMPLE,
+        a.indptr, a.indices, a.data, problem.known, expected + OVERSAMPLE,
         stream, tol, shift, SETTLED, DAMPED, HOUSEHOLDER_MAX_COLUMNS, MAX_NULL_VECTORS, first_steps, max_rounds,
     )
     for request, block, kept, dropped in rounds:
@@ -655,10 +656,10 @@ def _ritz_pairs(matrix: _Sparse, y: np.ndarray):
 
 
 def warm_up() -> None:
-    """Compile the sparse route's kernels (solver/sparse_kernels.py)
-    for the argument types it passes them (int64 indices, float64 C-contiguous blocks; positions
-    and bars writable or read-only), or load them from numba's cache: about 12 s to compile in a
-    fresh environment, 0.2 s from the cache. The service calls this when it starts and the
+    """Compile the sparse route's kernels (solver/sparse_kernels.py) for the argument types it
+    passes them (int64 indices, float64 C-contiguous blocks; positions and bars writable or
+    read-only), or load them from numba's cache: about 12 s to compile in a fresh environment,
+    0.2 s from the cache. The service calls this when it starts and the
     container image when it is built, so that no request pays for compilation within its time
     budget. The complete graph on four nodes in the plane counts its zero modes (one
     self-stress), the square its self-stresses (one mechanism), both with bases."""

@@ -266,17 +266,13 @@ def count_setup(positions, edges, count_modes, stream, steps):
     steps on AᵀA (``largest_singular_value``) from a start of ``uniform_block(stream, n, 1)``; and
     the CSR arrays of AᵀA (``row_gram``), for A = C (n = dN, AᵀA = CᵀC) if ``count_modes``,
     else A = Cᵀ (n = N_B, AᵀA = CCᵀ): the side whose null space the count iterates on."""
-    indptr, indices, data = compatibility_csr(positions, edges)
-    t_indptr, t_indices, t_data = transpose_csr(indptr, indices, data, positions.size)
-    if count_modes:
-        start = uniform_block(stream, positions.size, 1).reshape(positions.size)
-        sigma_max = largest_singular_value(indptr, indices, data, t_indptr, t_indices, t_data, start, steps)
-        gram = row_gram(t_indptr, t_indices, t_data, indptr, indices, data)
-    else:
-        start = uniform_block(stream, edges.shape[0], 1).reshape(edges.shape[0])
-        sigma_max = largest_singular_value(t_indptr, t_indices, t_data, indptr, indices, data, start, steps)
-        gram = row_gram(indptr, indices, data, t_indptr, t_indices, t_data)
-    return (indptr, indices, data), (t_indptr, t_indices, t_data), sigma_max, gram
+    c = compatibility_csr(positions, edges)
+    ct = transpose_csr(c[0], c[1], c[2], positions.size)
+    a, at = (c, ct) if count_modes else (ct, c)
+    n = at[0].size - 1
+    start = uniform_block(stream, n, 1).reshape(n)
+    sigma_max = largest_singular_value(a[0], a[1], a[2], at[0], at[1], at[2], start, steps)
+    return c, ct, sigma_max, row_gram(at[0], at[1], at[2], a[0], a[1], a[2])
 
 
 @compiled
@@ -288,7 +284,6 @@ def ritz_pairs(indptr, indices, data, y):
     most JACOBI_MAX_COLUMNS columns, else LAPACK's."""
     k = y.shape[1]
     r = np.linalg.qr(times(indptr, indices, data, y))[1]
-    theta = np.zeros(k)
     converged = False
     if k <= JACOBI_MAX_COLUMNS and r.shape[0] == k:  # else LAPACK's zeros are exact
         theta, w, converged = jacobi_svd(r)
