@@ -65,7 +65,11 @@ def frame_body(frame: Frame, specified=None) -> dict:
 
 
 def rank_gap_body(gap: RankGap) -> dict:
-    return {"last_nonzero": gap.last_nonzero, "first_zero": gap.first_zero}
+    return {
+        "last_nonzero": gap.last_nonzero,
+        "first_zero": gap.first_zero,
+        "last_nonzero_error": gap.last_nonzero_error,
+    }
 
 
 def counts_body(analysis: Analysis) -> dict:

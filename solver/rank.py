@@ -14,22 +14,34 @@ import numpy as np
 
 from zeromode.solver.tolerances import RANK_RTOL as RTOL
 
+# A backward-stable SVD of a k-column matrix returns each singular value within a modest
+# multiple of k·ε·σ_1 (LAPACK's error bound, p(m, n)·ε·‖C‖₂); the factor is that multiple,
+# taken generously, as the bound is reported, not relied on.
+SVD_ERROR_FACTOR = 10
+
 
 @dataclass(frozen=True)
 class RankGap:
-    """Evidence for a rank decision: σ_r (last kept) and σ_{r+1} (first dropped; 0 if none)."""
+    """Evidence for a rank decision: σ_r (last kept) and σ_{r+1} (first dropped; 0 if none).
+
+    ``last_nonzero_error`` bounds the relative error of ``last_nonzero`` as σ_r: the SVD's
+    round-off for singular values computed in full (SVD_ERROR_FACTOR), the Weyl bound of a Ritz
+    pair's residual for iterated ones (sparse_kernels.relative_error_bound)."""
 
     last_nonzero: float
     first_zero: float
+    last_nonzero_error: float = 0.0
 
 
 def decide_rank(singular_values: np.ndarray, rtol: float = RTOL) -> tuple[int, RankGap]:
-    """Rank from descending singular values: count σ_i > rtol·σ_1; return it with its gap."""
+    """Rank from descending singular values (of a full SVD): count σ_i > rtol·σ_1; return it
+    with its gap, whose σ_r is exact to SVD_ERROR_FACTOR·k·ε·σ_1 (k singular values)."""
     s = np.asarray(singular_values, dtype=float)
     if s.size == 0 or s[0] == 0.0:
         return 0, RankGap(0.0, float(s[0]) if s.size else 0.0)
     r = int(np.count_nonzero(s > rtol * s[0]))
-    return r, RankGap(float(s[r - 1]), float(s[r]) if r < s.size else 0.0)
+    error = min(1.0, SVD_ERROR_FACTOR * s.size * np.finfo(float).eps * s[0] / s[r - 1])
+    return r, RankGap(float(s[r - 1]), float(s[r]) if r < s.size else 0.0, error)
 
 
 def orthonormal_range(matrix: np.ndarray, rtol: float = RTOL) -> np.ndarray:

@@ -45,26 +45,19 @@ from zeromode.solver.rank import RTOL, RankGap, complement_within, decide_rank
 # crossover (finite motion, eigenmodes, certificates, zero_mode_residual below).
 DENSE_MAX_DOF = 400
 # analyze takes the SVD of C while C has at most this many entries (N_B·dN), the sparse route
-# above. Measured (benchmarks/bench_analysis.py, crossover table in
-# docs/benchmarks/analysis.md, both routes timed in turn; two runs of the same day): the SVD's
-# cost grows as N_B·dN·min(N_B, dN) while the sparse route costs about 0.6–1.2 ms of fixed
-# Python-level steps plus, with bases, the basis iterations. Lattice patches jump by whole
-# sides, so near-isostatic networks of any node count fill the steps. Counts alone, one core:
-# the SVD ahead up to 14 280–14 640 entries in both runs (2D and 3D networks 0.74–0.86 against
-# 0.92–1.15 ms), ahead or level at 18 906 (3D network 0.96 against 1.08 ms; 1.15 against 1.16),
-# level or behind at 19 880 (2D network 1.05 against 1.02 ms; 1.21 against 1.01) and behind from
-# 19 650 in both (kagome 1.04 against 0.88 ms; 1.19 against 0.89). With bases (sized by
-# dN·max(N_B, dN), as the SVD then also holds the dN × dN matrix V) the SVD is ahead to 9 216
-# (kagome 0.85 against 1.01 ms), level from 9 801 to 11 760 (3D network 1.11 against 1.10 ms, 2D
-# network 1.15 against 1.22 ms, triangulated 1.35 against 1.30 ms; the other run: 1.33 against
-# 1.16, 1.36 against 1.30, 1.59 against 1.30) and behind from 14 400 in both. The limits sit at
-# the break-even points. With the sparse route's steps compiled it is ahead from 7 776 entries
-# (counts) and 6 006 (bases) in the crossover table of docs/benchmarks/analysis.md; the limits
-# stay here because below them the dense SVD reports σ_r exactly, where the sparse route reports
-# a Ritz value above it (0.08184 against 0.08179 on a designed frame the service's contract test
-# checks to 1e-6).
-DENSE_MAX_ENTRIES_COUNTS = 18_000
-DENSE_MAX_ENTRIES_BASES = 10_000
+# above: the break-even of the two, measured (benchmarks/bench_analysis.py, crossover table in
+# docs/benchmarks/analysis.md: both routes on the same frames, timed in turn, one core). The
+# SVD's cost grows as N_B·dN·min(N_B, dN), the compiled sparse route's is some 0.1–0.2 ms at
+# this size. Counts alone: the SVD ahead to 2 256–2 800 entries (networks 0.12 against 0.14–0.17
+# ms, kagome 0.12 against 0.13, triangulated level at 0.14–0.15), the sparse route ahead from
+# 6 006 (3D network 0.25 against 0.23 ms; triangulated 6 120 0.27 against 0.19, kagome 7 776
+# 0.30 against 0.17). With bases (sized by dN·max(N_B, dN), as the SVD then also holds the
+# dN × dN matrix V) the SVD ahead to 870–1 056 (0.09–0.16 against 0.12–0.25 ms), the sparse route
+# from 2 256–2 800 (0.26–0.29 against 0.29–0.36 ms). Both routes state σ_r's accuracy
+# (rank_gap.last_nonzero_error): the SVD's is round-off, the sparse route's a Ritz value's bound
+# unless gap_rtol asks for more.
+DENSE_MAX_ENTRIES_COUNTS = 4_000
+DENSE_MAX_ENTRIES_BASES = 1_800
 # Bases are returned only while they stay this small (numbers); counts are always exact.
 BASIS_MAX_NUMBERS = 4_000_000
 # The dense route asked for by name is refused (too_expensive) past this many rows or columns of
@@ -184,14 +177,18 @@ def check_dense_size(frame: Frame, method: str) -> None:
 
 
 def analyze(
-    frame: Frame, rtol: float = RTOL, method: str = "auto", bases: bool = True, basis_limit: int = BASIS_MAX_NUMBERS
+    frame: Frame, rtol: float = RTOL, method: str = "auto", bases: bool = True, basis_limit: int = BASIS_MAX_NUMBERS,
+    gap_rtol: float | None = None, require_gap: bool = True,
 ) -> Analysis:
     """Analyse ``frame``: rank of C, zero modes, rigid motions, self-stresses, and their bases.
 
     method: "dense" (full SVD), "sparse" (shift-invert subspace iteration) or "auto"
     (dense while C has at most DENSE_MAX_ENTRIES_BASES entries, or DENSE_MAX_ENTRIES_COUNTS
     with bases=False).  bases=False skips the bases; so do bases of more than ``basis_limit``
-    numbers in all (counts stay exact, ``bases_included`` says which).
+    numbers in all (counts stay exact, ``bases_included`` says which).  ``gap_rtol``: the sparse
+    route widens σ_r's Ritz space until rank_gap.last_nonzero_error ≤ gap_rtol (a full SVD is
+    already exact to round-off); DomainError ``not_converged`` when that bound stays above it,
+    unless ``require_gap`` is False (the bound reached is reported either way).
     """
     x = frame.normalised_positions()
     rigid = rigid_motions(x, rtol)
@@ -207,9 +204,15 @@ def analyze(
         c = compatibility_matrix(x, frame.edges, dense=True)
         modes, stresses, rank, gap = _dense_null_spaces(c, rigid, rtol, bases)
     elif method == "sparse":
-        modes, stresses, rank, gap = _sparse_null_spaces(x, frame.edges, rigid, rtol, bases, basis_limit)
+        modes, stresses, rank, gap = _sparse_null_spaces(x, frame.edges, rigid, rtol, bases, basis_limit, gap_rtol)
     else:
         raise ValueError(f"unknown method {method!r}")
+    if require_gap and gap_rtol is not None and gap.last_nonzero_error > gap_rtol:
+        raise DomainError(
+            "not_converged",
+            f"σ_r of C is known to a relative {gap.last_nonzero_error:.1e} ({method} route), "
+            f"not the {gap_rtol:.1e} asked for (gap_rtol).",
+        )
     n, d = frame.n_nodes, frame.dim
     z_nontrivial = d * n - rank - rigid.shape[1]
     include = (
@@ -307,6 +310,18 @@ SMALL_PIVOT_MAX_START = 64
 # two products with A's 2d entries a row cost less than one with the Gram matrix's (a 10⁴-node 2D
 # network: 0.11 ms against 0.18 ms).
 LANCZOS_STEPS = 6
+# σ_r as the count leaves it is the smallest Ritz value of its last block, never below σ_r but
+# not converged to it: over lattice patches of 27–10³ nodes 0.06–12 % above (clustered small
+# singular values, which subspace iteration separates slowly), near-isostatic networks 1e-9 to
+# 5e-4. Asked for (gap_rtol), the block's nonzero Ritz vectors are widened one shifted solve of
+# the current Ritz vector at a time (a Krylov space of the shifted inverse, Lanczos-fast) until
+# the Weyl bound of the Ritz pair's residual is within gap_rtol. For 1e-6 (10²–10³ nodes):
+# networks 1–4 solves, triangulated and cubic patches 6–8, fcc 5–21, kagome 18–24, each value
+# then within 3e-13 of the SVD's (the bound is that conservative); at most this many steps …
+MAX_WIDENING_STEPS = 60
+# … and at most this many numbers in the widened space and its image under the counted side's
+# matrix A (n + m per step: 10⁶-node frames 2·10⁶ + 3·10⁶, 40 steps within 1.6 GB).
+WIDENING_MAX_NUMBERS = 200_000_000
 # Bases are iterated until ‖C v‖ ≤ BASIS_ANGLE·σ_r for every basis vector v, which bounds
 # the angle between the returned and the exact null space by BASIS_ANGLE (round-off allowing).
 BASIS_ANGLE = 1e-10
@@ -422,7 +437,7 @@ class _NullProblem:
 
 
 def _sparse_null_spaces(x: np.ndarray, edges: np.ndarray, rigid: np.ndarray, rtol: float, want_bases: bool,
-                        basis_limit: int):
+                        basis_limit: int, gap_rtol: float | None = None):
     """Rank of a large sparse C (N_B × dN) of the frame at x (N, d) with ``edges`` and, when
     wanted, bases of N(C) ⊖ rigid and N(Cᵀ).
 
@@ -467,12 +482,12 @@ def _sparse_null_spaces(x: np.ndarray, edges: np.ndarray, rigid: np.ndarray, rto
     # the factor's small pivots guess the null space's dimension (SMALL_PIVOT), known ones aside
     small = int(np.count_nonzero(factor.pivots() <= SMALL_PIVOT * shift)) - counted.known.shape[1]
     start = max(bound, min(small, SMALL_PIVOT_MAX_START))
-    found, kept, dropped = _null_by_subspace_iteration(counted, tol, start, stream, shift)
+    found, kept, dropped, error = _null_by_subspace_iteration(counted, tol, start, stream, shift, gap_rtol)
     if rho:  # the rigid motions are zeros of C too: the largest of them may top the found ones
         # ‖C R‖₂ from the ρ × ρ Gram matrix of C R (its entries are round-off, ≈ 1e-16 σ_max)
         dropped = max(dropped, float(sparse_kernels.product_norm(c.indptr, c.indices, c.data, rigid)))
     rank = ndof - rho - found.shape[1] if count_modes else nb - found.shape[1]
-    gap = RankGap(kept, dropped)
+    gap = RankGap(kept, dropped, error)
     report_detail(0.7, "decided the rank")
     n_modes, n_stresses = ndof - rho - rank, nb - rank
     if not (want_bases and _bases_fit(n_modes, n_stresses, (nb, ndof), basis_limit)):
@@ -534,10 +549,11 @@ def _random_block(stream: np.ndarray, n: int, k: int | None = None) -> np.ndarra
 
 def _null_by_subspace_iteration(
     problem: _NullProblem, tol: float, expected: int, stream: np.ndarray, shift: float,
-    first_steps: int = 2, max_rounds: int = 60,
+    gap_rtol: float | None = None, first_steps: int = 2, max_rounds: int = 60,
 ):
     """Orthonormal basis of N(matrix) ⊖ span(known) (columns), the smallest nonzero Ritz
-    singular value and the largest zero one: the count behind the rank.
+    singular value, the largest zero one and the first's relative error bound: the count behind
+    the rank (with ``gap_rtol``, σ_r's Ritz value converged to that bound; MAX_WIDENING_STEPS).
 
     Shift-invert subspace iteration (δ = ``shift``) from a block of ``expected`` + OVERSAMPLE
     columns (``expected`` is a guess at the null space's dimension, which only sets the starting
@@ -548,10 +564,12 @@ def _null_by_subspace_iteration(
     """
     a = problem.matrix
     rounds = sparse_kernels.null_space_rounds(
-        a.indptr, a.indices, a.data, problem.known, expected + OVERSAMPLE,
+        a.indptr, a.indices, a.data, a.t_indptr, a.t_indices, a.t_data, problem.known, expected + OVERSAMPLE,
         stream, tol, shift, SETTLED, DAMPED, HOUSEHOLDER_MAX_COLUMNS, MAX_NULL_VECTORS, first_steps, max_rounds,
+        0.0 if gap_rtol is None else gap_rtol,
+        0 if gap_rtol is None else min(MAX_WIDENING_STEPS, WIDENING_MAX_NUMBERS // sum(a.shape)),
     )
-    for request, block, kept, dropped in rounds:
+    for request, block, kept, dropped, error in rounds:
         if request == sparse_kernels.SOLVE:
             block[...] = problem.inverse(block)
         elif request == sparse_kernels.ORTHONORMALISE:
@@ -560,7 +578,7 @@ def _null_by_subspace_iteration(
             check_budget()
         elif request == sparse_kernels.TOO_MANY:
             raise DomainError("too_expensive", f"the frame has more than {MAX_NULL_VECTORS} independent zero modes.")
-    return block, kept, dropped  # the last message, DONE
+    return block, kept, dropped, error  # the last message, DONE
 
 
 def _null_basis(

@@ -16,6 +16,8 @@ in an environment):
   * ``ritz_pairs``: Rayleigh–Ritz singular values and vectors of A on span(Y) (``jacobi_svd``:
     the SVD of a few columns);
   * ``project_out``: (I − K Kᵀ) Y; ``project_out_and_orthonormalise``: Q of (I − K Kᵀ) Y;
+  * ``ritz_space``, ``extend_ritz_space``, ``smallest_ritz_pair``, ``relative_error_bound``: the
+    smallest nonzero Ritz pair, its space widened a vector at a time, and its error bound;
   * ``null_space_rounds``: the count's whole shift-invert subspace iteration, a generator that
     hands its block to the caller for each shifted solve (CHOLMOD's, solver/factorisation.py).
 
@@ -23,7 +25,7 @@ The iteration is one generator rather than a Python loop over the steps: at 10²
 is a few microseconds of arithmetic, and the loop's decisions, array bookkeeping and calls cost
 more than the steps (2D network of 100 nodes: 0.12 ms of Python-level work in a 0.36 ms count
 against a 0.14 ms CHOLMOD factorisation). Each of its yields is ``(request, block, kept,
-dropped)``:
+dropped, error)``:
 
   * SOLVE: the caller replaces ``block`` in place by a positive multiple of (AᵀA + δI)⁻¹ block;
   * ORTHONORMALISE: the caller replaces ``block`` in place by an orthonormal basis of its columns
@@ -31,7 +33,8 @@ dropped)``:
   * ROUND: a round begins (the caller checks its time budget; ``block`` is read only);
   * TOO_MANY: the block would pass ``max_null`` columns (the caller refuses the frame);
   * DONE: ``block`` is the basis, ``kept`` the smallest nonzero Ritz value, ``dropped`` the
-    largest zero one; the generator ends.
+    largest zero one, ``error`` kept's relative error bound (``relative_error_bound``); the
+    generator ends.
 
 The compiled functions that call one another live in this one module on purpose: numba's disk
 cache is invalidated by a change of the file that holds a cached function, not of the files of
@@ -66,6 +69,9 @@ JACOBI_MAX_COLUMNS = 8
 # past JACOBI_MAX_SWEEPS sweeps (never seen) the SVD falls back to LAPACK's.
 JACOBI_TOL = 1e-15
 JACOBI_MAX_SWEEPS = 30
+# A vector that keeps at most this fraction of its norm after its parts along the null vectors and
+# the Ritz space are removed lies in that space (round-off after two Gram–Schmidt passes).
+INVARIANT_TOL = 1e-12
 
 
 @compiled
@@ -305,9 +311,23 @@ def jacobi_svd(r):
     ‖R‖_F, within JACOBI_MAX_SWEEPS sweeps); s are their norms, in W's column order (zeros, to
     round-off, where p < k). Small singular values above that come out with a small relative
     error, not just small against the largest (Demmel and Veselić 1992)."""
-    p, k = r.shape
+    k = r.shape[1]
     a = np.asfortranarray(r).copy()
     w = np.eye(k)
+    converged = jacobi_rotations(a, w)
+    norms = np.empty(k)
+    for j in range(k):
+        norms[j] = np.sqrt(np.sum(a[:, j] * a[:, j]))
+    return norms, w, converged
+
+
+@compiled
+def jacobi_rotations(a, w):
+    """The rotations of jacobi_svd applied in place: a (p × k, Fortran order) becomes a V with
+    mutually orthogonal columns and w (k' × k) becomes w V, V orthogonal; whether they
+    converged. A start whose columns are already nearly orthogonal (a warm start) takes a sweep
+    or two."""
+    p, k = a.shape
     # a column this small against the whole (‖R‖_F, which rotations keep) is round-off: never
     # rotated, as no rotation can make it orthogonal to another beyond that (one row: any two
     # columns are parallel, and the rotation that zeroes one leaves round-off behind)
@@ -333,16 +353,13 @@ def jacobi_svd(r):
                 for i in range(p):
                     aj, al = a[i, j], a[i, l]
                     a[i, j], a[i, l] = c * aj - s * al, s * aj + c * al
-                for i in range(k):
+                for i in range(w.shape[0]):
                     wj, wl = w[i, j], w[i, l]
                     w[i, j], w[i, l] = c * wj - s * wl, s * wj + c * wl
         if not rotated:
             converged = True
             break
-    norms = np.empty(k)
-    for j in range(k):
-        norms[j] = np.sqrt(np.sum(a[:, j] * a[:, j]))
-    return norms, w, converged
+    return converged
 
 
 @compiled
@@ -364,8 +381,94 @@ def project_out_and_orthonormalise(y, known):
 
 
 @compiled
-def null_space_rounds(indptr, indices, data, known, width, stream, tol, shift, settled, damped,
-                      householder_max, max_null, first_steps, max_rounds):
+def ritz_space(indptr, indices, data, q):
+    """The Rayleigh–Ritz factors of A on span(Q), Q (n, k) orthonormal: A·Q = Q_A R (Q_A (m, k)
+    orthonormal, R (k, k) upper triangular) and R W = B with W orthogonal and B's columns
+    mutually orthogonal, so the Ritz singular values θ are B's column norms and the Ritz
+    vectors Q W; returns (Q_A, B, W)."""
+    qa, r = np.linalg.qr(times(indptr, indices, data, q))
+    b, w = orthogonal_columns(r, np.eye(r.shape[1]))
+    return np.ascontiguousarray(qa), b, w
+
+
+@compiled
+def orthogonal_columns(b, w):
+    """(B V, W V) with B V's columns mutually orthogonal (V orthogonal), for B (k, k) and W
+    (k, k): one-sided Jacobi from B (warm: a sweep or two when B's columns are nearly so
+    already), LAPACK's SVD if it does not converge."""
+    a = np.asfortranarray(b).copy()
+    v = np.asfortranarray(w).copy()
+    if not jacobi_rotations(a, v):
+        u, sigma, vt = np.linalg.svd(b)
+        return np.ascontiguousarray(u * sigma), w @ np.ascontiguousarray(vt.T)
+    return np.ascontiguousarray(a), np.ascontiguousarray(v)
+
+
+@compiled
+def smallest_ritz_pair(indptr, indices, data, t_indptr, t_indices, t_data, q, b, w):
+    """The smallest Ritz singular value θ of A on span(Q), its Ritz vector u (n,) and the
+    residual ‖AᵀA u − θ² u‖, from the factors of ritz_space (θ is B's smallest column norm)."""
+    k = b.shape[1]
+    theta = np.empty(k)
+    for j in range(k):
+        theta[j] = np.sqrt(np.sum(b[:, j] * b[:, j]))
+    j = np.argmin(theta)
+    u = q @ np.ascontiguousarray(w[:, j])
+    au = times(indptr, indices, data, u.reshape(-1, 1))
+    residual = times(t_indptr, t_indices, t_data, au).ravel() - theta[j] * theta[j] * u
+    return theta[j], u, np.sqrt(residual @ residual)
+
+
+@compiled
+def extend_ritz_space(indptr, indices, data, null, q, qa, b, w, x):
+    """The factors of ritz_space for [Q, x̂], x̂ the part of x (n,) orthogonal to the null
+    vectors ``null`` (n, z) and to Q (n, k), normalised (two Gram–Schmidt passes each), updated
+    rather than recomputed: A x̂ = Q_A c + ρ q̂ gives A [Q W, x̂] = [Q_A, q̂] [[B, c], [0, ρ]],
+    whose columns are re-orthogonalised from that warm start. Returns (Q', Q_A', B', W', grew),
+    ``grew`` False (arrays unchanged) when x lies in span(null, Q) to round-off (the space is
+    invariant: its Ritz values are exact)."""
+    n, k = q.shape
+    size = np.sqrt(x @ x)
+    for _ in range(2):
+        x = x - null @ (null.T @ x)
+        x = x - q @ (q.T @ x)
+    norm = np.sqrt(x @ x)
+    if norm <= INVARIANT_TOL * size:
+        return q, qa, b, w, False
+    x = x / norm
+    ax = times(indptr, indices, data, x.reshape(-1, 1)).ravel()
+    grown_b = np.zeros((k + 1, k + 1))
+    grown_b[:k, :k] = b
+    for _ in range(2):
+        c = qa.T @ ax
+        ax = ax - qa @ c
+        grown_b[:k, k] += c
+    grown_b[k, k] = np.sqrt(ax @ ax)
+    grown_q = np.empty((n, k + 1))
+    grown_q[:, :k] = q
+    grown_q[:, k] = x
+    grown_qa = np.empty((qa.shape[0], k + 1))
+    grown_qa[:, :k] = qa
+    grown_qa[:, k] = ax / grown_b[k, k] if grown_b[k, k] > 0.0 else ax
+    grown_w = np.zeros((k + 1, k + 1))
+    grown_w[:k, :k] = w
+    grown_w[k, k] = 1.0
+    grown_b, grown_w = orthogonal_columns(grown_b, grown_w)
+    return grown_q, grown_qa, grown_b, grown_w, True
+
+@compiled
+def relative_error_bound(theta, residual):
+    """1 − √(1 − ρ/θ²) (1 when ρ ≥ θ²): for a Ritz pair (θ², u) of AᵀA with residual
+    ρ = ‖AᵀA u − θ² u‖, some eigenvalue λ of AᵀA lies within ρ of θ² (Weyl), so some singular
+    value σ = √λ of A lies within this fraction below θ (and at most as far above)."""
+    if theta <= 0.0 or residual >= theta * theta:
+        return 1.0
+    return 1.0 - np.sqrt(1.0 - residual / (theta * theta))
+
+
+@compiled
+def null_space_rounds(indptr, indices, data, t_indptr, t_indices, t_data, known, width, stream, tol, shift,
+                      settled, damped, householder_max, max_null, first_steps, max_rounds, gap_rtol, max_polish_steps):
     """Orthonormal basis of N(A) ⊖ span(K), yielding as the module docstring says.
 
     A: m × n in CSR arrays; known: K (n × ρ, C-contiguous, orthonormal); width: the block's
@@ -401,12 +504,20 @@ def null_space_rounds(indptr, indices, data, known, width, stream, tol, shift, s
     dimension; when every locked column was locked by the latest Rayleigh–Ritz step and the
     other columns are that step's Ritz vectors, the two span the same space and that step's
     pairs are its pairs (one product with A and one QR saved).
+
+    σ_r's Ritz pair (θ, u), the smallest of that step's nonzero ones, comes with the Weyl bound
+    of its residual (``relative_error_bound``). While that bound is above ``gap_rtol`` (and for
+    at most ``max_polish_steps`` steps) the span of the nonzero Ritz vectors takes the shifted
+    inverse of u (⟂ the null vectors), and (θ, u) become the smallest Ritz pair of the wider
+    space: from one vector that is Lanczos on the shifted inverse, whose extreme Ritz value
+    converges at a rate set by the square root of the relative gap, where subspace iteration's
+    is set by the gap itself.
     """
     n = known.shape[0]
     base = known.shape[1]
     room = n - base
     if room == 0:
-        yield DONE, np.zeros((n, 0)), 0.0, 0.0
+        yield DONE, np.zeros((n, 0)), 0.0, 0.0, 0.0
         return
     active = known  # the known columns and the locked null vectors
     y = project_out(uniform_block(stream, n, min(room, width)), active)
@@ -418,14 +529,14 @@ def null_space_rounds(indptr, indices, data, known, width, stream, tol, shift, s
     latest_theta = np.zeros(0)
     latest_y = y
     for _ in range(max_rounds):
-        yield ROUND, y, 0.0, 0.0
+        yield ROUND, y, 0.0, 0.0, 0.0
         for _ in range(steps):
-            yield SOLVE, y, 0.0, 0.0
+            yield SOLVE, y, 0.0, 0.0, 0.0
             if y.shape[1] <= householder_max:
                 y = project_out_and_orthonormalise(y, active)
             else:
                 y = project_out(y, active)
-                yield ORTHONORMALISE, y, 0.0, 0.0
+                yield ORTHONORMALISE, y, 0.0, 0.0, 0.0
         older_locks = active.shape[1] > base
         theta, y = ritz_pairs(indptr, indices, data, y)
         latest = not older_locks
@@ -447,7 +558,7 @@ def null_space_rounds(indptr, indices, data, known, width, stream, tol, shift, s
             if width == room:
                 break
             if width >= max_null:
-                yield TOO_MANY, y, 0.0, 0.0
+                yield TOO_MANY, y, 0.0, 0.0, 0.0
                 return
             if null == width:
                 more = width
@@ -478,4 +589,22 @@ def null_space_rounds(indptr, indices, data, known, width, stream, tol, shift, s
         z += 1
     kept = theta[z] if z < theta.size else 0.0
     dropped = theta[z - 1] if z > 0 else 0.0
-    yield DONE, np.ascontiguousarray(y[:, :z]), kept, dropped
+    error = 0.0
+    if z < theta.size:  # σ_r's Ritz pair on the nonzero columns, widened while asked
+        null = np.hstack((known, np.ascontiguousarray(y[:, :z])))
+        q = np.ascontiguousarray(y[:, z:])
+        qa, b, w = ritz_space(indptr, indices, data, q)
+        kept, u, residual = smallest_ritz_pair(indptr, indices, data, t_indptr, t_indices, t_data, q, b, w)
+        error = relative_error_bound(kept, residual)
+        for _ in range(max_polish_steps):
+            if error <= gap_rtol:
+                break
+            yield ROUND, q, 0.0, 0.0, 0.0
+            x = u.reshape(n, 1).copy()
+            yield SOLVE, x, 0.0, 0.0, 0.0
+            q, qa, b, w, grew = extend_ritz_space(indptr, indices, data, null, q, qa, b, w, x.ravel())
+            if not grew:
+                break
+            kept, u, residual = smallest_ritz_pair(indptr, indices, data, t_indptr, t_indices, t_data, q, b, w)
+            error = relative_error_bound(kept, residual)
+    yield DONE, np.ascontiguousarray(y[:, :z]), kept, dropped, error

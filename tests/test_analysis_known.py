@@ -29,6 +29,7 @@ from scipy.sparse.linalg import svds
 
 from zeromode.service.responses import counts_body
 from zeromode.solver import Frame, analyze, rigidity
+from zeromode.solver.errors import DomainError
 
 TOL = 1e-10
 
@@ -302,6 +303,46 @@ def test_an_ambiguous_gap_says_so(method, offset):
         assert gap.last_nonzero < 20 * threshold
     if sigma_next > threshold / 10:
         assert gap.first_zero > threshold / 20
+
+
+@pytest.mark.parametrize(
+    "name, n", [("triangulated", 100), ("kagome", 48), ("kagome", 300), ("cubic-diagonal", 27), ("fcc", 100)]
+)
+def test_sigma_r_on_request_is_numpys(name, n):
+    # Lattice patches, whose smallest nonzero singular values cluster: the sparse route's
+    # σ_r is a Ritz value, never below numpy's σ_r, with some singular value of C within its
+    # stated bound; asked for gap_rtol it is numpy's σ_r to that bound (and the dense route's
+    # to round-off, its stated bound).
+    from benchmarks.lattices import LATTICES
+
+    frame = LATTICES[name](n)
+    s = singular_values(compatibility_matrix(normalised(frame.positions), frame.edges))
+    rough = analyze(frame, bases=False, method="sparse")
+    sigma_r = s[rough.rank - 1]
+    gap = rough.rank_gap
+    assert gap.last_nonzero >= sigma_r * (1 - 1e-12)
+    assert np.min(np.abs(s[: rough.rank] / gap.last_nonzero - 1)) <= gap.last_nonzero_error
+    for method in ("sparse", "dense"):
+        exact = analyze(frame, bases=False, method=method, gap_rtol=1e-7).rank_gap
+        assert exact.last_nonzero_error <= 1e-7
+        assert abs(exact.last_nonzero / sigma_r - 1) <= max(exact.last_nonzero_error, 1e-14)
+
+
+def test_sigma_r_known_no_better_than_round_off_is_refused():
+    # σ_r a few times the threshold 1e-9 σ_max (a node held by two bars 2e-8 off collinear, as
+    # above): a full SVD knows it only to about 10·k·ε·σ_max/σ_r ≈ 1e-5 relative, so asking for 1e-6 is refused with the
+    # bound it reached rather than answered with digits it does not have.
+    from benchmarks.lattices import triangulated_lattice
+
+    base = triangulated_lattice(100)
+    x = np.asarray(base.positions)
+    positions = np.vstack([x, (x[0] + x[1]) / 2 + [0.0, -2e-8]])
+    edges = np.vstack([base.edges, [[0, len(x)], [1, len(x)]]])
+    frame = Frame.build(positions, edges)
+    assert analyze(frame, method="dense", bases=False).rank_gap.last_nonzero_error > 1e-6
+    with pytest.raises(DomainError) as refused:
+        analyze(frame, method="dense", bases=False, gap_rtol=1e-6)
+    assert refused.value.code == "not_converged" and "gap_rtol" in refused.value.message
 
 
 @pytest.mark.parametrize("name", ["triangulated", "kagome", "square", "cubic-diagonal", "fcc"])

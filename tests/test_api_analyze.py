@@ -20,6 +20,7 @@ from oracles.rigidity import (
     RANK_GAP_FIELDS,
     as_columns,
     compatibility_matrix,
+    normalised,
     relative_residual,
     rigid_generators,
 )
@@ -156,7 +157,47 @@ def test_optional_fields_default(client):
         6,
         5,
     )
-    assert body["rank_gap"] == {"last_nonzero": 0.0, "first_zero": 0.0}
+    assert body["rank_gap"] == {"last_nonzero": 0.0, "first_zero": 0.0, "last_nonzero_error": 0.0}
+
+
+def lattice_json(name, n):
+    from benchmarks.lattices import LATTICES
+
+    frame = LATTICES[name](n)
+    return frame, {"dim": frame.dim, "positions": frame.positions.tolist(), "edges": frame.edges.tolist()}
+
+
+@pytest.mark.parametrize("name, n", [("kagome", 48), ("cubic-diagonal", 27)])
+def test_gap_rtol_converges_sigma_r(client, name, n):
+    # σ_r of C (numpy's SVD of the normalised frame): the sparse route's Ritz value is above it,
+    # with a singular value within its stated relative bound; asked for gap_rtol it is σ_r to
+    # that bound.
+    frame, body = lattice_json(name, n)
+    s = np.linalg.svd(compatibility_matrix(normalised(frame.positions), frame.edges), compute_uv=False)
+    rough = ok(analyze(client, body, options={"method": "sparse", "bases": False}))
+    sigma_r = s[rough["rank"] - 1]
+    gap = rough["rank_gap"]
+    assert gap["last_nonzero"] >= sigma_r * (1 - 1e-12)
+    assert np.min(np.abs(s[: rough["rank"]] / gap["last_nonzero"] - 1)) <= gap["last_nonzero_error"]
+    exact = ok(analyze(client, body, options={"method": "sparse", "bases": False, "gap_rtol": 1e-7}))
+    assert exact["rank_gap"]["last_nonzero_error"] <= 1e-7
+    assert math.isclose(exact["rank_gap"]["last_nonzero"], sigma_r, rel_tol=1e-7)
+    assert {k: exact[k] for k in COUNT_FIELDS} == {k: rough[k] for k in COUNT_FIELDS}
+
+
+def test_gap_rtol_past_what_is_known_is_refused(client):
+    # σ_r a few times the rank threshold (a node held by two bars 2e-8 off collinear): its
+    # digits below ~1e-5 are round-off, so 1e-6 is refused with the bound reached; a bound of
+    # 0 or 1 is no request at all.
+    frame, body = lattice_json("triangulated", 100)
+    x = frame.positions
+    body["positions"].append(((x[0] + x[1]) / 2 + [0.0, -2e-8]).tolist())
+    body["edges"] += [[0, len(x)], [1, len(x)]]
+    refused = analyze(client, body, options={"method": "dense", "gap_rtol": 1e-6})
+    assert_error(refused, "not_converged")
+    assert "gap_rtol" in refused.json()["detail"]["message"]
+    for bad in (0, 1, -1e-3):
+        assert_error(analyze(client, body, options={"gap_rtol": bad}), "invalid_request")
 
 
 @pytest.mark.parametrize("scale", [1e-300, 1e-6, 1e6, 1e300])

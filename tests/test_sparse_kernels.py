@@ -29,14 +29,18 @@ from zeromode.solver.sparse_kernels import (
     TOO_MANY,
     compatibility_csr,
     count_setup,
+    extend_ritz_space,
     jacobi_svd,
     largest_singular_value,
     null_space_rounds,
     product_norm,
     project_out_and_orthonormalise,
+    relative_error_bound,
     rigid_motion_svd,
     ritz_pairs,
+    ritz_space,
     row_gram,
+    smallest_ritz_pair,
     times,
     transpose_csr,
     uniform_block,
@@ -608,24 +612,27 @@ def test_count_setup_against_its_parts(d, n, seed, count_modes):
 # --- null_space_rounds -----------------------------------------------------------------------------
 
 
-def drive_rounds(c: np.ndarray, known: np.ndarray, width: int, householder_max: int = 16, max_null: int = 20_000):
+def drive_rounds(
+    c: np.ndarray, known: np.ndarray, width: int, householder_max: int = 16, max_null: int = 20_000,
+    gap_rtol: float = 0.0, polish_steps: int = 0,
+):
     """Drive the compiled rounds on dense C with dense solves of CᵀC + δI (numpy): the basis,
-    its Ritz values' gap and the requests made."""
+    its Ritz values' gap, σ_r's error bound and the requests made."""
     sigma = np.linalg.svd(c, compute_uv=False)[0]
     shift = 1e-13 * sigma**2
     gram = c.T @ c + shift * np.eye(c.shape[1])
     requests = []
     rounds = null_space_rounds(
-        *arrays_of(c), np.ascontiguousarray(known), width, np.zeros(1, np.uint64), 1e-10 * sigma, shift,
-        1e-3, 1e4, householder_max, max_null, 2, 60,
+        *arrays_of(c), *arrays_of(np.ascontiguousarray(c.T)), np.ascontiguousarray(known), width,
+        np.zeros(1, np.uint64), 1e-10 * sigma, shift, 1e-3, 1e4, householder_max, max_null, 2, 60, gap_rtol, polish_steps,
     )
-    for request, block, kept, dropped in rounds:
+    for request, block, kept, dropped, error in rounds:
         requests.append(request)
         if request == SOLVE:
             block[...] = shift * np.linalg.solve(gram, block)
         elif request == ORTHONORMALISE:
             block[...] = np.linalg.qr(block)[0]
-    return block, kept, dropped, requests
+    return block, kept, dropped, error, requests
 
 
 @pytest.mark.parametrize("householder_max", [16, 0])
@@ -644,7 +651,7 @@ def test_null_space_rounds_find_the_null_space(seed, householder_max):
     rigid = rigid_motion_svd(positions)[0]
     s = np.linalg.svd(c, compute_uv=False)
     expected = d * n - int(np.count_nonzero(s > 1e-10 * s[0])) - rigid.shape[1]
-    basis, kept, dropped, requests = drive_rounds(c, rigid, 2, householder_max)
+    basis, kept, dropped, error, requests = drive_rounds(c, rigid, 2, householder_max)
     assert basis.shape == (d * n, expected)
     np.testing.assert_allclose(basis.T @ basis, np.eye(expected), atol=1e-12)
     np.testing.assert_allclose(rigid.T @ basis, 0.0, atol=1e-12)
@@ -652,6 +659,97 @@ def test_null_space_rounds_find_the_null_space(seed, householder_max):
     assert dropped <= 1e-10 * s[0] < kept
     assert requests[0] == ROUND and requests[-1] == DONE and requests.count(DONE) == 1
     assert (ORTHONORMALISE in requests) == (householder_max == 0)
+    # σ_r's Ritz value: never below σ_r, and some singular value within its error bound
+    rank = d * n - rigid.shape[1] - expected
+    assert kept >= s[rank - 1] * (1 - 1e-12)
+    assert np.min(np.abs(s[:rank] / kept - 1)) <= error
+
+
+def widening_frames():
+    """Frames whose smallest nonzero singular values cluster (the count's Ritz value is then
+    furthest from σ_r): a 6 × 6 triangulated patch (2D), a 3 × 3 × 3 cubic patch with face
+    diagonals (3D), and a random near-isostatic frame."""
+    ij = np.array([(i, j) for j in range(6) for i in range(6)], dtype=float)
+    tri = ij @ np.array([[1.0, 0.0], [0.5, np.sqrt(3) / 2]])
+    index = {(i, j): 6 * j + i for j in range(6) for i in range(6)}
+    bars = [(index[i, j], index[i + a, j + b]) for (i, j) in index for a, b in ((1, 0), (0, 1), (-1, 1))
+            if (i + a, j + b) in index]
+    yield tri, np.array(bars, dtype=np.int64)
+    cube = np.array([(i, j, k) for k in range(3) for j in range(3) for i in range(3)], dtype=float)
+    index = {tuple(p.astype(int)): m for m, p in enumerate(cube)}
+    steps = ((1, 0, 0), (0, 1, 0), (0, 0, 1), (1, 1, 0), (1, 0, 1), (0, 1, 1))
+    bars = [(index[p], index[(p[0] + a, p[1] + b, p[2] + c)]) for p in index for a, b, c in steps
+            if (p[0] + a, p[1] + b, p[2] + c) in index]
+    yield cube, np.array(bars, dtype=np.int64)
+    rng = np.random.default_rng(3)
+    points = rng.standard_normal((20, 2))
+    pairs = np.array([(i, j) for i in range(20) for j in range(i + 1, 20)], dtype=np.int64)
+    yield points, pairs[rng.choice(len(pairs), size=37, replace=False)]
+
+
+@pytest.mark.parametrize("frame", list(widening_frames()), ids=["triangulated", "cubic", "random"])
+def test_null_space_rounds_widen_to_sigma_r(frame):
+    """Asked for σ_r to 1e-8 the rounds widen its Ritz space with single solves until the bound
+    holds, and the value is then numpy's σ_r to that bound; without, the Ritz value stays an
+    upper bound, and its bound one on the distance to *some* singular value (on the random frame
+    the nearest is not σ_r: 0.1463 against σ_r 0.1318, bound 0.084)."""
+    positions, edges = frame
+    c = compatibility_dense(positions, edges)
+    rigid = rigid_motion_svd(positions)[0]
+    s = np.linalg.svd(c, compute_uv=False)
+    sigma_r = s[np.count_nonzero(s > 1e-10 * s[0]) - 1]
+    _, kept, _, error, requests = drive_rounds(c, rigid, 2, gap_rtol=1e-8, polish_steps=60)
+    assert error <= 1e-8 and abs(kept / sigma_r - 1) <= error
+    _, rough, _, rough_error, rough_requests = drive_rounds(c, rigid, 2)
+    assert rough >= sigma_r * (1 - 1e-12)
+    assert np.min(np.abs(s[s > 1e-10 * s[0]] / rough - 1)) <= rough_error
+    assert requests.count(SOLVE) > rough_requests.count(SOLVE)
+
+
+@KERNEL_SETTINGS
+@given(st.integers(2, 12), st.integers(1, 5), seeds)
+def test_ritz_space_widened_against_numpy(n_rows_extra, k, seed):
+    """ritz_space and extend_ritz_space keep A·Q W = Q_A B with Q_A, Q orthonormal, W
+    orthogonal and B's columns orthogonal; the new column is x ⟂ (null, Q) normalised; the
+    smallest Ritz pair is numpy's smallest singular value of A·Q' with its right vector, and
+    its residual ‖AᵀA u − θ²u‖ numpy's."""
+    rng = np.random.default_rng(seed)
+    n = k + 4
+    a = rng.standard_normal((n + n_rows_extra, n))
+    null = np.linalg.qr(rng.standard_normal((n, 2)))[0]
+    q = np.linalg.qr(rng.standard_normal((n, k)) - null @ (null.T @ rng.standard_normal((n, k))))[0]
+    q = np.ascontiguousarray(q - null @ (null.T @ q))
+    q = np.ascontiguousarray(np.linalg.qr(q)[0])
+    csr, csr_t = arrays_of(a), arrays_of(np.ascontiguousarray(a.T))
+    qa, b, w = ritz_space(*csr, q)
+    x = rng.standard_normal(n)
+    q2, qa2, b2, w2, grew = extend_ritz_space(*csr, np.ascontiguousarray(null), q, qa, b, w, x)
+    assert grew and q2.shape == (n, k + 1)
+    np.testing.assert_allclose(q2.T @ q2, np.eye(k + 1), atol=1e-12)
+    np.testing.assert_allclose(null.T @ q2, 0.0, atol=1e-12)
+    np.testing.assert_allclose(qa2.T @ qa2, np.eye(k + 1), atol=1e-12)
+    np.testing.assert_allclose(w2.T @ w2, np.eye(k + 1), atol=1e-12)
+    np.testing.assert_allclose(a @ q2 @ w2, qa2 @ b2, atol=1e-12 * np.linalg.norm(a))
+    gram = b2.T @ b2
+    np.testing.assert_allclose(gram - np.diag(np.diag(gram)), 0.0, atol=1e-12 * np.linalg.norm(a) ** 2)
+    theta, u, residual = smallest_ritz_pair(*csr, *csr_t, q2, b2, w2)
+    _, sv, vt = np.linalg.svd(a @ q2)
+    assert theta == pytest.approx(sv[-1], rel=1e-10)
+    assert abs(u @ (q2 @ vt[-1])) == pytest.approx(1.0, abs=1e-8)
+    assert residual == pytest.approx(np.linalg.norm(a.T @ (a @ u) - theta**2 * u), rel=1e-6, abs=1e-12)
+    # a vector already in span(null, Q) leaves the space as it is
+    *_, grew = extend_ritz_space(*csr, np.ascontiguousarray(null), q, qa, b, w, q @ rng.standard_normal(k))
+    assert not grew
+
+
+def test_relative_error_bound():
+    """1 − √(1 − ρ/θ²): the largest relative distance from θ of √λ for |λ − θ²| ≤ ρ; 1 once ρ ≥ θ²."""
+    assert relative_error_bound(2.0, 0.0) == 0.0
+    assert relative_error_bound(2.0, 4.0) == 1.0 and relative_error_bound(0.0, 1e-30) == 1.0
+    theta, rho = 3.0, 0.9
+    bound = relative_error_bound(theta, rho)
+    assert bound == pytest.approx(1 - np.sqrt(theta**2 - rho) / theta, rel=1e-14)
+    assert np.sqrt(theta**2 + rho) / theta - 1 <= bound
 
 
 def test_null_space_rounds_refuse_past_max_null():
@@ -660,7 +758,7 @@ def test_null_space_rounds_refuse_past_max_null():
     rng = np.random.default_rng(1)
     positions = rng.standard_normal((40, 2))
     c = compatibility_dense(positions, np.array([[0, 1]], dtype=np.int64))
-    _, _, _, requests = drive_rounds(c, rigid_motion_svd(positions)[0], 2, max_null=10)
+    *_, requests = drive_rounds(c, rigid_motion_svd(positions)[0], 2, max_null=10)
     assert requests[-1] == TOO_MANY and DONE not in requests
 
 

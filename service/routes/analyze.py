@@ -25,5 +25,7 @@ def post_analyze(request: AnalyzeRequest) -> dict:
     opts = request.options
     limit = current_settings().max_basis_numbers
     with progress_stage(0.0, 1.0, "analysis", detail=True):
-        result = analyze(frame, rtol=opts.rtol, method=opts.method, bases=opts.bases, basis_limit=limit)
+        result = analyze(
+            frame, rtol=opts.rtol, method=opts.method, bases=opts.bases, basis_limit=limit, gap_rtol=opts.gap_rtol
+        )
     return analyze_body(result, {"total": 1e3 * (time.perf_counter() - t0)})

@@ -17,6 +17,15 @@ class AnalyzeOptions(RequestModel):
         default="auto", description="Full SVD, sparse shift-invert subspace iteration, or by size."
     )
     bases: bool = Field(default=True, description="Return the mode and stress bases (if small enough).")
+    gap_rtol: float | None = Field(
+        default=None,
+        ge=1e-12,
+        lt=1,
+        description=(
+            "Converge rank_gap.last_nonzero to σ_r until rank_gap.last_nonzero_error ≤ gap_rtol (the sparse "
+            "route widens σ_r's Ritz space, one shifted solve a step); 422 not_converged if it stays above."
+        ),
+    )
 
 
 class AnalyzeRequest(RequestModel):

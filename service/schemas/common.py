@@ -46,8 +46,19 @@ class FrameModel(ResultFrame, RequestModel):
 
 
 class RankGapModel(BaseModel):
-    last_nonzero: float = Field(description="σ_r of the scale-normalised C (0 when rank is 0).")
+    last_nonzero: float = Field(
+        description=(
+            "σ_r of the scale-normalised C (0 when rank is 0): exact to round-off by the dense route; by the "
+            "sparse route a Ritz value, never below σ_r, converged to σ_r when options.gap_rtol is given."
+        )
+    )
     first_zero: float = Field(description="σ_{r+1} of the scale-normalised C (0 when there is none).")
+    last_nonzero_error: float = Field(
+        description=(
+            "A singular value of C lies within this relative distance of last_nonzero (the SVD's round-off; "
+            "for a Ritz value the Weyl bound of its residual, 1 when it says nothing)."
+        )
+    )
 
 
 class AnalysisCounts(BaseModel):

@@ -16,6 +16,7 @@ from oracles.motion import boundary_strains, relative_bar_error
 from oracles.rigidity import (
     compatibility_matrix,
     driven_response,
+    normalised,
     reference_counts,
     rigid_generators,
 )
@@ -59,6 +60,16 @@ def test_planar_k4_has_one_self_stress(client: Client) -> None:
     assert np.linalg.norm(c.T @ stress) < 1e-9  # equilibrium: Cᵀs = 0
     assert np.linalg.norm(stress) == pytest.approx(1.0)
     assert np.all(np.abs(stress) > 0.1)  # every bar of K4 carries the stress
+
+
+def test_sigma_r_to_a_requested_bound(client: Client) -> None:
+    """gap_rtol reaches the service: the square with a diagonal by the sparse route, σ_r as
+    numpy's SVD of the normalised C gives it, within the bound the answer states."""
+    braced = Frame.from_json({**frames.SQUARE, "edges": [*frames.SQUARE["edges"], [0, 2]]})
+    s = np.linalg.svd(compatibility_matrix(normalised(braced.positions), braced.edges), compute_uv=False)
+    a = client.analyze(braced, method="sparse", gap_rtol=1e-9)
+    assert a.rank_gap.last_nonzero_error <= 1e-9
+    assert a.rank_gap.last_nonzero == pytest.approx(s[a.rank - 1], rel=1e-9)
 
 
 def test_tetrahedron_is_rigid_in_space(client: Client) -> None:

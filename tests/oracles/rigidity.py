@@ -25,7 +25,7 @@ COUNT_FIELDS = (
     "nontrivial_zero_modes",
     "self_stresses",
 )
-RANK_GAP_FIELDS = ("last_nonzero", "first_zero")
+RANK_GAP_FIELDS = ("last_nonzero", "first_zero", "last_nonzero_error")
 
 # σ ≤ REFERENCE_RTOL·σ_max counts as zero on the normalised frame. The frames tested have exact
 # zeros (σ ~ 1e-15 σ_max) or gaps far above it (designed frames: σ_r/σ_max ≳ 1e-4), so the

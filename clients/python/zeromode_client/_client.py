@@ -134,9 +134,11 @@ class Client(_BaseClient):
         rtol: float | None = None,
         method: Literal["auto", "dense", "sparse"] | None = None,
         bases: bool | None = None,
+        gap_rtol: float | None = None,
     ) -> Analysis:
-        """POST /v1/analyze: rank, zero modes, rigid motions and self-stresses of ``frame``."""
-        return self._send(ep.analyze(frame, _given(rtol=rtol, method=method, bases=bases)))
+        """POST /v1/analyze: rank, zero modes, rigid motions and self-stresses of ``frame``
+        (``gap_rtol``: σ_r converged to this relative error bound)."""
+        return self._send(ep.analyze(frame, _given(rtol=rtol, method=method, bases=bases, gap_rtol=gap_rtol)))
 
     def solution_space(
         self, positions: ArrayLike, motions: ArrayLike, samples: int = 8, **fields: Any
@@ -343,8 +345,11 @@ class AsyncClient(_BaseClient):
         rtol: float | None = None,
         method: Literal["auto", "dense", "sparse"] | None = None,
         bases: bool | None = None,
+        gap_rtol: float | None = None,
     ) -> Analysis:
-        return await self._send(ep.analyze(frame, _given(rtol=rtol, method=method, bases=bases)))
+        return await self._send(
+            ep.analyze(frame, _given(rtol=rtol, method=method, bases=bases, gap_rtol=gap_rtol))
+        )
 
     async def solution_space(
         self, positions: ArrayLike, motions: ArrayLike, samples: int = 8, **fields: Any

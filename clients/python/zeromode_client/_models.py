@@ -86,10 +86,13 @@ class Health:
 
 @dataclass(frozen=True)
 class RankGap:
-    """Singular values σ_r and σ_{r+1} of the scale-normalised compatibility matrix."""
+    """Singular values σ_r and σ_{r+1} of the scale-normalised compatibility matrix; a singular
+    value lies within the relative distance ``last_nonzero_error`` of ``last_nonzero`` (0 from
+    servers that do not report it)."""
 
     last_nonzero: float
     first_zero: float
+    last_nonzero_error: float = 0.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -118,6 +121,7 @@ class Analysis:
     @classmethod
     def from_json(cls, data: dict[str, Any]) -> Analysis:
         n, d = int(data["nodes"]), int(data["dim"])
+        gap = data["rank_gap"]
         return cls(
             nodes=n,
             edges=int(data["edges"]),
@@ -128,7 +132,9 @@ class Analysis:
             rigid_body_modes=int(data["rigid_body_modes"]),
             nontrivial_zero_modes=int(data["nontrivial_zero_modes"]),
             self_stresses=int(data["self_stresses"]),
-            rank_gap=RankGap(**{k: float(v) for k, v in data["rank_gap"].items()}),
+            rank_gap=RankGap(
+                float(gap["last_nonzero"]), float(gap["first_zero"]), float(gap.get("last_nonzero_error", 0.0))
+            ),
             modes=readonly(data.get("modes", []), (n, d)),
             stresses=readonly(data.get("stresses", []), (int(data["edges"]),)),
             bases_included=bool(data.get("bases_included", True)),
