@@ -91,7 +91,9 @@ SIGMA_INTRO = (
     "The sparse route's σ_r is the smallest nonzero Ritz value of the count's last block: never "
     "below σ_r, and some singular value of C lies within its stated relative bound (the Weyl "
     "bound of its residual, `rank_gap.last_nonzero_error`). `gap_rtol=1e-6` widens its Ritz "
-    "space (one shifted solve a step) until that bound is 1e-6. *error*: against numpy's SVD of "
+    "space (one shifted solve a step) until that bound is 1e-6 (round-off in the residual, about "
+    "ε·(σ_max/σ_r)², can keep it above: the service then answers 422 `not_converged`; here the "
+    "bound reached is listed). *error*: against numpy's SVD of "
     "the normalised C (frames up to 10³ nodes; – above). *counts* and *with gap_rtol* timed in "
     "turn with one CHOLMOD factorisation as in the first table."
 )
@@ -316,7 +318,7 @@ def sigma_r_table() -> list[str]:
         (rough_s, exact_s, chol_s), (rough, exact, _) = paired_median_cpu(
             [
                 lambda f=frame: analyze(f, bases=False),
-                lambda f=frame: analyze(f, bases=False, gap_rtol=SIGMA_RTOL),
+                lambda f=frame: analyze(f, bases=False, gap_rtol=SIGMA_RTOL, require_gap=False),
                 cholmod_factorisation(frame),
             ],
             runs_for(frame.n_nodes),

@@ -46,18 +46,21 @@ from zeromode.solver.rank import RTOL, RankGap, complement_within, decide_rank
 DENSE_MAX_DOF = 400
 # analyze takes the SVD of C while C has at most this many entries (N_B·dN), the sparse route
 # above: the break-even of the two, measured (benchmarks/bench_analysis.py, crossover table in
-# docs/benchmarks/analysis.md: both routes on the same frames, timed in turn, one core). The
-# SVD's cost grows as N_B·dN·min(N_B, dN), the compiled sparse route's is some 0.1–0.2 ms at
-# this size. Counts alone: the SVD ahead to 2 256–2 800 entries (networks 0.12 against 0.14–0.17
-# ms, kagome 0.12 against 0.13, triangulated level at 0.14–0.15), the sparse route ahead from
-# 6 006 (3D network 0.25 against 0.23 ms; triangulated 6 120 0.27 against 0.19, kagome 7 776
-# 0.30 against 0.17). With bases (sized by dN·max(N_B, dN), as the SVD then also holds the
-# dN × dN matrix V) the SVD ahead to 870–1 056 (0.09–0.16 against 0.12–0.25 ms), the sparse route
-# from 2 256–2 800 (0.26–0.29 against 0.29–0.36 ms). Both routes state σ_r's accuracy
-# (rank_gap.last_nonzero_error): the SVD's is round-off, the sparse route's a Ritz value's bound
-# unless gap_rtol asks for more.
-DENSE_MAX_ENTRIES_COUNTS = 4_000
-DENSE_MAX_ENTRIES_BASES = 1_800
+# docs/benchmarks/analysis.md: both routes on the same frames, timed in turn, one core; two runs
+# of the same day, the sparse route's fixed cost of 0.1–0.2 ms at this size moving with the
+# machine's state). The SVD's cost grows as N_B·dN·min(N_B, dN). Counts alone: the SVD ahead to
+# 2 256–2 800 entries in one run (networks 0.12 against 0.14–0.17 ms; triangulated level, 0.14
+# against 0.15) and to 4 692–6 006 in the other (3D network 0.24 against 0.32 ms at 4 692, 0.30
+# against 0.33 at 6 006; 2D network 0.24 against 0.29 at 5 040), the sparse route ahead from
+# 6 006–6 120 in the first (3D network 0.25 against 0.23 ms, triangulated 0.27 against 0.19) and
+# 6 120–6 560 in the second (triangulated 0.31 against 0.28, 2D network level at 0.31 and 0.30).
+# With bases (sized by dN·max(N_B, dN), as the SVD then also holds the dN × dN matrix V) the SVD
+# ahead to 870–1 056 entries and behind from 2 256 in the first run (0.29–0.36 against
+# 0.26–0.29 ms), ahead to 2 256–3 720 and behind from 4 692 in the second (0.48–0.57 against
+# 0.46–0.51 ms at 3 540–5 040). Both routes state σ_r's accuracy (rank_gap.last_nonzero_error):
+# the SVD's is round-off, the sparse route's a Ritz value's bound unless gap_rtol asks for more.
+DENSE_MAX_ENTRIES_COUNTS = 6_000
+DENSE_MAX_ENTRIES_BASES = 2_500
 # Bases are returned only while they stay this small (numbers); counts are always exact.
 BASIS_MAX_NUMBERS = 4_000_000
 # The dense route asked for by name is refused (too_expensive) past this many rows or columns of
