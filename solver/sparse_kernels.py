@@ -16,8 +16,9 @@ in an environment):
   * ``ritz_pairs``: Rayleigh–Ritz singular values and vectors of A on span(Y) (``jacobi_svd``:
     the SVD of a few columns);
   * ``project_out``: (I − K Kᵀ) Y; ``project_out_and_orthonormalise``: Q of (I − K Kᵀ) Y;
-  * ``ritz_space``, ``extend_ritz_space``, ``smallest_ritz_pair``, ``relative_error_bound``: the
-    smallest nonzero Ritz pair, its space widened a vector at a time, and its error bound;
+  * ``ritz_space``, ``extend_ritz_space``, ``smallest_ritz_pair``, ``ritz_residual``,
+    ``relative_error_bound``: the smallest nonzero Ritz pair, its space widened a vector at a
+    time, and its error bound;
   * ``null_space_rounds``: the count's whole shift-invert subspace iteration, a generator that
     hands its block to the caller for each shifted solve (CHOLMOD's, solver/factorisation.py).
 
@@ -414,9 +415,15 @@ def smallest_ritz_pair(indptr, indices, data, t_indptr, t_indices, t_data, q, b,
         theta[j] = np.sqrt(np.sum(b[:, j] * b[:, j]))
     j = np.argmin(theta)
     u = q @ np.ascontiguousarray(w[:, j])
+    return theta[j], u, ritz_residual(indptr, indices, data, t_indptr, t_indices, t_data, theta[j], u)
+
+
+@compiled
+def ritz_residual(indptr, indices, data, t_indptr, t_indices, t_data, theta, u):
+    """‖AᵀA u − θ² u‖ for a Ritz pair (θ, u (n,)) of A (A and Aᵀ in CSR arrays)."""
     au = times(indptr, indices, data, u.reshape(-1, 1))
-    residual = times(t_indptr, t_indices, t_data, au).ravel() - theta[j] * theta[j] * u
-    return theta[j], u, np.sqrt(residual @ residual)
+    residual = times(t_indptr, t_indices, t_data, au).ravel() - theta * theta * u
+    return np.sqrt(residual @ residual)
 
 
 @compiled
@@ -590,12 +597,13 @@ def null_space_rounds(indptr, indices, data, t_indptr, t_indices, t_data, known,
     kept = theta[z] if z < theta.size else 0.0
     dropped = theta[z - 1] if z > 0 else 0.0
     error = 0.0
-    if z < theta.size:  # σ_r's Ritz pair on the nonzero columns, widened while asked
+    if z < theta.size:  # σ_r's Ritz pair and its bound
+        u = np.ascontiguousarray(y[:, z])
+        error = relative_error_bound(kept, ritz_residual(indptr, indices, data, t_indptr, t_indices, t_data, kept, u))
+    if error > gap_rtol and max_polish_steps > 0:  # from the span of the nonzero Ritz vectors
         null = np.hstack((known, np.ascontiguousarray(y[:, :z])))
         q = np.ascontiguousarray(y[:, z:])
         qa, b, w = ritz_space(indptr, indices, data, q)
-        kept, u, residual = smallest_ritz_pair(indptr, indices, data, t_indptr, t_indices, t_data, q, b, w)
-        error = relative_error_bound(kept, residual)
         for _ in range(max_polish_steps):
             if error <= gap_rtol:
                 break
