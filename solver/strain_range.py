@@ -45,6 +45,7 @@ import numpy as np
 from scipy.optimize import brentq
 from scipy.spatial import cKDTree
 
+from zeromode.solver.errors import DomainError
 from zeromode.solver.finite_motion import trace_motion
 from zeromode.solver.frame import Frame
 from zeromode.solver.progress import report_detail
@@ -259,12 +260,18 @@ class ModuleMotion:
     range: StrainRange
 
     def at(self, strain: float) -> np.ndarray:
-        """q at ε = ``strain`` (inside the range): Newton from the nearest sample towards 0."""
-        k = int(np.argmin(np.abs(self.strains - strain)))
-        q = self.module.configuration(strain, self.configurations[k])
-        if q is None:  # the nearest sample is within one scan step: Newton always converges there
-            raise RuntimeError(f"no configuration at strain {strain:g} next to the scanned one")
-        return q
+        """q at ε = ``strain`` (inside the range): tangent predictor and Newton (as the scan
+        advanced) from the nearest sample, else from the next nearest. Both are within one scan
+        step; the nearest alone can fail where the motion is steep and that sample is a range
+        end located past the last scanned step (ν = −57: Newton from the end at ε = −0.0077
+        missed ε = −0.0039, which the sample at 0 reaches)."""
+        for k in np.argsort(np.abs(self.strains - strain), kind="stable")[:2]:
+            q = _advance(self.module, self.configurations[k], float(self.strains[k]), strain)
+            if q is not None:
+                return q
+        raise DomainError(
+            "not_converged", f"no configuration of the module's motion was found at strain {strain:g}."
+        )
 
 
 def module_range(

@@ -138,6 +138,23 @@ def test_sheet_finite_states(poisson):
         assert lat.max_relative_bar_error <= 1e-9
 
 
+def test_sheet_states_midway_to_a_range_end_past_the_last_scan_step():
+    """ν = −57 (found by the REST hypothesis test as a 500): the motion is steep, the contracted
+    end (node proximity at ε ≈ −0.0077) lies inside the first scan step, and ε = −0.0039 is
+    nearer that end's sample than ε = 0, from which Newton alone missed it. The states still
+    keep every bar length and sit at the requested strain."""
+    usable = auxetic_sheet(1, 1, poisson=-57.0).strain_range
+    strain = 0.00390625
+    assert -usable.lower.strain - strain < strain < usable.upper.strain  # nearer the lower end's sample
+    lat = auxetic_sheet(1, 1, poisson=-57.0, strain=strain)
+    x, edges = lat.frame.positions, lat.frame.edges
+    sets = sheet_boundary(lat, 1, 1.0)
+    for name, (state, _, _) in lat.states.items():
+        assert relative_bar_error([state], edges, x) <= 1e-9, name
+        ex, _ = boundary_strains(x, state, sets, finite=True)
+        assert abs(abs(ex) - strain) <= 1e-12 and (ex > 0) == (name == "expanded")
+
+
 def test_sheet_secant_ratio_tends_to_the_linear_one():
     """At small strain the finite states follow the mode: the secant ν → the linear ν."""
     lat = auxetic_sheet(2, 2, poisson=-0.5, strain=1e-6)
