@@ -73,6 +73,10 @@ FULL_SIZES = {
 FRAMES = {**LATTICES, **NETWORKS}
 MILLION = ("triangulated", "kagome")
 CROSSOVER_ROUNDS = 31
+# Medians up to 10⁴ nodes take as many rounds as fit in this many CPU seconds (runs_for) …
+ROUND_BUDGET_S = 3.0
+# … and at most this many.
+MAX_RUNS = 101
 # Lattice patches come in steps of a whole side (a triangulated patch jumps from 6 120 to 11 760 to
 # 20 608 entries of C); the networks take any node count and fill the steps between.
 CROSSOVER_FRAMES = ("triangulated", "kagome", "cubic-diagonal", "near-isostatic 2D", "near-isostatic 3D")
@@ -149,9 +153,18 @@ def counts(a) -> dict[str, int]:
     return {name: getattr(a, name) for name in COUNTS}
 
 
-def runs_for(n: int) -> int:
-    """Runs per median: many where one run is a millisecond or less, so the medians settle."""
-    return 101 if n <= 200 else 31 if n <= 2000 else 7 if n <= 10_000 else 3 if n <= 100_000 else 1
+def runs_for(n: int, fns=()) -> int:
+    """Runs per median: many where one run is a millisecond or less, so the medians settle; up to
+    10⁴ nodes, also as many as fit in ROUND_BUDGET_S, from one round of ``fns`` timed first
+    (which also warms them up; at 10⁴ nodes a 2D count and its factorisation take 60 ms a round,
+    and 7 rounds left their ratio 0.03–0.05 apart from run to run)."""
+    least = 101 if n <= 200 else 31 if n <= 2000 else 7 if n <= 10_000 else 3 if n <= 100_000 else 1
+    if n > 10_000 or not fns:
+        return least
+    t0 = time.process_time()
+    for fn in fns:
+        fn()
+    return max(least, min(MAX_RUNS, int(ROUND_BUDGET_S / max(time.process_time() - t0, 1e-9))))
 
 
 def cholmod_factorisation(frame: Frame):
@@ -233,11 +246,10 @@ def frame_table(sizes: dict[str, list[int]]) -> tuple[list[str], list[str], dict
         for target in targets:
             frame = FRAMES[name](target)
             n, d = frame.n_nodes, frame.dim
-            runs = runs_for(n)
-            (counts_s, chol_s), (a, _) = paired_median_cpu(
-                [lambda f=frame: analyze(f, bases=False), cholmod_factorisation(frame)], runs
-            )
-            (bases_s,), (b,) = paired_median_cpu([lambda f=frame: analyze(f)], runs)
+            pair = [lambda f=frame: analyze(f, bases=False), cholmod_factorisation(frame)]
+            runs = runs_for(n, pair)
+            (counts_s, chol_s), (a, _) = paired_median_cpu(pair, runs)
+            (bases_s,), (b,) = paired_median_cpu([lambda f=frame: analyze(f)], runs_for(n))
             c = counts(a)
             assert counts(b) == c
             numbers = c["nontrivial_zero_modes"] * d * n + c["self_stresses"] * frame.n_edges
@@ -315,14 +327,12 @@ def sigma_r_table() -> list[str]:
     ]
     for name, target in SIGMA_FRAMES:
         frame = FRAMES[name](target)
-        (rough_s, exact_s, chol_s), (rough, exact, _) = paired_median_cpu(
-            [
-                lambda f=frame: analyze(f, bases=False),
-                lambda f=frame: analyze(f, bases=False, gap_rtol=SIGMA_RTOL, require_gap=False),
-                cholmod_factorisation(frame),
-            ],
-            runs_for(frame.n_nodes),
-        )
+        calls = [
+            lambda f=frame: analyze(f, bases=False),
+            lambda f=frame: analyze(f, bases=False, gap_rtol=SIGMA_RTOL, require_gap=False),
+            cholmod_factorisation(frame),
+        ]
+        (rough_s, exact_s, chol_s), (rough, exact, _) = paired_median_cpu(calls, runs_for(frame.n_nodes, calls))
         sigma_r = None
         if frame.n_nodes <= 1000:
             c = compatibility_matrix(frame.normalised_positions(), frame.edges).toarray()
@@ -496,7 +506,8 @@ def split_table() -> list[str]:
                 parts[part].append(seconds)
             columns = clock.columns
 
-        (_, ref), _ = paired_median_cpu([split_count, reference], runs_for(frame.n_nodes))
+        runs = runs_for(frame.n_nodes, [lambda f=frame: analyze(f, bases=False), reference])
+        (_, ref), _ = paired_median_cpu([split_count, reference], runs)
         total = float(np.median(totals))
         median = {part: float(np.median(v)) for part, v in parts.items()}
         rest = float(np.median(np.array(totals) - sum(np.array(v) for v in parts.values())))
@@ -601,9 +612,10 @@ def main() -> None:
             "cost of any factorisation-based rank method (zeromode's own factorisation lets "
             "CHOLMOD choose between its simplicial and supernodal kernels). *counts* and "
             "*CHOLMOD factorisation* are timed in turn in the same rounds (the order reversed "
-            "every other round): medians of 101 rounds "
-            "up to 200 nodes, 31 to 2 000, 7 to 10⁴, 3 above; *with bases* in separate runs of "
-            "the same numbers. *route*: see the crossover table."
+            "every other round): medians of 101 rounds up to 200 nodes, at least 31 to 2 000 and "
+            f"7 to 10⁴ (up to {MAX_RUNS} where they fit in {ROUND_BUDGET_S:.0f} CPU seconds, after "
+            "one round that warms them up), 3 above; *with bases* in separate runs of 101, 31, 7 "
+            "and 3. *route*: see the crossover table."
         ),
         "",
         *frame_rows,

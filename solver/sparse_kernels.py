@@ -11,7 +11,8 @@ in an environment):
   * ``uniform_block``: the starting blocks' pseudo-random numbers (SplitMix64);
   * ``transpose_csr``: Aᵀ; ``row_gram``: A Aᵀ (CᵀC from A = Cᵀ, CCᵀ from A = C);
   * ``times``: A·Y;
-  * ``largest_singular_value``: σ_max(A) by Lanczos on AᵀA; ``product_norm``: ‖A·Y‖₂;
+  * ``normal_product``: AᵀA q in one pass; ``largest_singular_value``: σ_max(A) by Lanczos on
+    AᵀA; ``product_norm``: ‖A·Y‖₂;
   * ``count_setup``: C, Cᵀ, σ_max and the Gram matrix of the counted side in one call;
   * ``ritz_pairs``: Rayleigh–Ritz singular values and vectors of A on span(Y) (``jacobi_svd``:
     the SVD of a few columns);
@@ -224,29 +225,34 @@ def product_norm(indptr, indices, data, y):
 
 
 @compiled
-def largest_singular_value(indptr, indices, data, t_indptr, t_indices, t_data, start, steps):
-    """σ_max(A) = √λ_max(AᵀA) for A (m × n) and Aᵀ in CSR arrays: the largest eigenvalue of the
+def normal_product(indptr, indices, data, q):
+    """AᵀA q (n,) for A (m × n) in CSR arrays and q (n,), in one pass over A's rows:
+    AᵀA q = Σ_r a_r (a_r · q), each row read once for both products (a 10⁴-node 2D network:
+    0.08 ms against 0.27 ms for A q then Aᵀ(A q) from Aᵀ's arrays)."""
+    m, n = indptr.size - 1, q.size
+    w = np.zeros(n)
+    for r in range(m):
+        acc = 0.0
+        for p in range(_u(indptr[r]), _u(indptr[r + 1])):
+            acc += data[p] * q[_u(indices[p])]
+        for p in range(_u(indptr[r]), _u(indptr[r + 1])):
+            w[_u(indices[p])] += data[p] * acc
+    return w
+
+
+@compiled
+def largest_singular_value(indptr, indices, data, start, steps):
+    """σ_max(A) = √λ_max(AᵀA) for A (m × n) in CSR arrays: the largest eigenvalue of the
     tridiagonal T_k of ``steps`` Lanczos steps on AᵀA from ``start`` (n,), a Rayleigh quotient on
-    the Krylov space, so never above σ_max (round-off allowing); AᵀA q is taken as Aᵀ(A q)."""
-    m, n = indptr.size - 1, start.size
+    the Krylov space, so never above σ_max (round-off allowing); AᵀA q by ``normal_product``."""
+    n = start.size
     q = start / np.sqrt(start @ start)
     previous = np.zeros(n)
     alpha = np.zeros(steps)
     beta = np.zeros(steps)
-    u = np.empty(m)
     k = 0
     for s in range(min(steps, n)):
-        for r in range(m):
-            acc = 0.0
-            for p in range(_u(indptr[r]), _u(indptr[r + 1])):
-                acc += data[p] * q[_u(indices[p])]
-            u[r] = acc
-        w = np.empty(n)
-        for j in range(n):
-            acc = 0.0
-            for p in range(_u(t_indptr[j]), _u(t_indptr[j + 1])):
-                acc += t_data[p] * u[_u(t_indices[p])]
-            w[j] = acc
+        w = normal_product(indptr, indices, data, q)
         if s > 0:
             w -= beta[s - 1] * previous
         alpha[s] = q @ w
@@ -278,7 +284,7 @@ def count_setup(positions, edges, count_modes, stream, steps):
     a, at = (c, ct) if count_modes else (ct, c)
     n = at[0].size - 1
     start = uniform_block(stream, n, 1).reshape(n)
-    sigma_max = largest_singular_value(a[0], a[1], a[2], at[0], at[1], at[2], start, steps)
+    sigma_max = largest_singular_value(a[0], a[1], a[2], start, steps)
     return c, ct, sigma_max, row_gram(at[0], at[1], at[2], a[0], a[1], a[2])
 
 
@@ -406,7 +412,7 @@ def orthogonal_columns(b, w):
 
 
 @compiled
-def smallest_ritz_pair(indptr, indices, data, t_indptr, t_indices, t_data, q, b, w):
+def smallest_ritz_pair(indptr, indices, data, q, b, w):
     """The smallest Ritz singular value θ of A on span(Q), its Ritz vector u (n,) and the
     residual ‖AᵀA u − θ² u‖, from the factors of ritz_space (θ is B's smallest column norm)."""
     k = b.shape[1]
@@ -415,14 +421,13 @@ def smallest_ritz_pair(indptr, indices, data, t_indptr, t_indices, t_data, q, b,
         theta[j] = np.sqrt(np.sum(b[:, j] * b[:, j]))
     j = np.argmin(theta)
     u = q @ np.ascontiguousarray(w[:, j])
-    return theta[j], u, ritz_residual(indptr, indices, data, t_indptr, t_indices, t_data, theta[j], u)
+    return theta[j], u, ritz_residual(indptr, indices, data, theta[j], u)
 
 
 @compiled
-def ritz_residual(indptr, indices, data, t_indptr, t_indices, t_data, theta, u):
-    """‖AᵀA u − θ² u‖ for a Ritz pair (θ, u (n,)) of A (A and Aᵀ in CSR arrays)."""
-    au = times(indptr, indices, data, u.reshape(-1, 1))
-    residual = times(t_indptr, t_indices, t_data, au).ravel() - theta * theta * u
+def ritz_residual(indptr, indices, data, theta, u):
+    """‖AᵀA u − θ² u‖ for a Ritz pair (θ, u (n,)) of A (m × n) in CSR arrays."""
+    residual = normal_product(indptr, indices, data, u) - theta * theta * u
     return np.sqrt(residual @ residual)
 
 
@@ -474,7 +479,7 @@ def relative_error_bound(theta, residual):
 
 
 @compiled
-def null_space_rounds(indptr, indices, data, t_indptr, t_indices, t_data, known, width, stream, tol, shift,
+def null_space_rounds(indptr, indices, data, known, width, stream, tol, shift,
                       settled, damped, householder_max, max_null, first_steps, max_rounds, gap_rtol, max_polish_steps):
     """Orthonormal basis of N(A) ⊖ span(K), yielding as the module docstring says.
 
@@ -599,7 +604,7 @@ def null_space_rounds(indptr, indices, data, t_indptr, t_indices, t_data, known,
     error = 0.0
     if z < theta.size:  # σ_r's Ritz pair and its bound
         u = np.ascontiguousarray(y[:, z])
-        error = relative_error_bound(kept, ritz_residual(indptr, indices, data, t_indptr, t_indices, t_data, kept, u))
+        error = relative_error_bound(kept, ritz_residual(indptr, indices, data, kept, u))
     if error > gap_rtol and max_polish_steps > 0:  # from the span of the nonzero Ritz vectors
         null = np.hstack((known, np.ascontiguousarray(y[:, :z])))
         q = np.ascontiguousarray(y[:, z:])
@@ -613,6 +618,6 @@ def null_space_rounds(indptr, indices, data, t_indptr, t_indices, t_data, known,
             q, qa, b, w, grew = extend_ritz_space(indptr, indices, data, null, q, qa, b, w, x.ravel())
             if not grew:
                 break
-            kept, u, residual = smallest_ritz_pair(indptr, indices, data, t_indptr, t_indices, t_data, q, b, w)
+            kept, u, residual = smallest_ritz_pair(indptr, indices, data, q, b, w)
             error = relative_error_bound(kept, residual)
     yield DONE, np.ascontiguousarray(y[:, :z]), kept, dropped, error
