@@ -158,7 +158,7 @@ def runs_for(n: int, fns=()) -> int:
     10⁴ nodes, also as many as fit in ROUND_BUDGET_S, from one round of ``fns`` timed first
     (which also warms them up; at 10⁴ nodes a 2D count and its factorisation take 60 ms a round,
     and 7 rounds left their ratio 0.03–0.05 apart from run to run)."""
-    least = 101 if n <= 200 else 31 if n <= 2000 else 7 if n <= 10_000 else 3 if n <= 100_000 else 1
+    least = MAX_RUNS if n <= 200 else 31 if n <= 2000 else 7 if n <= 10_000 else 3 if n <= 100_000 else 1
     if n > 10_000 or not fns:
         return least
     t0 = time.process_time()

@@ -468,6 +468,7 @@ def extend_ritz_space(indptr, indices, data, null, q, qa, b, w, x):
     grown_b, grown_w = orthogonal_columns(grown_b, grown_w)
     return grown_q, grown_qa, grown_b, grown_w, True
 
+
 @compiled
 def relative_error_bound(theta, residual):
     """1 − √(1 − ρ/θ²) (1 when ρ ≥ θ²): for a Ritz pair (θ², u) of AᵀA with residual

@@ -207,11 +207,14 @@ def test_auxetic_3d_odd_requests_never_5xx(client, request_):
 
 @pytest.mark.parametrize("strain", [1e-20, 1e-9, 9.9e-5])
 def test_auxetic_tiny_strain_is_refused_by_the_schema(client, strain):
-    """Below the schema's floor on ``strain`` (1e-4) a 422 names it; the floor itself is served,
-    with states at that strain."""
+    """Below the schema's floor on ``strain`` (1e-4) a 422 names it."""
     response = client.post("/v1/design/auxetic", json={"dim": 2, "cells": [2, 2], "strain": strain})
     assert_error(response, {"invalid_request"})
     assert "strain" in response.json()["detail"]["message"]
+
+
+def test_auxetic_strain_at_the_schema_floor_is_served(client):
+    """The floor itself (1e-4) is served, with states at that strain."""
     response = client.post("/v1/design/auxetic", json={"dim": 2, "cells": [2, 2], "strain": 1e-4})
     assert response.status_code == 200, response.text
     check_auxetic(response.json(), 2, -1.0, 1e-4)
