@@ -22,6 +22,7 @@ from zeromode.solver.certificates import (
 )
 from zeromode.solver.finite_motion import MotionPath
 from zeromode.solver.frame import Frame
+from zeromode.solver.motion_target import AimedMotion
 from zeromode.solver.rank import RankGap
 from zeromode.solver.rigidity import Analysis
 from zeromode.solver.tolerance import ToleranceEstimate, ToleranceReport
@@ -289,23 +290,27 @@ def network_allosteric_body(result, given_edges) -> dict:
 # ----------------------------------------------------------------------------- finite motion
 
 
-def motion_body(path: MotionPath, timings_ms: dict | None = None, strains=None) -> dict:
-    """/v1/motion; ``strains`` (ε (P, 2), secant ν (P,)) of a lattice's configurations, or None."""
+def _singularity(s) -> dict:
+    return {
+        "step": s.step,
+        "parameter": s.parameter,
+        "extra_zero_modes": s.extra_zero_modes,
+        "sigma": s.sigma,
+        "kind": s.kind,
+    }
+
+
+def motion_body(path: MotionPath, timings_ms: dict | None = None, strains=None, aimed: AimedMotion | None = None) -> dict:
+    """/v1/motion; ``strains`` (ε (P, 2), secant ν (P,)) of a lattice's configurations, or None;
+    ``aimed``: the motion aimed at a target (its ``path`` is ``path``; in a refusal, ``reached``
+    is the nearest value found)."""
     body = {
         "path": path.positions.tolist(),
         "parameter": path.parameter.tolist(),
         "reference_index": path.reference_index,
         "max_relative_bar_error": path.max_relative_bar_error,
-        "singularities": [
-            {
-                "step": s.step,
-                "parameter": s.parameter,
-                "extra_zero_modes": s.extra_zero_modes,
-                "sigma": s.sigma,
-                "kind": s.kind,
-            }
-            for s in path.singularities
-        ],
+        "singularities": [_singularity(s) for s in path.singularities],
+        "singular_start": None if path.singular_start is None else _singularity(path.singular_start),
         "status": path.status,
         "steps": int(len(path.parameter) - 1),
         "method": path.method,
@@ -315,6 +320,18 @@ def motion_body(path: MotionPath, timings_ms: dict | None = None, strains=None) 
     if strains is not None:
         body["strains"] = strains[0].tolist()
         body["poisson_ratio"] = [None if not np.isfinite(v) else float(v) for v in strains[1]]
+    if aimed is not None:
+        end = aimed.range_end or (None, None)
+        body["target"] = {
+            "kind": aimed.target.kind,
+            "value": aimed.target.value,
+            "reached": aimed.reached,
+            "error": aimed.error,
+            "index": aimed.index,
+            "parameter": float(path.parameter[aimed.index]),
+            "range_end": end[0],
+            "range_end_reason": end[1],
+        }
     return body
 
 

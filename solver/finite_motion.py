@@ -154,6 +154,10 @@ class MotionPath:
     the input positions exactly). Every other configuration is aligned to the reference by the
     proper rigid motion that minimises the sum of squared node distances (Kabsch).
     method: "dense" or "sparse", the linear algebra the continuation used.
+    singular_start: the reference itself as a singular point (``step`` = ``reference_index``,
+    parameter 0), when C has more zero modes there than just off it along the path (the path
+    starts at a branch point: two zero modes crossing, a flattened linkage); None otherwise.
+    It does not end the path and is not one of ``singularities``.
     """
 
     positions: np.ndarray
@@ -163,6 +167,7 @@ class MotionPath:
     singularities: tuple[Singularity, ...]
     edges: np.ndarray
     method: str = "dense"
+    singular_start: Singularity | None = None
 
     @property
     def status(self) -> str:
@@ -584,20 +589,76 @@ def _locate(cons, point: _Point, h: float, y_end: np.ndarray, f_end, c_end, repo
     return y_star, s_star, extra, sigma_star
 
 
+def regular_point(cons: BarConstraints, x: np.ndarray, direction: np.ndarray) -> _Point:
+    """The accepted point of the continuation at the regular configuration x (normalised):
+    W = [t, rigid motions, other modes] from N(C(x)), t the unit tangent nearest ``direction``
+    (dN). DomainError ``no_motion`` if x has no nontrivial zero mode along ``direction``."""
+    _, f, _, _ = cons.count(x, RTOL)
+    w = _tangent_frame(cons, x, cons.null_space(x, f), direction)
+    if w is None:
+        raise DomainError("no_motion", "the configuration has no nontrivial zero mode along the path.")
+    return _Point(x, w, cons.jacobian(x))
+
+
 def curve_chart(cons: BarConstraints, x: np.ndarray, direction: np.ndarray):
     """s ↦ the configuration of ``cons`` at pseudo-arclength s from the regular configuration x
     (normalised) along its tangent nearest ``direction``, by the corrector of the continuation:
     a function (s, start) → (configuration or None), ``start`` a warm start (default the
     predictor)."""
-    _, f, _, _ = cons.count(x, RTOL)
-    point = _Point(x, _tangent_frame(cons, x, cons.null_space(x, f), direction), cons.jacobian(x))
-    sqrt_n = np.sqrt(cons.measured_nodes)
+    point = regular_point(cons, x, direction)
+    return lambda s, start=None: chart_at(cons, point, s, start)
 
-    def at(s: float, start=None):
-        got = _correct(cons, point, x + s * sqrt_n * point.t.reshape(x.shape), start=start, tight=True)
-        return None if got is None else got[0]
 
-    return at
+def chart_at(cons: BarConstraints, point: _Point, s: float, start=None):
+    """The configuration at pseudo-arclength s from ``point`` along its tangent (the corrector,
+    tight: W_kᵀ(Y − X_k − s·√N·t_k) = 0 with every bar kept), or None where it fails."""
+    pred = point.x + s * np.sqrt(cons.measured_nodes) * point.t.reshape(point.x.shape)
+    got = _correct(cons, point, pred, start=start, tight=True)
+    return None if got is None else got[0]
+
+
+def aimed_correction(cons: BarConstraints, point: _Point, start: np.ndarray, quantity, value: float, atol: float):
+    """Newton's method on the augmented system of a step from ``point`` (X_k, W_k = [t_k, B_k])
+    that ends where a quantity q reaches ``value``:
+
+        F(Y) = [C_kᵀ g(Y);  q(Y) − value;  B_kᵀ(Y − X_k)] = 0,
+
+    the continuation's corrector (module docstring) with the arclength row t_kᵀ(Y − P) = 0
+    replaced by the target equation.  Its Jacobian is M_k(Y) with the row t_kᵀ replaced by
+    ∇q(Y)ᵀ, solved by block elimination with the factorised M_k(Y): d₀ = the corrector's
+    step with t_kᵀd₀ = 0, v = the solution of M_k(Y)[v; μ] = [0; e₁] (C(Y)v = 0 on the gauge),
+    then d = d₀ + αv with ∇q·d = value − q(Y).  ``quantity(y)`` → (q, ∇q (n, d)) in the
+    coordinates of ``cons``.  Returns Y once every bar is within NEWTON_RTOL of its length and
+    |q − value| ≤ ``atol`` (Newton goes on while its steps shrink), or None (diverged, or
+    ∇q·v = 0: a turning point of q)."""
+    y = start.copy()
+    b = point.w[:, 1:]
+    gauge = b.T @ point.x.ravel()
+    e1 = np.zeros(point.zero_modes)
+    e1[0] = 1.0
+    last = np.inf
+    for _ in range(TIGHT_MAX_ITER):
+        q, grad = quantity(y)
+        converged = cons.error(y) <= NEWTON_RTOL and abs(q - value) <= atol
+        try:
+            factor = cons.galerkin(point, y)
+        except np.linalg.LinAlgError:
+            return y if converged else None
+        d0, _ = factor.solve(-(point.c.T @ cons.residual(y)), np.concatenate([[0.0], gauge - b.T @ y.ravel()]))
+        v, _ = factor.solve(np.zeros(factor.n), e1)
+        slope = float(grad.ravel() @ v)
+        if not abs(slope) > 0:
+            return y if converged else None
+        step = d0 + ((value - q) - float(grad.ravel() @ d0)) / slope * v
+        size = float(np.max(np.abs(step)))
+        if converged and (size >= TIGHT_CONTRACTION * last or size <= 1e-15):
+            return y
+        if not size <= MAX_CORRECTION:  # diverging (also catches NaN)
+            return None
+        y = y + step.reshape(y.shape)
+        last = size
+    q, _ = quantity(y)
+    return y if cons.error(y) <= NEWTON_RTOL and abs(q - value) <= atol else None
 
 
 # ----------------------------------------------------------------------------------------------
@@ -742,6 +803,7 @@ def trace_motion(
     max_steps: int = 5000,
     method: str = "auto",
     stop=None,
+    stop_bisections: int = 0,
 ) -> MotionPath:
     """Follow the finite motion of ``frame`` along ``mode`` to parameter ±``amplitude``.
 
@@ -754,7 +816,10 @@ def trace_motion(
     (``status`` "singular_path"); the path up to them is returned.
     stop: optional ``stop(positions (N, d), sign)`` (sign +1 forward, −1 backward), called at
     every new configuration (unaligned, in the frame's coordinates); a direction ends at the
-    first where it is true, that configuration kept.
+    first where it is true, that configuration kept, its step first shortened towards where
+    ``stop`` turns true by ``stop_bisections`` bisections.
+    A reference where C has more zero modes than just off it along the path (a branch point,
+    reached only with a given ``mode``) is reported as ``singular_start``.
     Frames above MAX_DOF degrees of freedom are refused (``too_expensive``) before any work.
     """
     check_trace_arguments(frame, amplitude, max_step, direction)
@@ -771,7 +836,7 @@ def trace_motion(
     until = None if stop is None else (lambda y, sign: stop(norm.positions_out(y), sign))
     with progress_stage(REFERENCE_SHARE, 1.0):
         configs, params, ref, singularities = follow(
-            cons, x0, t0, null, amplitude, max_step, direction, max_steps, until
+            cons, x0, t0, null, amplitude, max_step, direction, max_steps, until, stop_bisections
         )
     positions = np.stack(
         [
@@ -789,7 +854,25 @@ def trace_motion(
         singularities=singularities,
         edges=frame.edges,
         method=method,
+        singular_start=_singular_start(cons, configs, ref, null.shape[1]),
     )
+
+
+def _singular_start(cons: BarConstraints, configs, ref: int, zero_modes: int) -> Singularity | None:
+    """The reference as a singular point of the path: C(x0) has ``zero_modes`` zero modes and its
+    neighbours on the path fewer (counted at RTOL, as at the reference), so the path leaves a
+    branch point. Only a reference with more than one nontrivial mode (more than ρ + 1 zero
+    modes) can be one: elsewhere the continuation keeps a tangent in N(C) of that size. Counted on
+    either side of the reference that the path has.
+    σ is σ/σ_max of the singular value of C(x0) that vanishes there."""
+    x0 = configs[ref]
+    if zero_modes <= cons.rigid(x0).shape[1] + 1:
+        return None
+    along = [cons.count(configs[k], RTOL)[0] for k in (ref - 1, ref + 1) if 0 <= k < len(configs)]
+    if not along or min(along) >= zero_modes:
+        return None
+    sigma = cons.vanishing_sigma(x0, cons.jacobian(x0), min(along))
+    return Singularity(ref, 0.0, zero_modes - min(along), sigma, "rank_drop")
 
 
 def _kabsch(moving: np.ndarray, target: np.ndarray):
@@ -851,13 +934,13 @@ def fidelity(path: MotionPath, specified, x_s, u_s, a: float) -> Fidelity:
     best = int(np.argmin(dist))
     tau, value = float(path.parameter[best]), float(dist[best])
     if len(dist) >= 2:
-        polished = _polish(path, best, lambda y: kabsch_distance(y[spec], target))
+        polished = curve_minimum(path, best, lambda y: kabsch_distance(y[spec], target))
         if polished is not None and polished[1] < value:
             tau, value = polished
     return Fidelity(value / scale, tau, best in (0, len(dist) - 1))
 
 
-def _polish(path: MotionPath, k: int, distance):
+def curve_minimum(path: MotionPath, k: int, distance):
     """Minimise ``distance`` (of a configuration in the path's coordinates) over the curve
     between samples k−1 and k+1; (parameter, distance) or None if the corrector fails."""
     ref = path.positions[path.reference_index]

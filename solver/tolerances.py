@@ -65,3 +65,9 @@ CONSTRAINT_ATOL = 1e-9
 # The finite-motion fidelity ε (finite_motion.fidelity) at or below which a target counts as
 # reached: IPOPT's tolerance 1e-8 on squared lengths gives ε of order 1e-7 at best.
 REACHED_EPS = 1e-6
+
+# A motion aimed at a target value of a quantity (motion_target.py) ends where the quantity is
+# within TARGET_RTOL of it (relative to the quantity's scale: the target distance for a distance,
+# 1 for an angle in radians or a strain); Newton on the augmented system converges
+# quadratically, so it goes to round-off (≈ 1e-15) and this leaves five decades of margin.
+TARGET_RTOL = 1e-10

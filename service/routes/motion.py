@@ -21,6 +21,7 @@ from zeromode.service.schemas.motion import (
 )
 from zeromode.solver.finite_motion import SingularPath, trace_motion
 from zeromode.solver.lattice import path_strains
+from zeromode.solver.motion_target import MotionTarget, TargetUnreachable, aim_motion
 from zeromode.solver.periodic import trace_motion_through_cell
 from zeromode.solver.refine import RefinementFailed, refine
 
@@ -51,19 +52,38 @@ def post_motion(request: MotionRequest):
     and secant Poisson ratio are reported, and a frame tiled by translations (recognised from its
     geometry) is followed through one cell and checked on the whole frame (method `periodic`: bar
     lengths at every configuration, the tiled tangent a zero mode, singular points of the frame
-    located); where that check fails, the frame's own continuation answers.
+    located); where that check fails, the frame's own continuation answers. With a `target`
+    (a distance, an angle, a lattice strain, a fraction of the usable range) the path ends
+    exactly where it is reached (solver.motion_target), or 422 names why it cannot be.
     """
     t0 = time.perf_counter()
     frame = motion_frame(request)
-    # A lattice (its boundary given) is followed through one cell when it is tiled, checked on the frame.
-    trace = trace_motion if request.boundary is None else trace_motion_through_cell
-    path = trace(frame, **request.model_dump(include={"mode", "amplitude", "max_step", "direction", "max_steps"}))
-    strains = None if request.boundary is None else path_strains(frame.positions, path.positions, request.boundary)
-    body = motion_body(path, {"total": 1e3 * (time.perf_counter() - t0)}, strains)
+    aimed = None
+    if request.target is not None:
+        target = MotionTarget(**request.target.model_dump(exclude={"nodes"}), nodes=tuple(request.target.nodes or ()), boundary=request.boundary)
+        try:
+            aimed = aim_motion(
+                frame, target, periodic=request.boundary is not None,
+                **request.model_dump(include={"mode", "max_step", "direction", "max_steps"}),
+            )
+        except TargetUnreachable as exc:
+            body = _motion_body(frame, request, exc.best.path, t0, exc.best)
+            return JSONResponse(status_code=422, content=error_body(exc.code, exc.message, best=body))
+        path = aimed.path
+    else:
+        # A lattice (its boundary given) is followed through one cell when it is tiled, checked on the frame.
+        trace = trace_motion if request.boundary is None else trace_motion_through_cell
+        path = trace(frame, **request.model_dump(include={"mode", "amplitude", "max_step", "direction", "max_steps"}))
+    body = _motion_body(frame, request, path, t0, aimed)
     if path.singularities and request.on_singularity == "error":
         exc = SingularPath(path)
         return JSONResponse(status_code=422, content=error_body(exc.code, exc.message, best=body))
     return body
+
+
+def _motion_body(frame, request: MotionRequest, path, t0: float, aimed) -> dict:
+    strains = None if request.boundary is None else path_strains(frame.positions, path.positions, request.boundary)
+    return motion_body(path, {"total": 1e3 * (time.perf_counter() - t0)}, strains, aimed)
 
 
 @router.post("/refine", response_model=RefineResponse, responses=RESPONSES)

@@ -23,6 +23,25 @@ FIDELITY = (
 )
 
 
+class MotionTargetModel(RequestModel):
+    kind: Literal["distance", "angle", "strain", "fraction"] = Field(
+        description=(
+            "'distance': |x_j − x_i| between `nodes` [i, j] (the frame's length unit); 'angle': the angle "
+            "at node j between the arms to i and k, `nodes` [i, j, k], in radians — in 2D signed "
+            "(counter-clockwise from arm i to arm k positive) and followed continuously along the "
+            "path (its value in (−π, π] at the input frame, then unwrapped: a full turn adds 2π), "
+            "in 3D unsigned in (0, π); 'strain': ε_x or ε_y (`axis`) of a lattice as in `strains` "
+            "(needs `boundary`); 'fraction': f in [−1, 1], f ≠ 0, of the usable range of the "
+            "motion in the direction sign(f) of the mode, in path parameter (the range ends at "
+            "the first singular point, where two nodes without a bar come closer than 0.1 of the "
+            "shortest bar, or at parameter 10)."
+        )
+    )
+    value: float = Field(description="The target value of the quantity.")
+    nodes: list[int] | None = Field(default=None, description="Node indices: [i, j] (distance) or [i, j, k] (angle at j).")
+    axis: Literal["x", "y"] | None = Field(default=None, description="'strain': which strain, ε_x or ε_y.")
+
+
 class MotionRequest(RequestModel):
     frame: FrameModel
     mode: Points | None = Field(
@@ -41,7 +60,7 @@ class MotionRequest(RequestModel):
         description=(
             "How far to follow the motion in each direction: pseudo-arclength in units of RMS node "
             "displacement over the frame's RMS radius (to first order the nodes move by "
-            "amplitude·r·û, û the mode scaled to unit RMS node displacement)."
+            "amplitude·r·û, û the mode scaled to unit RMS node displacement). Not with `target`."
         ),
     )
     max_step: float = Field(
@@ -76,6 +95,29 @@ class MotionRequest(RequestModel):
             "(method 'periodic'; the frame's own continuation where the check fails)."
         ),
     )
+    target: MotionTargetModel | None = Field(
+        default=None,
+        description=(
+            "Instead of `amplitude`: continue the motion until a quantity reaches this value and end "
+            "exactly there (Newton on the bar constraints plus the target equation: the quantity "
+            "within 1e-10 of the value — relative for a distance — and every bar within 1e-12). "
+            "The path then holds the input frame and the configurations towards the target, the "
+            "last one (`target.index`) on it; with direction 'both' the nearer landing (smaller "
+            "|parameter|) is kept. The search goes up to path parameter 10. Unreachable: 422 "
+            "`target_past_turning_point` (the quantity's derivative along the path changes sign "
+            "first), `target_past_singular_point`, or `target_out_of_range` (beyond the search, or "
+            "the quantity moves away in the only direction asked), whatever `on_singularity`, "
+            "with the path traced and `target.reached` the nearest value found in detail.best; "
+            "a malformed target (nodes out of range or repeated, coincident nodes, a strain "
+            "without `boundary`) 422 `invalid_target`."
+        ),
+    )
+
+    @model_validator(mode="after")
+    def amplitude_or_target(self):
+        if self.target is not None and "amplitude" in self.model_fields_set:
+            raise ValueError("give `amplitude` or `target`, not both")
+        return self
 
 
 class SingularityModel(BaseModel):
@@ -85,6 +127,26 @@ class SingularityModel(BaseModel):
     sigma: float = Field(description="σ/σ_max of the singular value that vanished (the evidence).")
     kind: Literal["rank_drop", "stalled"] = Field(
         description="'rank_drop': located where C loses rank; 'stalled': the corrector failed at the smallest step."
+    )
+
+
+class TargetReport(BaseModel):
+    kind: Literal["distance", "angle", "strain", "fraction"]
+    value: float = Field(description="The target asked.")
+    reached: float = Field(
+        description=(
+            "The quantity at the last configuration (the unwrapped angle; for a fraction, its "
+            "parameter over the range's end); in a 422's detail.best the nearest value found."
+        )
+    )
+    error: float = Field(description="|reached − value|.")
+    index: int = Field(description="Index in `path` of the configuration on the target.")
+    parameter: float = Field(description="Its path parameter.")
+    range_end: float | None = Field(
+        default=None, description="'fraction': the path parameter where the usable range ends in that direction."
+    )
+    range_end_reason: Literal["singular_point", "node_proximity", "search_limit"] | None = Field(
+        default=None, description="'fraction': what ends the usable range there."
     )
 
 
@@ -107,6 +169,16 @@ class MotionResponse(BaseModel):
     singularities: list[SingularityModel] = Field(
         description="Singular points met (at most one per direction)."
     )
+    singular_start: SingularityModel | None = Field(
+        default=None,
+        description=(
+            "The input frame itself as a singular point (step `reference_index`, parameter 0): C "
+            "has more zero modes there than just off it along the path — the path starts at a "
+            "branch point (two zero modes crossing, a flattened linkage; a `mode` must then be "
+            "given). It does not end the path; null otherwise."
+        ),
+    )
+    target: TargetReport | None = Field(default=None, description="With `target`: where the path ended.")
     status: Literal["ok", "singular_path"]
     steps: int = Field(description="Number of continuation steps taken (len(path) − 1).")
     method: Literal["dense", "sparse", "periodic"] = Field(
