@@ -304,6 +304,34 @@ def cmd_job(args) -> int:
     return 0
 
 
+def cmd_motion(args) -> int:
+    from pydantic import ValidationError
+
+    from zeromode.service.routes.motion import post_motion
+    from zeromode.service.schemas.motion import MotionRequest
+
+    doc = _load_json(args.frame)
+    body = dict(doc) if "frame" in doc else {"frame": doc}  # a /v1/motion request, or a frame
+    options = {"target": args.target and json.loads(args.target), "amplitude": args.amplitude, "direction": args.direction}
+    body.update({k: v for k, v in options.items() if v is not None})
+    try:
+        answer = post_motion(MotionRequest.model_validate(body))
+    except ValidationError as exc:
+        print(f"error [invalid_request]: {exc.errors()[0]['msg']}", file=sys.stderr)
+        return 2
+    if not isinstance(answer, dict):  # a 422 with the best path found
+        detail = json.loads(answer.body)["detail"]
+        print(f"error [{detail['code']}]: {detail['message']}", file=sys.stderr)
+        return 2
+    text = json.dumps(answer, allow_nan=False)
+    if args.output:
+        with open(args.output, "w", encoding="utf-8") as fh:
+            fh.write(text + "\n")
+    else:
+        print(text)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     from zeromode.service import __version__  # importlib.metadata only: --help stays fast
 
@@ -383,6 +411,15 @@ def build_parser() -> argparse.ArgumentParser:
     exp.add_argument("--fps", type=float, default=20.0, help="animations: frames per second (20)")
     exp.add_argument("--title", default=None, help="animations: a title")
     exp.set_defaults(func=cmd_export)
+    mo = sub.add_parser(
+        "motion", help="trace a frame's finite motion here (as POST /v1/motion), e.g. until a target is reached"
+    )
+    mo.add_argument("frame", help="a frame or a /v1/motion request: JSON file (or - for stdin)")
+    mo.add_argument("--target", default=None, help='e.g. \'{"kind": "angle", "nodes": [3, 0, 1], "value": 0.9}\'')
+    mo.add_argument("--amplitude", type=float, default=None, help="how far instead of a target (default 0.2)")
+    mo.add_argument("--direction", choices=["both", "forward", "backward"], default=None)
+    mo.add_argument("-o", "--output", default=None, help="write the response here instead of stdout")
+    mo.set_defaults(func=cmd_motion)
     return parser
 
 

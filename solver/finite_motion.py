@@ -945,7 +945,8 @@ def curve_minimum(path: MotionPath, k: int, distance):
     between samples k−1 and k+1; (parameter, distance) or None if the corrector fails."""
     ref = path.positions[path.reference_index]
     norm = Normalisation.of(ref)
-    cons = BarConstraints(path.edges, norm.positions_in(ref), path.method)
+    method = path.method if path.method in ("dense", "sparse") else "dense" if ref.size <= DENSE_MAX_DOF else "sparse"
+    cons = BarConstraints(path.edges, norm.positions_in(ref), method)
     xs = norm.positions_in(path.positions)
     lo, hi = max(k - 1, 0), min(k + 1, len(xs) - 1)
     null, _ = _reference_null_space(cons, xs[k], explicit_mode=True)

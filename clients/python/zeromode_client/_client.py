@@ -154,9 +154,29 @@ class Client(_BaseClient):
         """POST /v1/certify with ``{"frame": frame, **fields}``."""
         return self._send(ep.capability("/v1/certify", fields, frame))
 
-    def motion(self, frame: FrameLike, **fields: Any) -> Result:
-        """POST /v1/motion with ``{"frame": frame, **fields}``."""
-        return self._send(ep.capability("/v1/motion", fields, frame))
+    def motion(
+        self,
+        frame: FrameLike,
+        *,
+        mode: ArrayLike | None = None,
+        amplitude: float | None = None,
+        target: Mapping[str, Any] | None = None,
+        max_step: float | None = None,
+        max_steps: int | None = None,
+        direction: Literal["both", "forward", "backward"] | None = None,
+        on_singularity: Literal["error", "report"] | None = None,
+        boundary: Mapping[str, Any] | None = None,
+    ) -> Result:
+        """POST /v1/motion: the finite motion of ``frame`` along ``mode`` (default its single
+        nontrivial mode), to ``amplitude`` or, instead, until ``target`` is reached exactly —
+        ``{"kind": "distance", "nodes": [i, j], "value": L}``, ``{"kind": "angle", "nodes":
+        [i, j, k], "value": θ}`` (radians at j; signed in 2D), ``{"kind": "strain", "axis": "x",
+        "value": ε}`` (with ``boundary``) or ``{"kind": "fraction", "value": f}``; the answer's
+        ``["target"]`` says where. Unset keywords take the service's defaults."""
+        return self._send(ep.motion(frame, _given(
+            mode=mode, amplitude=amplitude, target=target, max_step=max_step, max_steps=max_steps,
+            direction=direction, on_singularity=on_singularity, boundary=boundary,
+        )))
 
     def refine(self, frame: FrameLike, **fields: Any) -> Result:
         """POST /v1/refine with ``{"frame": frame, **fields}``."""
@@ -362,8 +382,23 @@ class AsyncClient(_BaseClient):
     async def certify(self, frame: FrameLike, **fields: Any) -> Result:
         return await self._send(ep.capability("/v1/certify", fields, frame))
 
-    async def motion(self, frame: FrameLike, **fields: Any) -> Result:
-        return await self._send(ep.capability("/v1/motion", fields, frame))
+    async def motion(
+        self,
+        frame: FrameLike,
+        *,
+        mode: ArrayLike | None = None,
+        amplitude: float | None = None,
+        target: Mapping[str, Any] | None = None,
+        max_step: float | None = None,
+        max_steps: int | None = None,
+        direction: Literal["both", "forward", "backward"] | None = None,
+        on_singularity: Literal["error", "report"] | None = None,
+        boundary: Mapping[str, Any] | None = None,
+    ) -> Result:
+        return await self._send(ep.motion(frame, _given(
+            mode=mode, amplitude=amplitude, target=target, max_step=max_step, max_steps=max_steps,
+            direction=direction, on_singularity=on_singularity, boundary=boundary,
+        )))
 
     async def refine(self, frame: FrameLike, **fields: Any) -> Result:
         return await self._send(ep.capability("/v1/refine", fields, frame))

@@ -89,6 +89,11 @@ def capability(
     return Call("POST", path, jsonable(body), lambda data: Result(path, data))
 
 
+def motion(frame: Frame | Mapping[str, Any], options: Mapping[str, Any]) -> Call[Result]:
+    """POST /v1/motion: the frame and the options the caller set."""
+    return capability("/v1/motion", options, frame)
+
+
 def plot(frame: Frame | Mapping[str, Any], fields: Mapping[str, Any]) -> Call[str]:
     """POST /v1/plot: the SVG document (text)."""
     body = jsonable({"frame": as_frame(frame), **fields})
