@@ -101,3 +101,35 @@ def parallelogram(theta: float = np.pi / 3) -> Frame:
     where it meets the anti-parallelogram branch (a branch point)."""
     c, s = np.cos(theta), np.sin(theta)
     return Frame.build([[0, 0], [2, 0], [2 + c, s], [c, s]], [[0, 1], [1, 2], [2, 3], [3, 0]])
+
+
+def in_ground_frame(positions) -> np.ndarray:
+    """A four-bar configuration moved rigidly so that node 0 is at the origin and node 3 on +x."""
+    x = np.asarray(positions, float) - np.asarray(positions, float)[0]
+    angle = np.arctan2(x[3, 1], x[3, 0])
+    c, s = np.cos(-angle), np.sin(-angle)
+    return x @ np.array([[c, s], [-s, c]])
+
+
+def four_bar_at_crank_angle(reference, phi: float) -> np.ndarray:
+    """Closed-form position analysis of the four-bar 0–1–2–3–0 (ground 0–3, crank 0–1, coupler
+    1–2, rocker 2–3) of ``reference`` (4 × 2) with the crank at signed angle ``phi`` from the
+    ground (at node 0, from node 3 to node 1): B = a(cos φ, sin φ), C the intersection of the
+    circles |C − B| = b and |C − D| = c on the side of BD where the reference has it (the
+    assembly mode, kept along a continuous motion). In the ground frame (in_ground_frame)."""
+    x = in_ground_frame(reference)
+    a, b = np.linalg.norm(x[1] - x[0]), np.linalg.norm(x[2] - x[1])
+    c, g = np.linalg.norm(x[3] - x[2]), np.linalg.norm(x[3] - x[0])
+
+    def cross(u, v):
+        return u[0] * v[1] - u[1] * v[0]
+
+    side = np.sign(cross(x[3] - x[1], x[2] - x[1]))
+    B, D = a * np.array([np.cos(phi), np.sin(phi)]), np.array([g, 0.0])
+    e = D - B
+    dist = np.linalg.norm(e)
+    along = (b * b - c * c + dist * dist) / (2 * dist)
+    h = np.sqrt(b * b - along * along)
+    normal = np.array([-e[1], e[0]]) / dist
+    C = B + along * e / dist + side * h * normal
+    return np.array([[0.0, 0.0], B, C, D])
