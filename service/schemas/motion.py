@@ -100,7 +100,7 @@ class MotionRequest(RequestModel):
         description=(
             "Instead of `amplitude`: continue the motion until a quantity reaches this value and end "
             "exactly there (Newton on the bar constraints plus the target equation: the quantity "
-            "within 1e-10 of the value — relative for a distance — and every bar within 1e-12). "
+            "within 1e-10 of the value — relative for a distance — and every bar within 1e-10 of its length). "
             "The path then holds the input frame and the configurations towards the target, the "
             "last one (`target.index`) on it; with direction 'both' the nearer landing (smaller "
             "|parameter|) is kept. The search goes up to path parameter 10. Unreachable: 422 "
