@@ -305,6 +305,8 @@ def cmd_job(args) -> int:
 
 
 def cmd_motion(args) -> int:
+    import contextlib
+
     from pydantic import ValidationError
 
     from zeromode.service.routes.motion import post_motion
@@ -323,12 +325,8 @@ def cmd_motion(args) -> int:
         detail = json.loads(answer.body)["detail"]
         print(f"error [{detail['code']}]: {detail['message']}", file=sys.stderr)
         return 2
-    text = json.dumps(answer, allow_nan=False)
-    if args.output:
-        with open(args.output, "w", encoding="utf-8") as fh:
-            fh.write(text + "\n")
-    else:
-        print(text)
+    with open(args.output, "w", encoding="utf-8") if args.output else contextlib.nullcontext(sys.stdout) as out:
+        out.write(json.dumps(answer, allow_nan=False) + "\n")
     return 0
 
 
