@@ -13,6 +13,7 @@ except under CI (``CI=true``), where they fail: CI must run them.
 from __future__ import annotations
 
 import glob
+import importlib.util
 import os
 import pwd
 import shutil
@@ -26,6 +27,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
+from required import missing
 
 HOW_TO_GET_IT = (
     "the PostgreSQL tests need PostgreSQL's server binaries (initdb, pg_ctl; Debian: "
@@ -50,14 +52,8 @@ def binaries() -> Path | None:
 def require_postgres() -> Path:
     """The binaries' directory; without them (or without psycopg) a skip, or a failure under CI."""
     bindir = binaries()
-    try:
-        import psycopg  # noqa: F401 — only whether it is there
-    except ImportError:
-        bindir = None
-    if bindir is None:
-        if os.environ.get("CI") == "true":
-            pytest.fail("CI must run the PostgreSQL tests, but " + HOW_TO_GET_IT)
-        pytest.skip(HOW_TO_GET_IT)
+    if bindir is None or importlib.util.find_spec("psycopg") is None:
+        missing("the PostgreSQL tests", HOW_TO_GET_IT)
     return bindir
 
 
