@@ -125,7 +125,8 @@ async def lifespan(app: FastAPI) -> AsyncIterator[None]:
     """At startup the rigidity analysis's compiled kernels are loaded (compiled in a fresh
     environment), so that no request pays for it within its time budget, and the job engine
     starts in the background (the service answers at once) when heavy requests are offloaded to
-    it or the store holds unfinished work to adopt, tried again until it starts; at shutdown
+    it, the store holds unfinished work to adopt or is a database server that replicas share,
+    tried again until it starts; at shutdown
     the engine gives its lease up and closes its cluster."""
     warm_up()
     stopping = threading.Event()
@@ -149,11 +150,14 @@ def _start_engine(app: FastAPI, stopping: threading.Event) -> None:
         settings.database_url[len("sqlite:///"):]
     ):
         return  # no store yet: nothing was ever submitted here, nothing to adopt
+    # A database server (not a SQLite file) is shared by replicas: each takes a lease at once, so
+    # that it adopts a stopped peer's work even if no request ever reaches it.
+    replicated = not settings.database_url.startswith("sqlite")
     wait = ENGINE_RETRY_FIRST_S
     for attempt in itertools.count(1):
         try:
             jobs = jobs_of_app(app.state)
-            if jobs.has_orphans() or settings.offload:
+            if jobs.has_orphans() or settings.offload or replicated:
                 jobs.engine.start()  # heavy requests need it soon: ready before the first
             return
         except Exception:
