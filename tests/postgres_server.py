@@ -54,7 +54,17 @@ def require_postgres() -> Path:
     bindir = binaries()
     if bindir is None or importlib.util.find_spec("psycopg") is None:
         missing("the PostgreSQL tests", HOW_TO_GET_IT)
+    if os.geteuid() == 0 and (shutil.which("runuser") is None or _account() is None):
+        missing("the PostgreSQL tests", f"as root they run the server as the `{SERVER_USER}` user "
+                "(made by Debian's postgresql package) through runuser, and one of the two is missing.")
     return bindir
+
+
+def _account() -> pwd.struct_passwd | None:
+    try:
+        return pwd.getpwnam(SERVER_USER)
+    except KeyError:
+        return None
 
 
 @dataclass(frozen=True)
@@ -90,7 +100,7 @@ def postgres_server() -> Iterator[Server]:
     run_as = ["runuser", "-u", SERVER_USER, "--"] if as_root else []
     home = Path(tempfile.mkdtemp(prefix="zeromode-postgres-"))
     if as_root:
-        account = pwd.getpwnam(SERVER_USER)
+        account = _account()
         os.chown(home, account.pw_uid, account.pw_gid)
     data, log = home / "data", home / "server.log"
     port = _free_port()
