@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import logging
 import os
 import re
@@ -46,6 +47,11 @@ log = logging.getLogger("zeromode")
 _REQUEST_ID = re.compile(r"[A-Za-z0-9._:-]{1,64}")
 # Responses smaller than this are sent uncompressed (gzip's header would outweigh the saving).
 GZIP_MINIMUM_BYTES = 1024
+# A job engine that could not start at startup is tried again after this wait, doubled after each
+# failure up to the maximum (a database or Dask cluster that comes up later is found within it).
+ENGINE_RETRY_FIRST_S, ENGINE_RETRY_MAX_S = 1.0, 30.0
+# At shutdown, an engine start under way is waited for this long before the engine is closed.
+START_WAIT_S = 30.0
 
 
 def _request_id(given: str | None) -> str:
@@ -119,28 +125,46 @@ async def lifespan(app: FastAPI) -> AsyncIterator[None]:
     """At startup the rigidity analysis's compiled kernels are loaded (compiled in a fresh
     environment), so that no request pays for it within its time budget, and the job engine
     starts in the background (the service answers at once) when heavy requests are offloaded to
-    it or the store holds unfinished work to adopt; at shutdown the engine gives its lease up
-    and closes its cluster."""
+    it, the store holds unfinished work to adopt or is a database server that replicas share,
+    tried again until it starts; at shutdown
+    the engine gives its lease up and closes its cluster."""
     warm_up()
-    threading.Thread(target=_start_engine, args=(app,), name="zeromode-adopt", daemon=True).start()
+    stopping = threading.Event()
+    starter = threading.Thread(target=_start_engine, args=(app, stopping), name="zeromode-adopt", daemon=True)
+    starter.start()
     yield
+    stopping.set()
+    starter.join(timeout=START_WAIT_S)  # a start under way is closed below, not left running
     jobs, app.state.jobs = app.state.jobs, None  # a later start opens them again
     if jobs is not None:
         jobs.close()
 
 
-def _start_engine(app: FastAPI) -> None:
+def _start_engine(app: FastAPI, stopping: threading.Event) -> None:
+    """Open the store and start the engine if there is work for it; a failure (the database or
+    the Dask cluster not reachable yet) is logged and tried again after ``ENGINE_RETRY_FIRST_S``,
+    the wait doubling up to ``ENGINE_RETRY_MAX_S``, until it starts or the app stops. (Left to
+    the next request, a replica that lost its start would adopt nothing from a stopped peer.)"""
     settings = app.state.settings
     if not settings.offload and settings.database_url.startswith("sqlite:///") and not os.path.exists(
         settings.database_url[len("sqlite:///"):]
     ):
         return  # no store yet: nothing was ever submitted here, nothing to adopt
-    try:
-        jobs = jobs_of_app(app.state)
-        if jobs.has_orphans() or settings.offload:
-            jobs.engine.start()  # heavy requests need it soon: ready before the first
-    except Exception:
-        log.exception("the job engine could not start (the first job or heavy request retries)")
+    # A database server (not a SQLite file) is shared by replicas: each takes a lease at once, so
+    # that it adopts a stopped peer's work even if no request ever reaches it.
+    replicated = not settings.database_url.startswith("sqlite")
+    wait = ENGINE_RETRY_FIRST_S
+    for attempt in itertools.count(1):
+        try:
+            jobs = jobs_of_app(app.state)
+            if jobs.has_orphans() or settings.offload or replicated:
+                jobs.engine.start()  # heavy requests need it soon: ready before the first
+            return
+        except Exception:
+            log.exception("the job engine could not start (attempt %d); trying again in %g s", attempt, wait)
+        if stopping.wait(wait):
+            return
+        wait = min(2 * wait, ENGINE_RETRY_MAX_S)
 
 
 def create_app(settings: Settings | None = None) -> FastAPI:

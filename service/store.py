@@ -13,7 +13,9 @@ its job done, so no restart loses it.
 The database is SQLAlchemy Core, so one URL chooses it: SQLite by default (one file in WAL
 mode: readers never wait for the writer; ``synchronous=NORMAL``: a committed result survives a
 crash of the process), PostgreSQL for several replicas (``postgresql+psycopg://user@host/db``,
-with ``pip install psycopg``). The SQL used here is the portable subset both accept.
+with ``pip install "zeromode[postgres]"``). The SQL used here is the portable subset both accept;
+the tables are created under an advisory lock on PostgreSQL, so replicas may start together on
+an empty database (tests/test_replicas_postgres.py).
 """
 
 from __future__ import annotations
@@ -36,6 +38,9 @@ SQLITE_BUSY_MS = 10_000
 # counts what this instance stores (a SUM over every stored job for each batch of results cost
 # ~4 % of the service's CPU during a sweep). Other replicas' results are seen within this time.
 STORED_BYTES_REFRESH_S = 1.0
+# The PostgreSQL advisory lock (one 64-bit key per database) held while the tables are created:
+# "zeromod" in ASCII, a key no other application is likely to take.
+SCHEMA_LOCK_KEY = int.from_bytes(b"zeromod", "big")
 
 metadata = sa.MetaData()
 jobs = sa.Table(
@@ -106,7 +111,8 @@ def _sqlite_pragmas(dbapi_connection, _record) -> None:
 
 
 def connect(url: str) -> Engine:
-    """The database at ``url``, its tables created if missing."""
+    """The database at ``url``, its tables created if missing (on PostgreSQL under
+    ``SCHEMA_LOCK_KEY``: one creator at a time)."""
     is_sqlite = url.startswith("sqlite")
     path = sa.engine.make_url(url).database if is_sqlite else None
     if path and path != ":memory:":
@@ -116,9 +122,16 @@ def connect(url: str) -> Engine:
     )
     if is_sqlite:
         sa.event.listen(engine, "connect", _sqlite_pragmas)
-    metadata.create_all(engine)
-    for index in jobs.indexes:  # an index added since the file was created (create_all skips existing tables)
-        index.create(engine, checkfirst=True)
+    with engine.begin() as conn:
+        if conn.dialect.name == "postgresql":
+            # Replicas started together on an empty database would each see no table and each
+            # create one: all but the first fail (a duplicate type "jobs"). Under this lock the
+            # others wait for the first's commit (PostgreSQL's DDL is transactional), then find
+            # the tables.
+            conn.execute(sa.text("SELECT pg_advisory_xact_lock(:key)"), {"key": SCHEMA_LOCK_KEY})
+        metadata.create_all(conn)
+        for index in jobs.indexes:  # an index added since the file was created (create_all skips existing tables)
+            index.create(conn, checkfirst=True)
     return engine
 
 

@@ -44,3 +44,22 @@ def dask_scheduler():
         yield cluster.scheduler_address
     finally:
         cluster.close()
+
+
+@pytest.fixture(scope="session")
+def postgres():
+    """The tests' own PostgreSQL server on loopback for the session (tests/postgres_server.py);
+    skipped without its binaries, failed under CI."""
+    from postgres_server import postgres_server
+
+    with postgres_server() as server:
+        yield server
+
+
+@pytest.fixture(params=["sqlite", "postgresql"])
+def database_url(request, tmp_path) -> str:
+    """A new, empty job store: a SQLite file of the test's own, then a database of its own on
+    the tests' PostgreSQL server: tests that take it run on both."""
+    if request.param == "sqlite":
+        return f"sqlite:///{tmp_path}/jobs.sqlite3"
+    return request.getfixturevalue("postgres").new_database()

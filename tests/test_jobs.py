@@ -1,7 +1,8 @@
 """POST /v1/jobs, GET and DELETE /v1/jobs/{id}: long requests as jobs on the Dask engine.
 
-Every app here keeps its records in its own SQLite file and runs its jobs on the session's real
-Dask cluster (two worker processes, ``dask_scheduler`` in conftest.py). A job's result is
+Every app here keeps its records in its own SQLite file (and, in the tests of the store itself,
+a database of its own on the tests' PostgreSQL server too: ``database_url`` in conftest.py) and
+runs its jobs on the session's real Dask cluster (two worker processes, ``dask_scheduler``). A job's result is
 compared with the answer of the endpoint called directly; failures with the code the endpoint
 itself answers; what the endpoint refuses up front, the job refuses at submit.
 """
@@ -49,9 +50,10 @@ FINISHED = ("done", "failed", "cancelled", "interrupted")
 
 @contextmanager
 def app_client(tmp_path: Path, dask_scheduler: str, **settings) -> Iterator[TestClient]:
-    """An app on its own SQLite file and the session's Dask cluster (lifespan run: its engine
-    closes at the end)."""
-    app = create_app(Settings(database_url=f"sqlite:///{tmp_path}/jobs.sqlite3", dask_scheduler=dask_scheduler, **settings))
+    """An app on its own SQLite file (or the ``database_url`` given) and the session's Dask
+    cluster (lifespan run: its engine closes at the end)."""
+    settings = {"database_url": f"sqlite:///{tmp_path}/jobs.sqlite3", **settings}
+    app = create_app(Settings(dask_scheduler=dask_scheduler, **settings))
     with TestClient(app, raise_server_exceptions=False) as client:
         yield client
 
@@ -204,26 +206,27 @@ def test_a_job_fails_with_the_code_its_endpoint_answers(client):
     assert status["error"]["code"] == "singular_path"
 
 
-def test_two_app_instances_on_one_store_see_each_others_jobs(tmp_path, dask_scheduler):
-    with app_client(tmp_path, dask_scheduler) as first, app_client(tmp_path, dask_scheduler) as second:
+def test_two_app_instances_on_one_store_see_each_others_jobs(tmp_path, dask_scheduler, database_url):
+    with (app_client(tmp_path, dask_scheduler, database_url=database_url) as first,
+          app_client(tmp_path, dask_scheduler, database_url=database_url) as second):
         job_id = submit(first, "/v1/design/auxetic", AUXETIC)
         status = wait(second, job_id)
         assert status["status"] == "done"
         assert without_timings(status["result"]) == without_timings(wait(first, job_id)["result"])
 
 
-def test_a_finished_result_survives_the_app(tmp_path, dask_scheduler):
-    """Records live in the SQLite file: a new app on it answers with the same result."""
-    with app_client(tmp_path, dask_scheduler) as first:
+def test_a_finished_result_survives_the_app(tmp_path, dask_scheduler, database_url):
+    """Records live in the database: a new app on it answers with the same result."""
+    with app_client(tmp_path, dask_scheduler, database_url=database_url) as first:
         job_id = submit(first, "/v1/design/auxetic", AUXETIC)
         result = wait(first, job_id)["result"]
-    with app_client(tmp_path, dask_scheduler) as again:
+    with app_client(tmp_path, dask_scheduler, database_url=database_url) as again:
         status = again.get(f"/v1/jobs/{job_id}").json()
     assert status["status"] == "done" and status["result"] == result
 
 
-def test_old_records_expire_and_the_store_keeps_its_row_cap(tmp_path):
-    store = Store(f"sqlite:///{tmp_path}/jobs.sqlite3")
+def test_old_records_expire_and_the_store_keeps_its_row_cap(database_url):
+    store = Store(database_url)
     now = time.time()
     for i in range(5):
         store.add_job({"id": f"{i:032x}", "endpoint": "/v1/analyze", "request": "{}", "client": "",
@@ -271,8 +274,8 @@ def test_an_unreachable_dask_scheduler_is_a_503_naming_it(tmp_path):
     assert "tcp://127.0.0.1:9" in r.json()["detail"]["message"]
 
 
-def test_a_result_over_its_size_limit_fails_the_job_and_is_not_stored(tmp_path, dask_scheduler):
-    with app_client(tmp_path, dask_scheduler, max_job_result_bytes=200) as client:
+def test_a_result_over_its_size_limit_fails_the_job_and_is_not_stored(tmp_path, dask_scheduler, database_url):
+    with app_client(tmp_path, dask_scheduler, max_job_result_bytes=200, database_url=database_url) as client:
         request = {"frame": SINGULAR_MOTION["frame"]}
         direct = client.post("/v1/analyze", json=request)
         assert len(direct.content) > 200  # the same answer would not fit
@@ -280,22 +283,23 @@ def test_a_result_over_its_size_limit_fails_the_job_and_is_not_stored(tmp_path, 
     assert status["status"] == "failed"
     assert_error(status["error"], "result_too_large")
     assert "200" in status["error"]["message"]
-    assert Store(f"sqlite:///{tmp_path}/jobs.sqlite3").stored_bytes() == 0
+    assert Store(database_url).stored_bytes() == 0
 
 
-def test_the_job_store_keeps_to_its_quota(tmp_path, dask_scheduler):
+def test_the_job_store_keeps_to_its_quota(tmp_path, dask_scheduler, database_url):
     request = {"frame": SINGULAR_MOTION["frame"]}
     size = len(TestClient(create_app()).post("/v1/analyze", json=request).content)
     quota = size * 3 // 2  # one result fits, two do not
-    with app_client(tmp_path, dask_scheduler, max_job_store_bytes=quota) as client:
+    with app_client(tmp_path, dask_scheduler, max_job_store_bytes=quota, database_url=database_url) as client:
         assert wait(client, submit(client, "/v1/analyze", request))["status"] == "done"
         second = wait(client, submit(client, "/v1/analyze", request))
         assert_error(second["error"], "job_store_full")
-        assert Store(f"sqlite:///{tmp_path}/jobs.sqlite3").stored_bytes() <= quota
+        assert Store(database_url).stored_bytes() <= quota
 
 
-def test_one_client_cannot_hold_every_job_slot_and_a_queued_job_can_be_cancelled(tmp_path, dask_scheduler):
-    with app_client(tmp_path, dask_scheduler, max_jobs_per_client=2, max_pending_jobs=8) as client:
+def test_one_client_cannot_hold_every_job_slot_and_a_queued_job_can_be_cancelled(tmp_path, dask_scheduler, database_url):
+    with app_client(tmp_path, dask_scheduler, max_jobs_per_client=2, max_pending_jobs=8,
+                    database_url=database_url) as client:
         slow = {"dim": 2, "cells": [30, 30], "poisson_ratio": -0.5}
         first = submit(client, "/v1/design/auxetic", slow)
         second = submit(client, "/v1/design/auxetic", slow)

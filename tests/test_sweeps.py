@@ -38,8 +38,9 @@ WAIT_S = 120.0
 
 
 @pytest.fixture
-def client(tmp_path: Path, dask_scheduler: str) -> Iterator[TestClient]:
-    with app_client(tmp_path, dask_scheduler) as c:
+def client(tmp_path: Path, dask_scheduler: str, database_url: str) -> Iterator[TestClient]:
+    """An app on a SQLite file, then on a PostgreSQL database (conftest.py)."""
+    with app_client(tmp_path, dask_scheduler, database_url=database_url) as c:
         yield c
 
 

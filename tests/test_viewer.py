@@ -14,13 +14,13 @@ way to get them — except under CI (``CI=true``), where it fails: CI must run i
 
 from __future__ import annotations
 
-import os
 import shutil
 from pathlib import Path
 
 import meshio
 import numpy as np
 import pytest
+from required import missing
 
 from tests.client.conftest import served
 from zeromode.service.app import create_app
@@ -54,9 +54,7 @@ def browser():
     except ImportError:
         path = None
     if path is None:
-        if os.environ.get("CI") == "true":
-            pytest.fail("CI must run the viewer test, but " + HOW_TO_GET_ONE)
-        pytest.skip(HOW_TO_GET_ONE)
+        missing("the viewer test", HOW_TO_GET_ONE)
     with sync_playwright() as playwright:
         chromium = playwright.chromium.launch(executable_path=path, args=CHROMIUM_ARGS)
         yield chromium

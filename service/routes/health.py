@@ -13,7 +13,8 @@ class Health(BaseModel):
     version: str
     engine: str = Field(
         description="The job engine (Dask): 'running', or 'idle' until the first job (or, with "
-        "offloading on, while it starts)."
+        "offloading on, work to adopt or a database shared by replicas, while it starts and between "
+        "the retries of a failed start)."
     )
 
 
