@@ -34,6 +34,8 @@ Directives: ``<!-- snippet: DIRECTIVE -->`` on the line before a block (invisibl
 
 ``localhost:8000`` and ``127.0.0.1:8000`` become the test server's loopback port. The server is
 ``.venv/bin/zeromode serve`` with the user's default settings (job records in a temporary file).
+Each terminal and the server have a temporary HOME, so nothing is written outside the checkout
+(numba's cache, beside its module) and the system's temporary directory.
 """
 
 from __future__ import annotations
@@ -150,7 +152,7 @@ def docs_server(tmp_path_factory: pytest.TempPathFactory):
     with loopback_socket() as sock:
         port = sock.getsockname()[1]
     env = {k: v for k, v in os.environ.items() if k != "ZEROMODE_OFFLOAD"}
-    env["ZEROMODE_DATABASE_URL"] = f"sqlite:///{directory}/jobs.sqlite3"
+    env |= {"ZEROMODE_DATABASE_URL": f"sqlite:///{directory}/jobs.sqlite3", "HOME": str(directory)}
     log_path = directory / "serve.log"
     with open(log_path, "w") as log:
         proc = subprocess.Popen([str(VENV / "bin" / "zeromode"), "serve", "--port", str(port)], cwd=directory,
@@ -182,8 +184,9 @@ class Terminal:
         venv_bin = str(VENV / "bin")
         path = [p for p in os.environ.get("PATH", "").split(os.pathsep) if p and p != venv_bin]
         self.env = {k: v for k, v in os.environ.items() if k not in ("VIRTUAL_ENV", "PYTHONHOME", "ZEROMODE_OFFLOAD")}
-        self.env |= {"PATH": os.pathsep.join(path), "HOME": os.environ.get("HOME", str(directory)),
-                     "XDG_CACHE_HOME": str(directory / "cache"), "MPLCONFIGDIR": str(directory / "mpl")}
+        # A home of its own: caches and configuration (matplotlib, Dask) stay in the temporary directory.
+        self.env |= {"PATH": os.pathsep.join(path), "HOME": str(directory)}
+        self.env = {k: v for k, v in self.env.items() if not k.startswith(("XDG_", "MPLCONFIGDIR", "DASK_"))}
         self.cwd = self.directory
         self.outcomes: dict[int, BaseException | None] = {}
 
@@ -267,8 +270,10 @@ def commands(code: str) -> list[str]:
 
 
 def ci_command() -> str:
-    lines = [line for line in (ROOT / ".ci" / "run").read_text().splitlines() if line and not line.startswith("#")]
-    return lines[-1]
+    """The README's test command as .ci/run runs it: its line from ``python3 -m venv`` on (what
+    comes before, e.g. variables, is CI's own)."""
+    line = next(line for line in (ROOT / ".ci" / "run").read_text().splitlines()[::-1] if "python3 -m venv" in line)
+    return line[line.index("python3 -m venv"):]
 
 
 def check_ci(block: Block) -> None:
