@@ -33,7 +33,7 @@ Directives: ``<!-- snippet: DIRECTIVE -->`` on the line before a block (invisibl
   one the Dockerfile exposes, each ``-e`` variable one the Dockerfile or the settings read.
 
 ``localhost:8000`` and ``127.0.0.1:8000`` become the test server's loopback port. The server is
-``.venv/bin/zeromode serve`` with the user's default settings (job records in a temporary file).
+``zeromode serve`` with the user's default settings (job records in a temporary file).
 Each terminal and the server have a temporary HOME, so nothing is written outside the checkout
 (numba's cache, beside its module) and the system's temporary directory.
 """
@@ -55,8 +55,8 @@ from pathlib import Path
 
 import httpx
 import pytest
-from client.conftest import loopback_socket, wait_for_health
 from snippet_expect import ELLIPSIS, json_pattern, output_matches
+from test_sweeps import zeromode_service
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCUMENTS = ("README.md", "clients/python/README.md", "docs/**/*.md")
@@ -144,30 +144,13 @@ def block_params() -> list:
 
 @pytest.fixture(scope="module")
 def docs_server(tmp_path_factory: pytest.TempPathFactory):
-    """``.venv/bin/zeromode serve`` (the README's first command) on a free loopback port, with the
-    user's default settings but its job records in a temporary SQLite file: its URL."""
-    if not (VENV / "bin" / "zeromode").exists():
-        pytest.skip(f"the tests run outside the README's virtual environment ({VENV} has no bin/zeromode)")
+    """``zeromode serve`` (the README's first command) on a free loopback port, with the user's
+    default settings (offloading on) but its job records in a temporary SQLite file: its URL."""
     directory = tmp_path_factory.mktemp("docs-server")
-    with loopback_socket() as sock:
-        port = sock.getsockname()[1]
-    env = {k: v for k, v in os.environ.items() if k != "ZEROMODE_OFFLOAD"}
-    env |= {"ZEROMODE_DATABASE_URL": f"sqlite:///{directory}/jobs.sqlite3", "HOME": str(directory)}
-    log_path = directory / "serve.log"
-    with open(log_path, "w") as log:
-        proc = subprocess.Popen([str(VENV / "bin" / "zeromode"), "serve", "--port", str(port)], cwd=directory,
-                                env=env, stdout=log, stderr=subprocess.STDOUT)
-    url = f"http://127.0.0.1:{port}"
-    try:
-        wait_for_health(url, lambda: proc.poll() is None, log_path.read_text)
+    env = {"ZEROMODE_OFFLOAD": "true", "ZEROMODE_DATABASE_URL": f"sqlite:///{directory}/jobs.sqlite3",
+           "HOME": str(directory)}
+    with zeromode_service(directory, env, "serve") as (url, _):
         yield url
-    finally:
-        proc.terminate()
-        try:
-            proc.wait(timeout=30)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
 
 
 class Terminal:
@@ -218,6 +201,8 @@ def terminals() -> dict[str, Terminal]:
 
 @pytest.mark.parametrize("block", block_params())
 def test_snippet_runs_as_written(block: Block, terminals, tmp_path_factory, request):
+    if not (VENV / "bin" / "activate").exists():
+        pytest.skip(f"the tests run outside a virtual environment such as the README's ({VENV})")
     if block.document not in terminals:
         needs_server = any(b.runs_against_server() for b in blocks_of(block.document))
         url = request.getfixturevalue("docs_server") if needs_server else None
