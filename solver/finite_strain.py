@@ -565,7 +565,7 @@ def refine_module(
     widest = (2 * (MAX_REACH + 1) * smallest - PROXIMITY_FRACTION * shortest) / 2 * (1 - 1e-9)
     box = np.minimum(BOX_GROWTH * np.max(np.abs(module.positions(watch)[:, 4:]), axis=(0, 1)), widest)
     reach = np.floor((2 * box + PROXIMITY_FRACTION * shortest) / (2 * smallest)).astype(int)
-    patch = Patch.of(module, tuple(int(min(r, c - 1, MAX_REACH)) for r, c in zip(reach, cells)))
+    patch = Patch.of(module, tuple(int(min(r, c - 1, MAX_REACH)) for r, c in zip(reach, cells)), cells)
     reference = int(np.flatnonzero(fine == 0.0)[0])
     pairs, crossings = _violations(module, patch, watch, reference, shortest, WATCH_DISTANCE)
 
