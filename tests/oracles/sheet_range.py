@@ -99,13 +99,13 @@ def first_event(positions, edges, boundary: dict, sign: int, fraction: float) ->
         x = nxt.reshape(x0.shape)
         located = []
         if events.gap(x) < 0:
-            located.append((_bisect(lambda s: events.gap(at(y, t, s)) < 0, h), "node_proximity"))
+            located.append((_bisect(lambda s, y=y, t=t: events.gap(at(y, t, s)) < 0, h), "node_proximity"))
         side, inside = events.sides(x)
         candidates = np.flatnonzero((side != side0) & (inside | inside0))
         while candidates.size:
             first = candidates
 
-            def flipped(s, first=first):
+            def flipped(s, first=first, y=y, t=t, side0=side0):
                 return bool(np.any(events.sides(at(y, t, s))[0][first] != side0[first]))
 
             s = _bisect(flipped, h)

@@ -1,0 +1,74 @@
+"""The usable strain range of sheets one, two and three modules wide, against a continuation of
+the whole tiled sheet (tests/oracles/sheet_range.py: _Curve's predictor-corrector with numpy's
+SVD, every node pair and (node, bar) pair of the sheet examined by brute force).
+
+The range is scanned on one module and the copies around it (strain_range.module_range); a sheet
+narrower than that patch lacks some of those copies, and a pair between copies it lacks (a node
+of the neighbour on the left and a bar of the neighbour on the right of a two-column sheet) is no
+event of it.  Issue #42: [2, 3] at ν = −0.3 ended at −0.244958 ("passes through the bar …") where
+the sheet itself first collides at −0.323388.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from oracles.motion import boundary_strains, relative_bar_error
+from oracles.sheet_range import SheetEvents, first_event
+
+from zeromode.solver.errors import DomainError
+from zeromode.solver.lattice import auxetic_sheet
+
+# Events located by the scan to STRAIN_XTOL and by the oracle's bisection: they agree to
+# round-off (measured ≤ 3e-14); a singular end is located by bisection on Newton's success
+# (FOLD_XTOL) and by the oracle's shrinking steps, far less precisely.
+EVENT_ATOL = 1e-9
+SINGULAR_ATOL = 1e-5
+
+# 1 × n, 2 × n and 3 × n (and n × 1 …) at a few Poisson ratios, among them those where the
+# module's patch watched pairs the sheet does not have (ν = −0.3, −0.5, −1.1 on two columns).
+CASES = [
+    (1, 1, -1.0), (1, 2, -0.3), (1, 3, 0.3), (1, 4, -1.1),
+    (2, 1, -0.5), (2, 2, -1.1), (2, 2, -0.3), (2, 3, -0.3), (2, 4, 0.3),
+    (3, 1, -0.3), (3, 2, -0.5), (3, 3, -1.0), (4, 2, -0.3),
+]
+
+
+@pytest.mark.parametrize(("nx", "ny", "poisson"), CASES)
+def test_range_is_the_whole_sheet_continuation(nx, ny, poisson):
+    lat = auxetic_sheet(nx, ny, poisson=poisson)
+    usable = lat.strain_range
+    for end, sign in ((usable.lower, -1), (usable.upper, 1)):
+        strain, reason = first_event(
+            lat.frame.positions, lat.frame.edges, lat.boundary, sign, usable.proximity_fraction
+        )
+        if reason == "search_limit":
+            assert end.reason == "search_limit" and sign * end.strain <= sign * strain
+            continue
+        assert end.reason == reason, (end, strain, reason)
+        tol = SINGULAR_ATOL if reason == "singular_point" else EVENT_ATOL
+        assert abs(end.strain - strain) <= tol, (end, strain)
+
+
+@pytest.mark.parametrize(
+    ("nx", "ny", "poisson", "strain", "lower"),
+    # The issue's two cases, at the lower ends the whole-sheet continuation finds.
+    [(2, 2, -1.0, 0.16, -0.234236), (2, 3, -0.3, 0.04, -0.323388), (2, 2, -0.3, 0.04, -0.323388)],
+)
+def test_narrow_sheets_are_served_inside_the_true_range(nx, ny, poisson, strain, lower):
+    lat = auxetic_sheet(nx, ny, poisson=poisson, strain=strain)
+    assert abs(lat.strain_range.lower.strain - lower) <= 5e-7
+    x0, edges = lat.frame.positions, lat.frame.edges
+    apart = SheetEvents(x0, edges, lat.strain_range.proximity_fraction)
+    sets = {k: np.asarray(v) for k, v in lat.boundary.items()}
+    for name, sign in (("expanded", 1), ("contracted", -1)):
+        x, nu, eps = lat.states[name]
+        assert relative_bar_error([x], edges, x0) <= 1e-12
+        ex, ey = boundary_strains(x0, x, sets, finite=True)
+        assert abs(ex - sign * strain) <= 1e-12 and abs(eps - ex) <= 1e-12 and abs(nu + ey / ex) <= 1e-12
+        assert apart.gap(x) >= 0  # no two nodes without a bar closer than the fraction of ℓ_min
+    # A strain past the true end is still refused, naming the range.
+    beyond = abs(lower) + 1e-3
+    with pytest.raises(DomainError) as err:
+        auxetic_sheet(nx, ny, poisson=poisson, strain=beyond)
+    assert err.value.code == "strain_out_of_range" and f"{lower:+.6g}" in err.value.message
