@@ -17,7 +17,8 @@ from oracles.motion import boundary_strains, relative_bar_error
 from oracles.sheet_range import SheetEvents, first_event
 
 from zeromode.solver.errors import DomainError
-from zeromode.solver.lattice import auxetic_sheet
+from zeromode.solver.lattice import auxetic_sheet, sheet_module_for
+from zeromode.solver.strain_range import Patch
 
 # Events located by the scan to STRAIN_XTOL and by the oracle's bisection: they agree to
 # round-off (measured ≤ 3e-14); a singular end is located by bisection on Newton's success
@@ -72,3 +73,55 @@ def test_narrow_sheets_are_served_inside_the_true_range(nx, ny, poisson, strain,
     with pytest.raises(DomainError) as err:
         auxetic_sheet(nx, ny, poisson=poisson, strain=beyond)
     assert err.value.code == "strain_out_of_range" and f"{lower:+.6g}" in err.value.message
+
+
+def pair_signatures(x, pairs, node_bar):
+    """Translation-invariant signatures of node pairs (their distance) and of (node, q, r)
+    pairs (the node's distance from the bar's line, from its midpoint along it, in units of its
+    length, and its squared length; the same whichever end is named first): what the range scan
+    watches of each."""
+    distances = np.linalg.norm(x[pairs[:, 0]] - x[pairs[:, 1]], axis=1)[:, None]
+    p, q, r = node_bar.T
+    along, rel = x[r] - x[q], x[p] - x[q]
+    norm2 = np.sum(along * along, axis=1)
+    area = (along[:, 0] * rel[:, 1] - along[:, 1] * rel[:, 0]) / norm2
+    t = np.sum(rel * along, axis=1) / norm2
+    return distances, np.column_stack([np.abs(area), np.abs(t - 0.5), norm2])
+
+
+def same_sets(a, b, tol=1e-9) -> bool:
+    """Every row of a is within tol of a row of b and vice versa."""
+    gap = np.max(np.abs(a[:, None, :] - b[None, :, :]), axis=2)
+    return bool(gap.min(axis=1).max() <= tol and gap.min(axis=0).max() <= tol)
+
+
+@pytest.mark.parametrize(("nx", "ny"), [(1, 1), (1, 3), (2, 2), (2, 3), (3, 2), (3, 3)])
+def test_watched_pairs_are_the_sheets_own(nx, ny):
+    """With copies up to n − 1 modules away the patch watches, up to translation, exactly the
+    node pairs without a bar and the (node, bar) pairs of the tiled sheet (brute force on the
+    frame): none the sheet lacks, none it has left out.  A generic cell and ratio keep
+    different pairs' signatures apart; the patch of a wide sheet has pairs this one lacks."""
+    poisson, cell = -0.37, (1.0, 0.7)
+    lat = auxetic_sheet(nx, ny, poisson=poisson, cell=cell)
+    x, edges = lat.frame.positions, lat.frame.edges
+    n = len(x)
+    joined = np.eye(n, dtype=bool)
+    joined[edges[:, 0], edges[:, 1]] = joined[edges[:, 1], edges[:, 0]] = True
+    p, e = np.meshgrid(np.arange(n), np.arange(len(edges)), indexing="ij")
+    p, e = p.ravel(), e.ravel()
+    off = (p != edges[e, 0]) & (p != edges[e, 1])
+    sheet = pair_signatures(x, np.argwhere(np.triu(~joined)), np.column_stack([p[off], edges[e[off]]]))
+
+    module, _ = sheet_module_for(nx, ny, poisson, cell)
+
+    def watched(cells):
+        patch = Patch.of(module, (nx - 1, ny - 1), cells)
+        xp = patch.positions(module, module.reference)
+        b = patch.node_bar
+        return pair_signatures(xp, patch.pairs, np.column_stack([b[:, 0], patch.bars[b[:, 1]]]))
+
+    own = watched((nx, ny))
+    assert same_sets(own[0], sheet[0]) and same_sets(own[1], sheet[1])
+    if max(nx, ny) > 1:  # the test tells the difference: a wide sheet's patch has more
+        wide = watched((9, 9))
+        assert not (same_sets(wide[0], sheet[0]) and same_sets(wide[1], sheet[1]))
