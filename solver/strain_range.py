@@ -34,7 +34,8 @@ watches, as signed continuous functions of ε whose sign change is the event:
   * the signed area (X_r − X_q) × (X_p − X_q) of each node p and bar (q, r) not incident to it,
     an event where it changes sign with p between q and r.
 A bracketed event is located by Brent's method to STRAIN_XTOL.  The cost is independent of the
-number of cells; lattice.py verifies the ends on the full sheet.
+number of cells; lattice.py measures the states on the full sheet (bar lengths, the closest
+pair without a bar).
 
 3D chains (chain_range).  The chain's finite motion is traced by continuation
 (finite_motion.trace_motion) both ways until a singular point (located there), a node pair
