@@ -320,16 +320,22 @@ def module_range(
     cells: tuple[int, int],
     limits: tuple[float, float] | None = None,
     xtol: float = STRAIN_XTOL,
+    max_reach: int | None = None,
 ) -> ModuleMotion:
     """The usable range of the n_x × n_y sheet (``cells``) tiled from ``module``, and the
     module's motion sampled over it.  The patch of copies watched grows with the nodes' reach
     (needed_reach) as the scan goes.  ``limits`` (lo < 0 < hi): scan no further than these
     strains (an end there is "search_limit"); default ±MAX_SCAN_STRAIN.  xtol: how precisely an
-    event is located in strain (a search that only compares ranges needs less than round-off)."""
+    event is located in strain (a search that only compares ranges needs less than round-off).
+    max_reach: watch copies no farther than this many modules along each axis (the cost stays
+    that of a (max_reach + 1)² sheet; the caller checks the full sheet); the pairs watched are
+    still those of the n_x × n_y sheet."""
     lo_limit, hi_limit = limits if limits is not None else (-MAX_SCAN_STRAIN, MAX_SCAN_STRAIN)
     shortest = float(np.sqrt(np.min(module.squared_lengths)))
     q0 = module.reference
     patches = {}
+    # needed_reach caps the reach at n − 1; max_reach caps it further.
+    reach_cells = cells if max_reach is None else tuple(min(c, max_reach + 1) for c in cells)
 
     def patch_for(reach):
         if reach not in patches:
@@ -339,7 +345,7 @@ def module_range(
     ends, samples = [], {0.0: q0}
     for sign in (1.0, -1.0):
         eps, q = 0.0, q0
-        patch = patch_for(needed_reach(module, q0, shortest, cells))
+        patch = patch_for(needed_reach(module, q0, shortest, reach_cells))
         prev = _events(module, patch, q0, shortest)
         end = None
         while end is None:
@@ -354,7 +360,7 @@ def module_range(
                     now = _events(module, patch, q_end, shortest)
                     end = _first_event(module, patch, prev, now, q, eps, end.strain, shortest, xtol) or end
                 break
-            reach = tuple(max(r, s) for r, s in zip(patch.reach, needed_reach(module, q_next, shortest, cells)))
+            reach = tuple(max(r, s) for r, s in zip(patch.reach, needed_reach(module, q_next, shortest, reach_cells)))
             if reach != patch.reach:
                 patch = patch_for(reach)
                 prev = _events(module, patch, q, shortest)

@@ -18,6 +18,7 @@ from oracles.sheet_range import SheetEvents, first_event
 
 from zeromode.solver.errors import DomainError
 from zeromode.solver.lattice import auxetic_sheet, sheet_module_for
+from zeromode.solver.sheet_module import sheet_edges, sheet_positions, trammel_module
 from zeromode.solver.strain_range import Patch
 
 # Events located by the scan to STRAIN_XTOL and by the oracle's bisection: they agree to
@@ -95,15 +96,22 @@ def same_sets(a, b, tol=1e-9) -> bool:
     return bool(gap.min(axis=1).max() <= tol and gap.min(axis=0).max() <= tol)
 
 
+@pytest.mark.parametrize("family", ["two_node", "trammel"])
 @pytest.mark.parametrize(("nx", "ny"), [(1, 1), (1, 3), (2, 2), (2, 3), (3, 2), (3, 3)])
-def test_watched_pairs_are_the_sheets_own(nx, ny):
+def test_watched_pairs_are_the_sheets_own(nx, ny, family):
     """With copies up to n − 1 modules away the patch watches, up to translation, exactly the
     node pairs without a bar and the (node, bar) pairs of the tiled sheet (brute force on the
-    frame): none the sheet lacks, none it has left out.  A generic cell and ratio keep
-    different pairs' signatures apart; the patch of a wide sheet has pairs this one lacks."""
-    poisson, cell = -0.37, (1.0, 0.7)
-    lat = auxetic_sheet(nx, ny, poisson=poisson, cell=cell)
-    x, edges = lat.frame.positions, lat.frame.edges
+    frame): none the sheet lacks, none it has left out.  A generic cell (and ratio, or trammel
+    nodes) keeps different pairs' signatures apart; the patch of a wide sheet has pairs this
+    one lacks."""
+    if family == "two_node":
+        poisson, cell = -0.37, (1.0, 0.7)
+        module, _ = sheet_module_for(nx, ny, poisson, cell)
+        frame = auxetic_sheet(nx, ny, poisson=poisson, cell=cell).frame
+        x, edges = frame.positions, frame.edges
+    else:  # the finite-strain family (axis nodes inside the cell, joined across)
+        module = trammel_module(1.0, 0.7, 0.55, 0.45)
+        x, edges = sheet_positions(module, nx, ny, module.reference), sheet_edges(module, nx, ny)
     n = len(x)
     joined = np.eye(n, dtype=bool)
     joined[edges[:, 0], edges[:, 1]] = joined[edges[:, 1], edges[:, 0]] = True
@@ -111,8 +119,6 @@ def test_watched_pairs_are_the_sheets_own(nx, ny):
     p, e = p.ravel(), e.ravel()
     off = (p != edges[e, 0]) & (p != edges[e, 1])
     sheet = pair_signatures(x, np.argwhere(np.triu(~joined)), np.column_stack([p[off], edges[e[off]]]))
-
-    module, _ = sheet_module_for(nx, ny, poisson, cell)
 
     def watched(cells):
         patch = Patch.of(module, (nx - 1, ny - 1), cells)
