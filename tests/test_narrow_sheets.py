@@ -17,6 +17,7 @@ from oracles.motion import boundary_strains, relative_bar_error
 from oracles.sheet_range import SheetEvents, first_event
 
 from zeromode.solver.errors import DomainError
+from zeromode.solver.finite_strain import finite_strain_sheet
 from zeromode.solver.lattice import auxetic_sheet, sheet_module_for
 from zeromode.solver.sheet_module import sheet_edges, sheet_positions, trammel_module
 from zeromode.solver.strain_range import Patch
@@ -131,3 +132,14 @@ def test_watched_pairs_are_the_sheets_own(nx, ny, family):
     if max(nx, ny) > 1:  # the test tells the difference: a wide sheet's patch has more
         wide = watched((9, 9))
         assert not (same_sets(wide[0], sheet[0]) and same_sets(wide[1], sheet[1]))
+
+
+@pytest.mark.parametrize(("nx", "ny", "poisson"), [(2, 2, -0.5), (2, 3, -0.8), (1, 2, -0.5)])
+def test_finite_strain_sheet_range_is_the_whole_sheet_continuation(nx, ny, poisson):
+    """The sheet chosen for its secant ratio (a trammel, or a refined module) reports the range of
+    its own n_x × n_y frame."""
+    lat = finite_strain_sheet(nx, ny, poisson=poisson, strain_range=(-0.1, 0.1), tolerance=0.02, cell=(1.0, 1.0)).lattice
+    usable = lat.strain_range
+    for end, sign in ((usable.lower, -1), (usable.upper, 1)):
+        strain, reason = first_event(lat.frame.positions, lat.frame.edges, lat.boundary, sign, usable.proximity_fraction)
+        assert end.reason == reason and abs(end.strain - strain) <= EVENT_ATOL, (end, strain, reason)
