@@ -205,7 +205,8 @@ def finite_strain_sheet(
 
     # Copies farther than MAX_REACH cells are not watched by the scans (the cost stays that of
     # a (MAX_REACH + 1)² sheet); the full sheet's closest pairs are checked in _verified_sheet.
-    scan_cells = (min(nx, MAX_REACH + 1), min(ny, MAX_REACH + 1))
+    # The scans watch the pairs of the n_x × n_y sheet itself (a narrow sheet has fewer).
+    cells = (nx, ny)
 
     def cover(module) -> float:
         """min(ε_max/hi, ε_min/lo) of the range scanned no further than [lo, hi] (1: contains it,
@@ -215,9 +216,9 @@ def finite_strain_sheet(
         shortest = float(np.sqrt(np.min(module.squared_lengths)))
         if max(needed_reach(module, module.reference, shortest, (MAX_REACH + 2,) * 2)) > MAX_REACH:
             return 0.0
-        usable = module_range(module, scan_cells, limits=(lo, hi), xtol=COVER_XTOL).range
+        usable = module_range(module, cells, limits=(lo, hi), xtol=COVER_XTOL, max_reach=MAX_REACH).range
         if usable.contains(lo) and usable.contains(hi):  # confirmed with its events located to round-off
-            usable = module_range(module, scan_cells, limits=(lo, hi)).range
+            usable = module_range(module, cells, limits=(lo, hi), max_reach=MAX_REACH).range
         if usable.lower.reason == usable.upper.reason == "search_limit":  # (the scan's ends carry round-off)
             return 1.0
         return min(usable.upper.strain / hi, usable.lower.strain / lo)
@@ -262,7 +263,7 @@ def finite_strain_sheet(
             warm = module_t if module_t is not None else warm
         if chosen is None:
             with progress_stage(0.75, 0.8, "IPOPT refinement of the best module"):
-                refined = _refined(warm, cover, poisson, lo, hi, scan_cells)
+                refined = _refined(warm, cover, poisson, lo, hi, cells)
             if refined is not None and refined[1] <= tolerance and refined[2] >= 1.0:
                 chosen = ("refined", None, refined[0].module)
     if chosen is None:
@@ -285,7 +286,7 @@ def finite_strain_sheet(
         )
     family, parameter, module = chosen
     with progress_stage(0.8, 0.85, "the chosen module's usable range", detail=True):
-        usable = module_range(module, scan_cells).range  # the whole usable range, for the report
+        usable = module_range(module, cells, max_reach=MAX_REACH).range  # the whole usable range, for the report
     with progress_stage(0.85, 1.0, "the tiled sheet"):
         return _verified_sheet(module, nx, ny, poisson, (lo, hi), tolerance, usable, family, parameter)
 
@@ -368,10 +369,10 @@ def _search_windows(grid, member, covers: dict, cover, poisson, lo, hi, toleranc
     return None, best_cover, warm
 
 
-def _refined(warm: SymmetricModule, cover, poisson, lo, hi, scan_cells):
+def _refined(warm: SymmetricModule, cover, poisson, lo, hi, cells):
     """refine_module from ``warm`` (REFINE_TIME_S at most): (refinement, its deviation by
     continuation, its cover), or None when IPOPT could not start."""
-    result = refine_module(warm, poisson, lo, hi, scan_cells, REFINE_TIME_S)
+    result = refine_module(warm, poisson, lo, hi, cells, REFINE_TIME_S)
     if result is None:
         return None
     deviation = float(_deviation(result.module, poisson, lo, hi))
@@ -565,7 +566,7 @@ def refine_module(
     widest = (2 * (MAX_REACH + 1) * smallest - PROXIMITY_FRACTION * shortest) / 2 * (1 - 1e-9)
     box = np.minimum(BOX_GROWTH * np.max(np.abs(module.positions(watch)[:, 4:]), axis=(0, 1)), widest)
     reach = np.floor((2 * box + PROXIMITY_FRACTION * shortest) / (2 * smallest)).astype(int)
-    patch = Patch.of(module, tuple(int(min(r, c - 1, MAX_REACH)) for r, c in zip(reach, cells)))
+    patch = Patch.of(module, tuple(int(min(r, c - 1, MAX_REACH)) for r, c in zip(reach, cells)), cells)
     reference = int(np.flatnonzero(fine == 0.0)[0])
     pairs, crossings = _violations(module, patch, watch, reference, shortest, WATCH_DISTANCE)
 

@@ -14,7 +14,15 @@ A configuration of the motion is *usable* when
 2D sheets (module_range).  Every module of a sheet follows the same symmetric curve
 (sheet_module.py), so every event of the sheet is an event of one module and its neighbours: a
 node pair or a node–bar pair of the sheet is a translate of a pair between the module at (0, 0)
-and a module at offset (i, j) ∈ {−1, 0, 1}² that the sheet has.  The scan follows the module's
+and a module at offset (i, j), |i| ≤ k_x, |j| ≤ k_y (needed_reach).  Conversely a pair of the
+patch is a pair of the n_x × n_y sheet only if the sheet has modules holding both: each node
+belongs to the modules that share it (a corner to four, another node to its own), a bar to the
+modules holding both its ends, and a pair with owners o, o' (some choice among them) is a
+translate of a pair of the sheet iff |o − o'| ≤ (n_x − 1, n_y − 1) componentwise.  The patch
+watches exactly those (Patch.of): on a sheet two modules wide, a node of the neighbour at
+(−1, j) and a bar of the neighbour at (+1, j') — two columns apart — are no pair of the sheet,
+and at its edges a module has no neighbour beyond.  The watched pairs are then the sheet's own,
+up to translation, at every size.  The scan follows the module's
 curve outward from ε = 0 in steps of SCAN_STEP (Newton at every strain, exact to round-off) and
 watches, as signed continuous functions of ε whose sign change is the event:
   * det[Ĉ(X); T(X)ᵀ] with Ĉ the module's C with unit rows (2N − 4 rows: the modules have no
@@ -26,7 +34,8 @@ watches, as signed continuous functions of ε whose sign change is the event:
   * the signed area (X_r − X_q) × (X_p − X_q) of each node p and bar (q, r) not incident to it,
     an event where it changes sign with p between q and r.
 A bracketed event is located by Brent's method to STRAIN_XTOL.  The cost is independent of the
-number of cells; lattice.py verifies the ends on the full sheet.
+number of cells; lattice.py measures the states on the full sheet (bar lengths, the closest
+pair without a bar).
 
 3D chains (chain_range).  The chain's finite motion is traced by continuation
 (finite_motion.trace_motion) both ways until a singular point (located there), a node pair
@@ -63,7 +72,7 @@ STRAIN_XTOL = 1e-13
 # located by bisection on Newton's success; Newton's basin shrinks like √|ε − ε*| there, so the
 # fold is located to about this much.
 FOLD_XTOL = 1e-9
-# Patches by (module topology, reach): see Patch.of.
+# Patches by (module topology, reach, cells seen): see Patch.of.
 _PATCHES: dict = {}
 # Step of the 3D chain's continuation (finite_motion's path parameter) while the range is scanned.
 CHAIN_MAX_STEP = 0.01
@@ -117,7 +126,8 @@ class Patch:
     node ``node[n]`` of the copy at ``offset[n]`` (shared corners once); ``bars`` every bar of
     the patch; ``pairs`` node pairs to watch (one end in module (0, 0), no bar between them);
     ``node_bar`` (node, bar) pairs to watch (the node or the bar in module (0, 0), the node not
-    on the bar).  ``reach`` (k_x, k_y): the largest offsets included."""
+    on the bar); both only those that are pairs of the sheet of ``cells`` modules (the module
+    docstring).  ``reach`` (k_x, k_y): the largest offsets included."""
 
     node: np.ndarray
     offset: np.ndarray
@@ -127,23 +137,27 @@ class Patch:
     reach: tuple[int, int]
 
     @classmethod
-    def of(cls, module: SymmetricModule, reach: tuple[int, int]) -> Patch:
-        """The patch of ``module`` with copies up to ``reach``; it depends on the module's
-        topology only (corners are told apart on the normalised lattice), so it is cached."""
-        key = (module.kinds, module.edges.tobytes(), module.orbit.tobytes(), reach)
+    def of(cls, module: SymmetricModule, reach: tuple[int, int], cells: tuple[int, int]) -> Patch:
+        """The patch of ``module`` with copies up to ``reach``, watching the pairs of an
+        n_x × n_y sheet (``cells``); it depends on the module's topology only (corners are told
+        apart on the normalised lattice), so it is cached.  Owners of a watched pair are at most
+        k + 1 modules apart along each axis (one end, or a bar's end, in module (0, 0)), so every
+        n ≥ k + 2 watches the same pairs."""
+        seen = tuple(int(min(c, r + 2)) for c, r in zip(cells, reach))
+        key = (module.kinds, module.edges.tobytes(), module.orbit.tobytes(), reach, seen)
         if key not in _PATCHES:
-            _PATCHES[key] = cls._build(module, reach)
+            _PATCHES[key] = cls._build(module, reach, seen)
         return _PATCHES[key]
 
     @classmethod
-    def _build(cls, module: SymmetricModule, reach: tuple[int, int]) -> Patch:
+    def _build(cls, module: SymmetricModule, reach: tuple[int, int], cells: tuple[int, int]) -> Patch:
         offsets = [(0, 0)] + [
             (i, j) for i in range(-reach[0], reach[0] + 1) for j in range(-reach[1], reach[1] + 1) if (i, j) != (0, 0)
         ]
         # Nodes are told apart on the reference integer lattice of half-cells: corners sit on
         # it, and a copy's corner k at offset o is the corner of its neighbours it coincides with.
         x0 = module.positions(module.reference) / module.reference[:2]
-        node, offset, index, local = [], [], {}, {}
+        node, offset, index, local, owners = [], [], {}, {}, []
         for o in offsets:
             for k, p in enumerate(x0 + 2 * np.asarray(o)):
                 key = ("corner", *np.rint(p).astype(int)) if k < 4 else (o, k)
@@ -151,6 +165,12 @@ class Patch:
                     index[key] = len(node)
                     node.append(k)
                     offset.append(o)
+                    # The modules holding it: a corner (odd lattice point P) is corner of the
+                    # four modules centred at P ± (1, 1) (offsets (P ± 1)/2), another node its own.
+                    owners.append(
+                        {((key[1] + sx) // 2, (key[2] + sy) // 2) for sx in (-1, 1) for sy in (-1, 1)}
+                        if k < 4 else {o}
+                    )
                 local[(o, k)] = index[key]
         to_patch = {o: np.array([local[(o, k)] for k in range(module.n_nodes)]) for o in offsets}
         bars = np.unique(np.sort(np.vstack([to_patch[o][module.edges] for o in offsets]), axis=1), axis=0)
@@ -168,6 +188,12 @@ class Patch:
         q_all, r_all = bars[b_all, 0], bars[b_all, 1]
         keep = (p_all != q_all) & (p_all != r_all) & (mine[p_all] | mine[q_all] | mine[r_all])
         node_bar = np.column_stack([p_all[keep], b_all[keep]])
+        # A bar belongs to the modules holding both its ends (the module's edges are closed
+        # under its mirrors, so each of them has it).
+        node_owners = _owner_array(owners)
+        bar_owners = _owner_array([owners[q] & owners[r] for q, r in bars])
+        pairs = pairs[_realised(node_owners[pairs[:, 0]], node_owners[pairs[:, 1]], cells)]
+        node_bar = node_bar[_realised(node_owners[node_bar[:, 0]], bar_owners[node_bar[:, 1]], cells)]
         return cls(
             np.array(node), np.array(offset, dtype=float), bars,
             pairs.astype(int).reshape(-1, 2), node_bar.astype(int).reshape(-1, 2), reach,
@@ -175,6 +201,21 @@ class Patch:
 
     def positions(self, module: SymmetricModule, q: np.ndarray) -> np.ndarray:
         return module.positions(q)[self.node] + self.offset * (2 * q[:2])
+
+
+def _owner_array(owners: list[set]) -> np.ndarray:
+    """(n, 4, 2) integer offsets of each element's owning modules (at most four: a corner's),
+    padded by repeating the first."""
+    rows = [sorted(o) for o in owners]
+    return np.array([r + [r[0]] * (4 - len(r)) for r in rows], dtype=int).reshape(-1, 4, 2)
+
+
+def _realised(a: np.ndarray, b: np.ndarray, cells: tuple[int, int]) -> np.ndarray:
+    """(P,) whether pair p, with owners a[p] (P, 4, 2) and b[p], is a translate of a pair of the
+    n_x × n_y sheet: some owners o ∈ a[p], o' ∈ b[p] with |o − o'| ≤ (n_x − 1, n_y − 1)."""
+    gap = np.abs(a[:, :, None, :] - b[:, None, :, :])  # (P, 4, 4, 2)
+    fits = (gap[..., 0] <= cells[0] - 1) & (gap[..., 1] <= cells[1] - 1)
+    return fits.any(axis=(1, 2))
 
 
 def needed_reach(module: SymmetricModule, q: np.ndarray, shortest: float, cells: tuple[int, int]) -> tuple[int, int]:
@@ -279,26 +320,32 @@ def module_range(
     cells: tuple[int, int],
     limits: tuple[float, float] | None = None,
     xtol: float = STRAIN_XTOL,
+    max_reach: int | None = None,
 ) -> ModuleMotion:
     """The usable range of the n_x × n_y sheet (``cells``) tiled from ``module``, and the
     module's motion sampled over it.  The patch of copies watched grows with the nodes' reach
     (needed_reach) as the scan goes.  ``limits`` (lo < 0 < hi): scan no further than these
     strains (an end there is "search_limit"); default ±MAX_SCAN_STRAIN.  xtol: how precisely an
-    event is located in strain (a search that only compares ranges needs less than round-off)."""
+    event is located in strain (a search that only compares ranges needs less than round-off).
+    max_reach: watch copies no farther than this many modules along each axis (the cost stays
+    that of a (max_reach + 1)² sheet; the caller checks the full sheet); the pairs watched are
+    still those of the n_x × n_y sheet."""
     lo_limit, hi_limit = limits if limits is not None else (-MAX_SCAN_STRAIN, MAX_SCAN_STRAIN)
     shortest = float(np.sqrt(np.min(module.squared_lengths)))
     q0 = module.reference
     patches = {}
+    # needed_reach caps the reach at n − 1; max_reach caps it further.
+    reach_cells = cells if max_reach is None else tuple(min(c, max_reach + 1) for c in cells)
 
     def patch_for(reach):
         if reach not in patches:
-            patches[reach] = Patch.of(module, reach)
+            patches[reach] = Patch.of(module, reach, cells)
         return patches[reach]
 
     ends, samples = [], {0.0: q0}
     for sign in (1.0, -1.0):
         eps, q = 0.0, q0
-        patch = patch_for(needed_reach(module, q0, shortest, cells))
+        patch = patch_for(needed_reach(module, q0, shortest, reach_cells))
         prev = _events(module, patch, q0, shortest)
         end = None
         while end is None:
@@ -313,7 +360,7 @@ def module_range(
                     now = _events(module, patch, q_end, shortest)
                     end = _first_event(module, patch, prev, now, q, eps, end.strain, shortest, xtol) or end
                 break
-            reach = tuple(max(r, s) for r, s in zip(patch.reach, needed_reach(module, q_next, shortest, cells)))
+            reach = tuple(max(r, s) for r, s in zip(patch.reach, needed_reach(module, q_next, shortest, reach_cells)))
             if reach != patch.reach:
                 patch = patch_for(reach)
                 prev = _events(module, patch, q, shortest)
