@@ -24,13 +24,6 @@ def _load_json(path: str) -> dict:
         return json.load(fh)
 
 
-def _frame_from_json(doc: dict):
-    from zeromode.solver.frame import Frame
-
-    doc = doc.get("frame", doc)
-    return Frame.build(doc["positions"], doc.get("edges", []), doc.get("specified", []), dim=doc.get("dim"))
-
-
 def _tcp_listener(host: str, port: int) -> socket.socket:
     """A listening socket created with proto=IPPROTO_TCP.
 
@@ -74,22 +67,23 @@ def cmd_serve(args) -> int:
 
 
 def cmd_analyze(args) -> int:
-    from zeromode.solver.rigidity import analyze
+    """The /v1/analyze answer for a Frame, or for a /v1/analyze request ({"frame", "options"})."""
+    from zeromode.service.documents import validated
+    from zeromode.service.routes.analyze import post_analyze
+    from zeromode.service.schemas.analyze import AnalyzeRequest
 
-    result = analyze(_frame_from_json(_load_json(args.frame)))
+    doc = _load_json(args.frame)
+    body = post_analyze(validated(doc if "frame" in doc else {"frame": doc}, AnalyzeRequest))
     if args.pretty:
-        c = result.counts()
+        gap = body["rank_gap"]
         print(
-            f"N={c['nodes']} N_B={c['edges']} d={c['dim']}  Maxwell count {c['maxwell_count']}\n"
-            f"rank C = {c['rank']}  (σ_r = {c['rank_gap']['last_nonzero']:.3e}, "
-            f"σ_r+1 = {c['rank_gap']['first_zero']:.3e})\n"
-            f"zero modes {c['zero_modes']} = {c['rigid_body_modes']} rigid + "
-            f"{c['nontrivial_zero_modes']} nontrivial;  self-stresses {c['self_stresses']}"
+            f"N={body['nodes']} N_B={body['edges']} d={body['dim']}  Maxwell count {body['maxwell_count']}\n"
+            f"rank C = {body['rank']}  (σ_r = {gap['last_nonzero']:.3e}, σ_r+1 = {gap['first_zero']:.3e})\n"
+            f"zero modes {body['zero_modes']} = {body['rigid_body_modes']} rigid + "
+            f"{body['nontrivial_zero_modes']} nontrivial;  self-stresses {body['self_stresses']}"
         )
     else:
-        out = {**result.counts(), "modes": result.modes.tolist(), "stresses": result.stresses.tolist()}
-        json.dump(out, sys.stdout)
-        print()
+        print(json.dumps(body, allow_nan=False))
     return 0
 
 
@@ -229,6 +223,11 @@ def cmd_sweep(args) -> int:
     (--url): a progress bar, the points as NDJSON, optionally the table as CSV or Parquet."""
     import time
 
+    if args.table and args.table.endswith(".parquet"):
+        from zeromode.service.extras import require
+        from zeromode.service.sweeps import PARQUET
+
+        require(*PARQUET)  # before any work: one sentence with the install line, exit code 2
     spec = _load_json(args.grid)
     endpoint = "/v1/" + str(spec.get("endpoint", "")).strip("/").removeprefix("v1/")
     records: list[dict] = []
@@ -249,8 +248,8 @@ def cmd_sweep(args) -> int:
     else:
         from zeromode.service.sweeps import run_sweep
 
-        def progress(done: int, failed: int, total: int) -> None:
-            _progress_bar((done + failed) / total, f"{done} done, {failed} failed of {total}")
+        def progress(p) -> None:
+            _progress_bar(p.fraction, f"{p.done} done, {p.failed} failed of {p.total}")
 
         records = list(run_sweep(endpoint, spec.get("template"), spec.get("grid"), spec.get("requests"),
                                  scheduler=args.scheduler, on_progress=progress))
@@ -388,12 +387,16 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    from zeromode.solver.errors import DomainError  # after parsing: --help needs no numpy
+    from zeromode.service.extras import MissingExtra  # after parsing: --help needs no numpy
+    from zeromode.solver.errors import DomainError
 
     try:
         return args.func(args)
     except DomainError as exc:
         print(f"error [{exc.code}]: {exc.message}", file=sys.stderr)
+        return 2
+    except MissingExtra as exc:
+        print(f"error: {exc}", file=sys.stderr)
         return 2
     except (OSError, json.JSONDecodeError, KeyError) as exc:
         print(f"error: {exc}", file=sys.stderr)
