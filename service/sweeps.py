@@ -232,7 +232,8 @@ def parquet_bytes(rows: Iterable[dict[str, Any]]) -> bytes:
 @dataclass(frozen=True)
 class SweepProgress:
     """How far a sweep is: points ``done`` and ``failed`` of ``total``, ``elapsed`` seconds since
-    it started. What ``on_progress`` receives (never the results: those are yielded)."""
+    it started. What ``on_progress`` receives (never the results: those are yielded). The
+    client's zeromode_client.SweepProgress is its twin (the client imports no server code)."""
 
     done: int
     failed: int
