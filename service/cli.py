@@ -246,13 +246,17 @@ def cmd_sweep(args) -> int:
                 break
             time.sleep(args.poll)
     else:
-        from zeromode.service.sweeps import run_sweep
+        from zeromode.service.sweeps import SweepRefused, run_sweep
+        from zeromode.solver.errors import DomainError
 
         def progress(p) -> None:
             _progress_bar(p.fraction, f"{p.done} done, {p.failed} failed of {p.total}")
 
-        records = list(run_sweep(endpoint, spec.get("template"), spec.get("grid"), spec.get("requests"),
-                                 scheduler=args.scheduler, on_progress=progress))
+        try:
+            records = list(run_sweep(endpoint, spec.get("template"), spec.get("grid"), spec.get("requests"),
+                                     scheduler=args.scheduler, on_progress=progress))
+        except SweepRefused as exc:  # the service's 422, here before anything runs
+            raise DomainError(exc.detail["code"], exc.detail["message"]) from exc
     print(file=sys.stderr)
     return _write_sweep(sorted(records, key=lambda r: r["point"]), args.output, args.table)
 

@@ -24,7 +24,14 @@ from typing import Any
 
 from zeromode.service.extras import require
 from zeromode.service.settings import Settings, current_settings, settings_scope
-from zeromode.service.tasks import RequestRefused, chunk_of, execute_chunk, settings_of, validated
+from zeromode.service.tasks import (
+    RUNNABLE,
+    RequestRefused,
+    chunk_of,
+    execute_chunk,
+    settings_of,
+    validated,
+)
 
 
 class SweepRefused(Exception):
@@ -119,7 +126,10 @@ def points(template: dict[str, Any], grid: dict[str, list[Any]] | None,
 
 def validate_points(endpoint: str, sweep_points: list[Point]) -> None:
     """Every point through the endpoint's full validation; the first bad one is SweepRefused
-    ``invalid_point`` naming its index, parameters and the endpoint's own error."""
+    ``invalid_point`` naming its index, parameters and the endpoint's own error
+    (``invalid_sweep`` for an endpoint that does not run as a job)."""
+    if endpoint not in RUNNABLE:
+        raise SweepRefused("invalid_sweep", f"endpoint must be one of {', '.join(RUNNABLE)}; got {endpoint!r}.")
     for point in sweep_points:
         try:
             validated(endpoint, point.request)

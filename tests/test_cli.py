@@ -307,6 +307,17 @@ def test_sweep_here_on_dask_writes_a_parquet_table(tmp_path, dask_scheduler):
     assert "100%" in run.stderr
 
 
+@pytest.mark.parametrize("spec, code", [
+    ({"endpoint": "/v1/analyze", "template": {"frame": SQUARE}, "grid": {"frame.edges": [[[0, 0]]]}}, "invalid_point"),
+    ({"template": {"frame": SQUARE}, "grid": {"frame.dim": [2]}}, "invalid_sweep"),
+])
+def test_a_bad_sweep_is_refused_in_one_line_before_any_cluster_starts(tmp_path, spec, code):
+    """The scheduler is unreachable: a refusal that came after connecting would be another error."""
+    run = zeromode("sweep", write(tmp_path / "grid.json", spec), "--scheduler", "tcp://127.0.0.1:9")
+    assert run.returncode == 2 and run.stdout == ""
+    assert run.stderr.startswith(f"error [{code}]: ") and run.stderr.count("\n") == 1
+
+
 # --- missing optional packages: a child process in which they cannot be imported ------------------
 
 
