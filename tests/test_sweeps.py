@@ -7,6 +7,7 @@ route); tables against the answers they were read from.
 
 from __future__ import annotations
 
+import asyncio
 import csv
 import io
 import json
@@ -29,6 +30,7 @@ from test_jobs import app_client, without_timings
 from zeromode.service.app import create_app
 from zeromode.service.settings import Settings
 from zeromode.service.sweeps import sweep
+from zeromode_client import SweepProgress
 
 AUXETIC = {"dim": 2, "cells": [3, 3]}
 GRID = {"poisson_ratio": [-0.2, -0.5, -0.8], "cells": [[2, 2], [3, 3]]}
@@ -309,6 +311,18 @@ def test_a_service_killed_mid_sweep_keeps_its_results_and_its_successor_finishes
     assert any(a == 2 for a in attempts.values())  # the rest ran again under the new instance
 
 
+async def async_sweep(url: str) -> tuple[list, list]:
+    """The AsyncClient's sweep of a hinge and a triangle: (points, progress values)."""
+    from zeromode_client import AsyncClient
+
+    progress = []
+    async with AsyncClient(url) as zm:
+        template = {"frame": {"dim": 2, "positions": [[0, 0], [1, 0], [0, 1]], "edges": [[0, 1], [1, 2]]}}
+        grid = {"frame.edges": [[[0, 1], [1, 2]], [[0, 1], [1, 2], [0, 2]]]}
+        points = [p async for p in zm.sweep("/v1/analyze", template, grid, on_progress=progress.append, poll=0.05)]
+    return points, progress
+
+
 def test_the_cli_and_the_client_run_sweeps_against_a_live_service(tmp_path, dask_scheduler):
     from client.conftest import served
 
@@ -330,6 +344,10 @@ def test_the_cli_and_the_client_run_sweeps_against_a_live_service(tmp_path, dask
                 time.sleep(0.05)
             table = list(csv.DictReader(io.StringIO(zm.sweep_results(sweep_id, "csv").decode())))
             assert len(table) == 6
+        async_points, async_progress = asyncio.run(async_sweep(url))
+        assert sorted(p.point for p in async_points) == [0, 1]
+        assert all(isinstance(s, SweepProgress) for s in async_progress)
+        assert (async_progress[-1].done, async_progress[-1].total) == (2, 2)
         grid = tmp_path / "grid.json"
         grid.write_text(json.dumps({"endpoint": "/v1/design/auxetic", "template": AUXETIC, "grid": GRID}))
         for where in (["--url", url, "--poll", "0.05"], ["--scheduler", dask_scheduler]):
