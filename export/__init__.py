@@ -56,16 +56,31 @@ class AnimationOptions:
     title: str | None = None
 
 
+def check_writable(fmt: str) -> None:
+    """Whether this machine can write ``fmt``, asked before any work: InvalidInput for an unknown
+    format, DomainError ``unavailable_format`` (with what to install) for MP4 without ffmpeg."""
+    if fmt not in FORMATS:
+        raise InvalidInput("invalid_format", f"format must be one of {', '.join(FORMATS)}; got {fmt!r}.")
+    if fmt == "mp4":
+        from zeromode.viz.animation import video_formats
+
+        if fmt not in video_formats():
+            raise DomainError(
+                "unavailable_format",
+                "MP4 needs ffmpeg, which is not on this machine's PATH (install it, e.g. apt-get install "
+                "ffmpeg); gif and svg_animation need nothing more.",
+            )
+
+
 def export_bytes(
     takeaway: Takeaway, fmt: str, fab: Fabrication | None = None, animation: AnimationOptions | None = None
 ) -> bytes:
     """The takeaway written in format ``fmt`` (a key of FORMATS), with the given part sizes and
-    playback (defaults when None). Raises InvalidInput for an unknown format or a motion format
-    without a path, DomainError ``unavailable_format`` for MP4 without ffmpeg."""
+    playback (defaults when None). Raises as check_writable, and InvalidInput for a motion format
+    without a path."""
     fab = fab or Fabrication()
     animation = animation or AnimationOptions()
-    if fmt not in FORMATS:
-        raise InvalidInput("invalid_format", f"format must be one of {', '.join(FORMATS)}; got {fmt!r}.")
+    check_writable(fmt)
     if FORMATS[fmt].motion and takeaway.path is None:
         raise InvalidInput("no_motion", f"the {fmt} format shows a finite motion; the export has no path.")
     if fmt in ("vtk", "xdmf"):
@@ -82,15 +97,8 @@ def export_bytes(
         writer = {"dxf": fabrication.dxf_bytes, "cut_svg": fabrication.cut_svg_bytes,
                   "stl": fabrication.stl_bytes, "kit_csv": fabrication.kit_csv_bytes}[fmt]
         return writer(takeaway, fab)
-    from zeromode.viz.animation import (
-        animation_svg,
-        animation_video,
-        motion_animation,
-        video_formats,
-    )
+    from zeromode.viz.animation import animation_svg, animation_video, motion_animation
 
-    if fmt == "mp4" and fmt not in video_formats():
-        raise DomainError("unavailable_format", "MP4 needs ffmpeg on the machine that exports; use gif or svg_animation.")
     movie = motion_animation(
         takeaway.frame, takeaway.path, source=takeaway.source, target=takeaway.target,
         frames=animation.frames, fps=animation.fps, title=animation.title,

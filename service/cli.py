@@ -24,13 +24,6 @@ def _load_json(path: str) -> dict:
         return json.load(fh)
 
 
-def _frame_from_json(doc: dict):
-    from zeromode.solver.frame import Frame
-
-    doc = doc.get("frame", doc)
-    return Frame.build(doc["positions"], doc.get("edges", []), doc.get("specified", []), dim=doc.get("dim"))
-
-
 def _tcp_listener(host: str, port: int) -> socket.socket:
     """A listening socket created with proto=IPPROTO_TCP.
 
@@ -74,22 +67,23 @@ def cmd_serve(args) -> int:
 
 
 def cmd_analyze(args) -> int:
-    from zeromode.solver.rigidity import analyze
+    """The /v1/analyze answer for a Frame, or for a /v1/analyze request ({"frame", "options"})."""
+    from zeromode.service.documents import validated
+    from zeromode.service.routes.analyze import post_analyze
+    from zeromode.service.schemas.analyze import AnalyzeRequest
 
-    result = analyze(_frame_from_json(_load_json(args.frame)))
+    doc = _load_json(args.frame)
+    body = post_analyze(validated(doc if "frame" in doc else {"frame": doc}, AnalyzeRequest))
     if args.pretty:
-        c = result.counts()
+        gap = body["rank_gap"]
         print(
-            f"N={c['nodes']} N_B={c['edges']} d={c['dim']}  Maxwell count {c['maxwell_count']}\n"
-            f"rank C = {c['rank']}  (σ_r = {c['rank_gap']['last_nonzero']:.3e}, "
-            f"σ_r+1 = {c['rank_gap']['first_zero']:.3e})\n"
-            f"zero modes {c['zero_modes']} = {c['rigid_body_modes']} rigid + "
-            f"{c['nontrivial_zero_modes']} nontrivial;  self-stresses {c['self_stresses']}"
+            f"N={body['nodes']} N_B={body['edges']} d={body['dim']}  Maxwell count {body['maxwell_count']}\n"
+            f"rank C = {body['rank']}  (σ_r = {gap['last_nonzero']:.3e}, σ_r+1 = {gap['first_zero']:.3e})\n"
+            f"zero modes {body['zero_modes']} = {body['rigid_body_modes']} rigid + "
+            f"{body['nontrivial_zero_modes']} nontrivial;  self-stresses {body['self_stresses']}"
         )
     else:
-        out = {**result.counts(), "modes": result.modes.tolist(), "stresses": result.stresses.tolist()}
-        json.dump(out, sys.stdout)
-        print()
+        print(json.dumps(body, allow_nan=False))
     return 0
 
 
@@ -229,6 +223,11 @@ def cmd_sweep(args) -> int:
     (--url): a progress bar, the points as NDJSON, optionally the table as CSV or Parquet."""
     import time
 
+    if args.table and args.table.endswith(".parquet"):
+        from zeromode.service.extras import require
+        from zeromode.service.sweeps import PARQUET
+
+        require(*PARQUET)  # before any work: one sentence with the install line, exit code 2
     spec = _load_json(args.grid)
     endpoint = "/v1/" + str(spec.get("endpoint", "")).strip("/").removeprefix("v1/")
     records: list[dict] = []
@@ -247,13 +246,17 @@ def cmd_sweep(args) -> int:
                 break
             time.sleep(args.poll)
     else:
-        from zeromode.service.sweeps import run_sweep
+        from zeromode.service.sweeps import SweepRefused, run_sweep
+        from zeromode.solver.errors import DomainError
 
-        def progress(done: int, failed: int, total: int) -> None:
-            _progress_bar((done + failed) / total, f"{done} done, {failed} failed of {total}")
+        def progress(p) -> None:
+            _progress_bar(p.fraction, f"{p.done} done, {p.failed} failed of {p.total}")
 
-        records = list(run_sweep(endpoint, spec.get("template"), spec.get("grid"), spec.get("requests"),
-                                 scheduler=args.scheduler, on_progress=progress))
+        try:
+            records = list(run_sweep(endpoint, spec.get("template"), spec.get("grid"), spec.get("requests"),
+                                     scheduler=args.scheduler, on_progress=progress))
+        except SweepRefused as exc:  # the service's 422, here before anything runs
+            raise DomainError(exc.detail["code"], exc.detail["message"]) from exc
     print(file=sys.stderr)
     return _write_sweep(sorted(records, key=lambda r: r["point"]), args.output, args.table)
 
@@ -341,8 +344,8 @@ def build_parser() -> argparse.ArgumentParser:
     serve.add_argument("--port", type=int, default=8000)
     serve.add_argument("--workers", type=int, default=1)
     serve.set_defaults(func=cmd_serve)
-    an = sub.add_parser("analyze", help="analyse a frame given as JSON (file or - for stdin)")
-    an.add_argument("frame")
+    an = sub.add_parser("analyze", help="analyse a frame here and print the /v1/analyze answer")
+    an.add_argument("frame", help="a Frame or a /v1/analyze request (frame, options): JSON file (or - for stdin)")
     an.add_argument("--pretty", action="store_true", help="a readable summary instead of JSON")
     an.set_defaults(func=cmd_analyze)
     ex = sub.add_parser("example", help="list the paper's named examples or print one as a /v1/design request")
@@ -423,12 +426,16 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    from zeromode.solver.errors import DomainError  # after parsing: --help needs no numpy
+    from zeromode.service.extras import MissingExtra  # after parsing: --help needs no numpy
+    from zeromode.solver.errors import DomainError
 
     try:
         return args.func(args)
     except DomainError as exc:
         print(f"error [{exc.code}]: {exc.message}", file=sys.stderr)
+        return 2
+    except MissingExtra as exc:
+        print(f"error: {exc}", file=sys.stderr)
         return 2
     except (OSError, json.JSONDecodeError, KeyError) as exc:
         print(f"error: {exc}", file=sys.stderr)

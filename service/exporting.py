@@ -7,7 +7,7 @@ asked, then written by zeromode.export.
 
 from __future__ import annotations
 
-from zeromode.export import FORMATS, AnimationOptions, Fabrication, export_bytes
+from zeromode.export import FORMATS, AnimationOptions, Fabrication, check_writable, export_bytes
 from zeromode.export.takeaway import Takeaway
 from zeromode.service.convert import frame_from_model
 from zeromode.service.documents import (
@@ -32,6 +32,7 @@ from zeromode.solver.tolerance import tolerance_report
 
 def export_file(request: ExportRequest) -> tuple[bytes, str, str]:
     """(content, media type, file name) of the export the request asks for."""
+    check_writable(request.format)  # before the document is designed or its motion traced
     fmt = FORMATS[request.format]
     takeaway = takeaway_for(request)
     f, a = request.fabrication, request.animation

@@ -16,13 +16,22 @@ import io
 import itertools
 import json
 import math
+import time
 import uuid
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from typing import Any
 
+from zeromode.service.extras import require
 from zeromode.service.settings import Settings, current_settings, settings_scope
-from zeromode.service.tasks import RequestRefused, chunk_of, execute_chunk, settings_of, validated
+from zeromode.service.tasks import (
+    RUNNABLE,
+    RequestRefused,
+    chunk_of,
+    execute_chunk,
+    settings_of,
+    validated,
+)
 
 
 class SweepRefused(Exception):
@@ -117,7 +126,10 @@ def points(template: dict[str, Any], grid: dict[str, list[Any]] | None,
 
 def validate_points(endpoint: str, sweep_points: list[Point]) -> None:
     """Every point through the endpoint's full validation; the first bad one is SweepRefused
-    ``invalid_point`` naming its index, parameters and the endpoint's own error."""
+    ``invalid_point`` naming its index, parameters and the endpoint's own error
+    (``invalid_sweep`` for an endpoint that does not run as a job)."""
+    if endpoint not in RUNNABLE:
+        raise SweepRefused("invalid_sweep", f"endpoint must be one of {', '.join(RUNNABLE)}; got {endpoint!r}.")
     for point in sweep_points:
         try:
             validated(endpoint, point.request)
@@ -197,8 +209,14 @@ def csv_text(rows: Iterable[dict[str, Any]]) -> str:
     return out.getvalue()
 
 
+# What the Parquet table needs (the ``tables`` extra): callers check it before any work.
+PARQUET = ("a Parquet table", "pyarrow", "pyarrow.parquet")
+
+
 def parquet_bytes(rows: Iterable[dict[str, Any]]) -> bytes:
-    """The table as Parquet; ImportError where pyarrow is not installed."""
+    """The table as Parquet; MissingExtra where pyarrow is not installed (check ``PARQUET``
+    with extras.require before the work that makes the rows)."""
+    require(*PARQUET)
     import pyarrow as pa
     import pyarrow.parquet as pq
 
@@ -218,16 +236,27 @@ def parquet_bytes(rows: Iterable[dict[str, Any]]) -> bytes:
     return sink.getvalue()
 
 
-def table(rows: list[dict[str, Any]]):
-    """A pandas DataFrame of the rows where pandas is installed, else the rows themselves."""
-    try:
-        import pandas as pd
-    except ImportError:
-        return rows
-    return pd.DataFrame(rows)
-
-
 # --- the library's sweep ---------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class SweepProgress:
+    """How far a sweep is: points ``done`` and ``failed`` of ``total``, ``elapsed`` seconds since
+    it started. What ``on_progress`` receives (never the results: those are yielded). The
+    client's zeromode_client.SweepProgress is its twin (the client imports no server code)."""
+
+    done: int
+    failed: int
+    total: int
+    elapsed: float
+
+    @property
+    def fraction(self) -> float:
+        """Finished points (done or failed) over all points, in [0, 1]."""
+        return (self.done + self.failed) / self.total if self.total else 1.0
+
+    def __repr__(self) -> str:
+        return f"SweepProgress(done={self.done}, failed={self.failed}, total={self.total}, elapsed={self.elapsed:.1f})"
 
 
 def run_sweep(
@@ -238,17 +267,18 @@ def run_sweep(
     *,
     scheduler: str | None = None,
     settings: Settings | None = None,
-    on_progress: Callable[[int, int, int], None] | None = None,
+    on_progress: Callable[[SweepProgress], None] | None = None,
 ) -> Iterator[dict[str, Any]]:
     """Run a sweep on Dask without any server, yielding each point's record as it finishes
-    ({"point", "params", "status", "result" | "error"}); ``on_progress(done, failed, total)``
-    after each. The cluster is ``scheduler`` (tcp://host:8786), else ``settings.dask_scheduler``,
+    ({"point", "params", "status", "result" | "error"}); ``on_progress(SweepProgress)`` after
+    each. The cluster is ``scheduler`` (tcp://host:8786), else ``settings.dask_scheduler``,
     else an embedded LocalCluster started for this call. Every point is validated first
-    (SweepRefused names a bad one)."""
+    (SweepRefused names a bad one). Needs no optional package."""
     from distributed import as_completed
 
     from zeromode.service.engine import chunked, dask_client
 
+    started = time.monotonic()
     settings = current_settings() if settings is None else settings
     sweep_points = points(template or {}, grid, requests, settings.max_sweep_points)
     validate_points(endpoint, sweep_points)
@@ -272,7 +302,7 @@ def run_sweep(
                 record = {"point": point.index, "params": point.params, "status": status}
                 record["result" if status == "done" else "error"] = json.loads(payload) if status == "done" else payload
                 if on_progress is not None:
-                    on_progress(done, failed, len(sweep_points))
+                    on_progress(SweepProgress(done, failed, len(sweep_points), time.monotonic() - started))
                 yield record
             future.release()
     finally:
@@ -281,14 +311,25 @@ def run_sweep(
             cluster.close()
 
 
+# What the library's table needs (the ``tables`` extra).
+DATAFRAME = ("sweep()'s DataFrame (run_sweep yields the records without it)", "pandas")
+
+
 def sweep(endpoint: str, template: dict[str, Any] | None = None, grid: dict[str, list[Any]] | None = None,
           requests: list[dict[str, Any]] | None = None, **options: Any):
-    """The whole sweep as a table (a pandas DataFrame where pandas is installed), one row per
-    point in point order: its parameters, status, error code and the answer's scalar fields.
+    """The whole sweep as a pandas DataFrame, one row per point in point order: its parameters
+    (``param.<path>``), status, error code and the answer's scalar fields (dotted paths).
     ``options`` as for ``run_sweep`` (scheduler, settings, on_progress).
+
+    Needs pandas (``pip install 'zeromode[tables]'``): without it, MissingExtra (an ImportError
+    whose message is the install line) is raised before anything is validated or run.
+    ``run_sweep`` needs no optional package and yields the records as dicts.
 
     >>> df = sweep("/v1/design/auxetic", {"dim": 2, "cells": [4, 4]},
     ...            {"poisson_ratio": [-0.3, -0.5]})                     # doctest: +SKIP
     """
+    require(*DATAFRAME)
+    import pandas as pd
+
     records = sorted(run_sweep(endpoint, template, grid, requests, **options), key=lambda r: r["point"])
-    return table([row(r) for r in records])
+    return pd.DataFrame([row(r) for r in records])

@@ -7,6 +7,7 @@ route); tables against the answers they were read from.
 
 from __future__ import annotations
 
+import asyncio
 import csv
 import io
 import json
@@ -29,6 +30,7 @@ from test_jobs import app_client, without_timings
 from zeromode.service.app import create_app
 from zeromode.service.settings import Settings
 from zeromode.service.sweeps import sweep
+from zeromode_client import SweepProgress
 
 AUXETIC = {"dim": 2, "cells": [3, 3]}
 GRID = {"poisson_ratio": [-0.2, -0.5, -0.8], "cells": [[2, 2], [3, 3]]}
@@ -173,10 +175,11 @@ def test_the_library_sweep_returns_a_dataframe_without_any_server(dask_scheduler
     """``sweep`` on the session's cluster: one row per point in point order, the scalar fields
     of each answer equal to the endpoint's own answer."""
     seen = []
-    table = sweep("/v1/design/auxetic", AUXETIC, GRID, scheduler=dask_scheduler,
-                  on_progress=lambda done, failed, total: seen.append((done, failed, total)))
+    table = sweep("/v1/design/auxetic", AUXETIC, GRID, scheduler=dask_scheduler, on_progress=seen.append)
     assert list(table["point"]) == list(range(6)) and set(table["status"]) == {"done"}
-    assert seen[-1] == (6, 0, 6) and [s[0] for s in seen] == sorted(s[0] for s in seen)
+    assert [(s.done, s.failed, s.total) for s in seen] == [(k, 0, 6) for k in range(1, 7)]
+    assert [s.elapsed for s in seen] == sorted(s.elapsed for s in seen) and seen[0].elapsed > 0
+    assert repr(seen[-1]) == f"SweepProgress(done=6, failed=0, total=6, elapsed={seen[-1].elapsed:.1f})"
     direct = TestClient(create_app()).post("/v1/design/auxetic", json={**AUXETIC, "poisson_ratio": -0.8, "cells": [3, 3]})
     last = table.iloc[5]
     assert last["param.poisson_ratio"] == -0.8
@@ -309,6 +312,18 @@ def test_a_service_killed_mid_sweep_keeps_its_results_and_its_successor_finishes
     assert any(a == 2 for a in attempts.values())  # the rest ran again under the new instance
 
 
+async def async_sweep(url: str) -> tuple[list, list]:
+    """The AsyncClient's sweep of a hinge and a triangle: (points, progress values)."""
+    from zeromode_client import AsyncClient
+
+    progress = []
+    async with AsyncClient(url) as zm:
+        template = {"frame": {"dim": 2, "positions": [[0, 0], [1, 0], [0, 1]], "edges": [[0, 1], [1, 2]]}}
+        grid = {"frame.edges": [[[0, 1], [1, 2]], [[0, 1], [1, 2], [0, 2]]]}
+        points = [p async for p in zm.sweep("/v1/analyze", template, grid, on_progress=progress.append, poll=0.05)]
+    return points, progress
+
+
 def test_the_cli_and_the_client_run_sweeps_against_a_live_service(tmp_path, dask_scheduler):
     from client.conftest import served
 
@@ -321,9 +336,19 @@ def test_the_cli_and_the_client_run_sweeps_against_a_live_service(tmp_path, dask
             points = list(zm.sweep("/v1/design/auxetic", AUXETIC, GRID, on_progress=progress.append, poll=0.05))
             assert sorted(p.point for p in points) == list(range(6))
             assert all(p.status == "done" and p.result.path == "/v1/design/auxetic" for p in points)
-            assert [s.done for s in progress] == sorted(s.done for s in progress) and progress[-1].done == 6
-            table = list(csv.DictReader(io.StringIO(zm.sweep_results(progress[-1].id, "csv").decode())))
+            assert [s.done for s in progress] == sorted(s.done for s in progress)
+            assert (progress[-1].done, progress[-1].failed, progress[-1].total) == (6, 0, 6)
+            # The counts and the time only, never the results: print() of one is a short line.
+            assert all(len(repr(s)) < 80 for s in progress) and [s.elapsed for s in progress] == sorted(s.elapsed for s in progress)
+            sweep_id = zm.submit_sweep("/v1/design/auxetic", AUXETIC, GRID)
+            while not zm.sweep_status(sweep_id, limit=0).finished_running:
+                time.sleep(0.05)
+            table = list(csv.DictReader(io.StringIO(zm.sweep_results(sweep_id, "csv").decode())))
             assert len(table) == 6
+        async_points, async_progress = asyncio.run(async_sweep(url))
+        assert sorted(p.point for p in async_points) == [0, 1]
+        assert all(isinstance(s, SweepProgress) for s in async_progress)
+        assert (async_progress[-1].done, async_progress[-1].total) == (2, 2)
         grid = tmp_path / "grid.json"
         grid.write_text(json.dumps({"endpoint": "/v1/design/auxetic", "template": AUXETIC, "grid": GRID}))
         for where in (["--url", url, "--poll", "0.05"], ["--scheduler", dask_scheduler]):

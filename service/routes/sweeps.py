@@ -7,6 +7,7 @@ from fastapi import APIRouter, HTTPException, Query, Request
 from fastapi.responses import JSONResponse, Response, StreamingResponse
 
 from zeromode.service import sweeps
+from zeromode.service.extras import MissingExtra, require
 from zeromode.service.responses import sweep_body
 from zeromode.service.routes.jobs import (
     TOO_MANY,
@@ -113,11 +114,14 @@ def sweep_csv(sweep_id: str, request: Request) -> Response:
             responses={**UNKNOWN, 501: {"description": "pyarrow is not installed on the server."},
                        200: {"content": {"application/vnd.apache.parquet": {}}}})
 def sweep_parquet(sweep_id: str, request: Request) -> Response:
-    """The same table as Parquet (where the server has pyarrow installed)."""
-    rows = _rows(request, sweep_id)
+    """The same table as Parquet (where the server has pyarrow installed: else 501
+    `parquet_unavailable`, before any row is read)."""
+    _sweep(request, sweep_id)
     try:
-        data = sweeps.parquet_bytes(rows)
-    except ImportError as exc:
-        raise HTTPException(501, detail={"code": "parquet_unavailable",
-                                         "message": "pyarrow is not installed on the server; use results.csv."}) from exc
-    return Response(data, media_type="application/vnd.apache.parquet")
+        require(*sweeps.PARQUET)
+    except MissingExtra as exc:
+        raise HTTPException(501, detail={
+            "code": "parquet_unavailable",
+            "message": f"pyarrow is not installed on the server ({exc.install}); use results.csv.",
+        }) from exc
+    return Response(sweeps.parquet_bytes(_rows(request, sweep_id)), media_type="application/vnd.apache.parquet")

@@ -35,9 +35,10 @@ def loopback_socket() -> socket.socket:
     return sock
 
 
-def wait_for_health(url: str, alive: Callable[[], bool], log: Callable[[], str] = str) -> None:
+def wait_for_health(url: str, alive: Callable[[], bool], log: Callable[[], str] = str,
+                    timeout_s: float = STARTUP_TIMEOUT_S) -> None:
     """Poll GET /health until it answers 200; fail early if the server died."""
-    deadline = time.monotonic() + STARTUP_TIMEOUT_S
+    deadline = time.monotonic() + timeout_s
     while time.monotonic() < deadline:
         if not alive():
             pytest.fail(f"the service at {url} stopped while starting:\n{log()}")
@@ -48,7 +49,7 @@ def wait_for_health(url: str, alive: Callable[[], bool], log: Callable[[], str] 
             pass
         time.sleep(0.05)
     pytest.fail(
-        f"the service at {url} did not answer /health within {STARTUP_TIMEOUT_S} s:\n{log()}"
+        f"the service at {url} did not answer /health within {timeout_s} s:\n{log()}"
     )
 
 

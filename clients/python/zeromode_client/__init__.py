@@ -24,6 +24,7 @@ from zeromode_client._models import (
     Result,
     SolutionSpace,
     SweepPoint,
+    SweepProgress,
     SweepStatus,
 )
 
@@ -41,6 +42,7 @@ __all__ = [
     "Result",
     "SolutionSpace",
     "SweepPoint",
+    "SweepProgress",
     "SweepStatus",
     "ZeromodeConnectionError",
     "ZeromodeError",

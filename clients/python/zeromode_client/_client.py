@@ -24,6 +24,7 @@ from zeromode_client._models import (
     Result,
     SolutionSpace,
     SweepPoint,
+    SweepProgress,
     SweepStatus,
 )
 
@@ -284,20 +285,22 @@ class Client(_BaseClient):
         grid: Mapping[str, Any] | None = None,
         requests: list[Mapping[str, Any]] | None = None,
         *,
-        on_progress: Callable[[SweepStatus], None] | None = None,
+        on_progress: Callable[[SweepProgress], None] | None = None,
         poll: float = 0.5,
         timeout: float | None = None,
     ) -> Iterator[SweepPoint]:
         """Submit a sweep (as ``submit_sweep``) and yield its points as they finish;
-        ``on_progress(status)`` after every poll (``status.done``, ``.failed``, ``.running``,
-        ``.total``). Past ``timeout`` s raises ZeromodeTimeoutError (the sweep keeps running)."""
+        ``on_progress(SweepProgress)`` after every poll (``.done``, ``.failed``, ``.total``,
+        ``.elapsed``: the counts only, never the results). Past ``timeout`` s raises
+        ZeromodeTimeoutError (the sweep keeps running)."""
+        started = time.monotonic()
         sweep_id = self.submit_sweep(endpoint, template, grid, requests)
-        deadline = None if timeout is None else time.monotonic() + timeout
+        deadline = None if timeout is None else started + timeout
         after = 0
         while True:
             status = self.sweep_status(sweep_id, after, SWEEP_PAGE)
             if on_progress is not None:
-                on_progress(status)
+                on_progress(_progress(status, started))
             yield from status.results
             after = status.next
             if len(status.results) < SWEEP_PAGE:  # every finished point is read
@@ -473,17 +476,18 @@ class AsyncClient(_BaseClient):
         grid: Mapping[str, Any] | None = None,
         requests: list[Mapping[str, Any]] | None = None,
         *,
-        on_progress: Callable[[SweepStatus], None] | None = None,
+        on_progress: Callable[[SweepProgress], None] | None = None,
         poll: float = 0.5,
         timeout: float | None = None,
     ) -> AsyncIterator[SweepPoint]:
+        started = time.monotonic()
         sweep_id = await self.submit_sweep(endpoint, template, grid, requests)
-        deadline = None if timeout is None else time.monotonic() + timeout
+        deadline = None if timeout is None else started + timeout
         after = 0
         while True:
             status = await self.sweep_status(sweep_id, after, SWEEP_PAGE)
             if on_progress is not None:
-                on_progress(status)
+                on_progress(_progress(status, started))
             for point in status.results:
                 yield point
             after = status.next
@@ -496,6 +500,10 @@ class AsyncClient(_BaseClient):
 def _given(**options: Any) -> dict[str, Any]:
     """The options the caller set (None means: the service's default)."""
     return {k: v for k, v in options.items() if v is not None}
+
+
+def _progress(status: SweepStatus, started: float) -> SweepProgress:
+    return SweepProgress(status.done, status.failed, status.total, time.monotonic() - started)
 
 
 def _job_result(status: JobStatus) -> Result:

@@ -306,6 +306,27 @@ class SweepPoint:
         )
 
 
+@dataclass(frozen=True)
+class SweepProgress:
+    """How far a sweep is: points ``done`` and ``failed`` of ``total``, ``elapsed`` seconds since
+    it was submitted. What ``sweep``'s ``on_progress`` receives (never the results: those are
+    yielded). The library's zeromode.service.sweeps.SweepProgress is its twin (this package
+    imports no server code)."""
+
+    done: int
+    failed: int
+    total: int
+    elapsed: float
+
+    @property
+    def fraction(self) -> float:
+        """Finished points (done or failed) over all points, in [0, 1]."""
+        return (self.done + self.failed) / self.total if self.total else 1.0
+
+    def __repr__(self) -> str:
+        return f"SweepProgress(done={self.done}, failed={self.failed}, total={self.total}, elapsed={self.elapsed:.1f})"
+
+
 @dataclass(frozen=True, eq=False)
 class SweepStatus:
     """GET /v1/sweeps/{id}: counts of points by state, and a page of finished points
