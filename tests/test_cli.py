@@ -36,7 +36,9 @@ from oracles.rigidity import COUNT_FIELDS, compatibility_matrix, normalised, ref
 
 ZEROMODE = str(Path(sys.executable).with_name("zeromode"))  # the console script pip installed
 # Subcommands this file runs; `zeromode --help` must list exactly these (a new one needs a test).
-TESTED = {"serve", "analyze", "example", "plot", "job", "sweep", "design", "export"}
+# `motion` runs as a subprocess in tests/client/test_motion_target_live.py
+# (test_cli_motion_command_drives_the_crank, against the four-bar's closed form).
+TESTED = {"serve", "analyze", "example", "plot", "job", "sweep", "design", "export", "motion"}
 # `zeromode --help` CPU time (parent and children of the process), the floor.
 HELP_CPU_S = 0.3
 # A first `zeromode serve` in a new environment compiles numba kernels (cold cache): generous,
