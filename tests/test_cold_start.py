@@ -15,7 +15,7 @@ import subprocess
 import sys
 
 import numpy as np
-from numba import njit
+from numba import njit, types
 from numba.core import event
 
 from zeromode.solver import sparse_kernels
@@ -51,7 +51,8 @@ def test_compilation_is_not_charged_to_the_budget():
 def test_frames_read_only_arrays_add_no_specialisation_after_warm_up():
     """rigidity.warm_up compiles each kernel for the one set of types analyses pass: a built
     Frame (read-only positions and bars) on both routes, with and without bases, in 2D and 3D,
-    compiles nothing new."""
+    compiles nothing new, and no kernel is compiled for a read-only array (numba's type for it
+    differs: every kernel would compile twice)."""
     warm_up()
     kernels = [getattr(sparse_kernels, name) for name in dir(sparse_kernels)] + [_normalised]
     kernels = [k for k in kernels if hasattr(k, "overloads")]
@@ -69,6 +70,9 @@ def test_frames_read_only_arrays_add_no_specialisation_after_warm_up():
                 assert (counted.rank, counted.self_stresses) == (dense.rank, dense.self_stresses)
     after = {k: len(k.overloads) for k in kernels}
     assert after == before, {k.__name__: (before[k], after[k]) for k in kernels if after[k] != before[k]}
+    read_only = [(k.__name__, sig) for k in kernels for sig in k.overloads
+                 if any(isinstance(t, types.Array) and not t.mutable for t in sig)]
+    assert not read_only, read_only
 
 
 def test_a_second_process_warms_up_after_the_first_lets_go():
