@@ -679,8 +679,9 @@ def _ritz_pairs(matrix: _Sparse, y: np.ndarray):
 def warm_up() -> None:
     """Compile the kernels (solver/sparse_kernels.py, solver/normalisation.py) for the one set of
     argument types the analysis passes them (int64 indices, float64 writable C-contiguous arrays:
-    compiled.kernel_array), or load them from numba's cache: in a fresh environment about 40 s of
-    CPU (25 specialisations; 2–2.5 min of wall time at load 7–14 on 2 cores), from the cache 0.4 s. The kernels of every analysis (the
+    compiled.kernel_array), or load them from numba's cache: in a fresh environment 28 s of CPU
+    (25 specialisations; 48 s of wall time at load 5 on 2 cores, 40 s of CPU and 2–2.5 min at load
+    7–14), from the cache 0.3–0.4 s. The kernels of every analysis (the
     normalisation, the rigid motions, C) come first, then the sparse route's. Processes that
     share a cache take turns (compiled.compiling_alone): one compiles, the others load. The
     service runs this in the background when it starts (a request that meets a kernel not yet
