@@ -25,7 +25,7 @@ RUN pip install --no-cache-dir --no-deps --no-build-isolation . \
     && rm -rf build ./*.egg-info
 
 # The rigidity analysis's numba kernels, compiled once here into a cache the service's user may
-# read and extend (about 12 s; each worker then loads them in 0.2 s at startup).
+# read and extend (28-40 s of CPU; each worker then loads them in 0.3-0.4 s, in the background).
 ENV NUMBA_CACHE_DIR=/var/cache/zeromode/numba
 RUN mkdir -p "$NUMBA_CACHE_DIR" \
     && python -c "from zeromode.solver.rigidity import warm_up; warm_up()" \

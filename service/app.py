@@ -122,13 +122,13 @@ class LimitsAndAuth:
 
 @asynccontextmanager
 async def lifespan(app: FastAPI) -> AsyncIterator[None]:
-    """At startup the rigidity analysis's compiled kernels are loaded (compiled in a fresh
-    environment), so that no request pays for it within its time budget, and the job engine
-    starts in the background (the service answers at once) when heavy requests are offloaded to
-    it, the store holds unfinished work to adopt or is a database server that replicas share,
-    tried again until it starts; at shutdown
-    the engine gives its lease up and closes its cluster."""
-    warm_up()
+    """At startup, in the background (the service answers at once): the rigidity analysis's
+    compiled kernels are loaded, or compiled in a fresh environment (``/health`` says which:
+    ``kernels``; a request that needs one first waits for it, not charged to its time budget,
+    solver/compiled.py), and the job engine starts when heavy requests are offloaded to it, the
+    store holds unfinished work to adopt or is a database server that replicas share, tried
+    again until it starts; at shutdown the engine gives its lease up and closes its cluster."""
+    threading.Thread(target=_warm_up, args=(app,), name="zeromode-warm-up", daemon=True).start()
     stopping = threading.Event()
     starter = threading.Thread(target=_start_engine, args=(app, stopping), name="zeromode-adopt", daemon=True)
     starter.start()
@@ -138,6 +138,14 @@ async def lifespan(app: FastAPI) -> AsyncIterator[None]:
     jobs, app.state.jobs = app.state.jobs, None  # a later start opens them again
     if jobs is not None:
         jobs.close()
+
+
+def _warm_up(app: FastAPI) -> None:
+    try:
+        warm_up()
+    except Exception:
+        log.exception("the kernels could not be compiled ahead (each request compiles what it needs)")
+    app.state.kernels_ready.set()
 
 
 def _start_engine(app: FastAPI, stopping: threading.Event) -> None:
@@ -185,6 +193,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     install_error_handlers(app)
     app.state.settings = settings  # the job store reads its database, limits and settings here
     app.state.jobs = None
+    app.state.kernels_ready = threading.Event()  # set by the warm-up the lifespan starts
     for module in (health, analyze, certify, design, examples, lattice, plot, export, motion, jobs, sweeps, viewer):
         app.include_router(module.router)
 

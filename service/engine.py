@@ -17,6 +17,7 @@ left (``ZEROMODE_JOB_MAX_ATTEMPTS``), else marks them ``interrupted``.
 
 from __future__ import annotations
 
+import asyncio
 import json
 import logging
 import os
@@ -75,22 +76,32 @@ class EngineUnavailable(Exception):
 
 
 def _prepare_plugin(niceness: int):
-    """A Dask worker plugin run on every worker, restarted ones included: imports zeromode's
-    endpoints (seconds on a busy machine, which would otherwise fall on the first task and its
-    time budget) and, for the embedded workers, lowers their priority below the service's."""
+    """A Dask worker plugin run on every worker, restarted ones included: for the embedded
+    workers, lowers their priority below the service's; imports zeromode's endpoints (seconds on
+    a busy machine, which would otherwise fall on the first task and its time budget) and loads
+    the analysis's compiled kernels (rigidity.warm_up: after the service's warm-up, from the
+    cache it shares), in a thread (the worker's event loop keeps answering). The engine is
+    started once every worker has done so: the service's watchdog, which stops a task at its
+    budget, never meets a worker still compiling."""
     from distributed import WorkerPlugin
 
     class Prepare(WorkerPlugin):
-        def setup(self, worker) -> None:
-            import zeromode.service.tasks  # noqa: F401 — the import is the point
-
+        async def setup(self, worker) -> None:
             if niceness:
                 try:
                     os.nice(niceness)
                 except OSError:  # not permitted here: the workers keep their priority
                     pass
+            await asyncio.to_thread(_prepare_worker)
 
     return Prepare()
+
+
+def _prepare_worker() -> None:
+    import zeromode.service.tasks  # noqa: F401 — the import is half the point
+    from zeromode.solver.rigidity import warm_up
+
+    warm_up()
 
 
 def local_cluster(settings: Settings):

@@ -3,7 +3,8 @@
 The caller opens ``time_budget(seconds)``; long loops call ``check_budget()`` once per
 iteration, which raises DomainError ``too_expensive`` (with the limit in the message) once the
 deadline has passed.  The deadline lives in a context variable, so concurrent requests (threads
-or tasks) each see their own.
+or tasks) each see their own.  Time spent waiting rather than computing (numba compiling a kernel,
+solver/compiled.py) is not charged: ``not_charged`` moves the deadline later by it.
 """
 
 from __future__ import annotations
@@ -34,6 +35,14 @@ def remaining() -> float | None:
     """Seconds left in the current budget (None when unlimited)."""
     deadline = _DEADLINE.get()
     return None if deadline is None else max(deadline[0] - time.monotonic(), 0.0)
+
+
+def not_charged(seconds: float) -> None:
+    """Move the current deadline ``seconds`` later (nothing without a budget): time spent waiting
+    for something other than this computation."""
+    deadline = _DEADLINE.get()
+    if deadline is not None:
+        _DEADLINE.set((deadline[0] + seconds, deadline[1]))
 
 
 def check_budget() -> None:

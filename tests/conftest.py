@@ -12,9 +12,12 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 import tempfile
 
 # Apps built with default settings keep their job records in this session's own SQLite file,
-# not in the user's state directory.
+# not in the user's state directory; nothing the tests start writes its state or caches under
+# the user's home either (the suite writes only in the checkout and the system temp directory).
 _STATE = tempfile.mkdtemp(prefix="zeromode-tests-")
 os.environ.setdefault("ZEROMODE_DATABASE_URL", f"sqlite:///{_STATE}/jobs.sqlite3")
+os.environ["XDG_STATE_HOME"] = f"{_STATE}/state"
+os.environ["XDG_CACHE_HOME"] = f"{_STATE}/cache"
 # Apps under test answer every request in process unless a test turns offloading on
 # (tests/test_offload.py): no Dask cluster per test app.
 os.environ.setdefault("ZEROMODE_OFFLOAD", "false")
@@ -22,6 +25,15 @@ os.environ.setdefault("ZEROMODE_OFFLOAD", "false")
 
 import pytest
 from fastapi.testclient import TestClient
+
+
+def pytest_sessionstart(session: pytest.Session) -> None:
+    """Load the analysis's compiled kernels once, before any test, or compile them in a fresh
+    environment (half a minute of CPU, .ci/run's cold cache): no test's client timeout has to
+    absorb that, and the services the tests start load them from the same cache."""
+    from zeromode.solver.rigidity import warm_up
+
+    warm_up()
 
 
 @pytest.fixture(scope="session")

@@ -388,9 +388,13 @@ def test_no_request_gives_a_5xx(client, body):
 
 
 def test_health(client):
+    # The kernels: ready once the warm-up its startup began has loaded them (this session's
+    # start compiled them).
+    assert client.app.state.kernels_ready.wait(timeout=300)
     body = ok(client.get("/health"))
     # The session's app has offloading off and has run no job: its engine is idle.
-    assert body == {"status": "ok", "version": importlib.metadata.version("zeromode"), "engine": "idle"}
+    assert body == {"status": "ok", "version": importlib.metadata.version("zeromode"), "engine": "idle",
+                    "kernels": "ready"}
 
 
 def resolve(schema, doc):

@@ -3,8 +3,9 @@
 A request is answered in process only when ``service.offload.heavy`` says it is cheap; there the
 budget is checked between steps only, so every such class must stay far below the budget at its
 largest. Here, for each class, the largest request left inline (just under its threshold) is
-timed in process and must take at most a quarter of the default 60 s budget on a loaded CI
-machine; the same request one step larger is heavy. Heavy requests to routes that are not job
+timed in process and must take at most a quarter of the default 60 s budget in CPU time (the
+process's, every thread: what a loaded machine does not inflate); the same request one step
+larger is heavy. Heavy requests to routes that are not job
 endpoints (two-configuration, network allostery, plots, exports) run on a worker, where a long
 library call is stopped at the budget: a plot of 5·10⁴ nodes (one long drawing loop, no budget
 check) under a 2 s budget is answered too_expensive within 10 % (net of the upload).
@@ -14,6 +15,9 @@ from __future__ import annotations
 
 import json
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
 
 import httpx
 import numpy as np
@@ -75,9 +79,9 @@ def test_the_largest_inline_request_of_each_class_stays_far_below_the_budget(end
     assert larger is None or heavy(endpoint, larger)
     app = create_app(Settings(offload=False, database_url=f"sqlite:///{tmp_path}/jobs.sqlite3"))
     client = TestClient(app, raise_server_exceptions=False)
-    t0 = time.perf_counter()
+    t0 = time.process_time()
     r = client.post(endpoint, json=largest)
-    elapsed = time.perf_counter() - t0
+    elapsed = time.process_time() - t0
     assert r.status_code < 500, r.text
     assert elapsed <= Settings().time_budget_s / 4, (endpoint, elapsed)
 
@@ -88,20 +92,34 @@ def test_endpoints_without_a_cheap_class_are_always_heavy(endpoint):
     assert heavy(endpoint, {})
 
 
-@pytest.fixture(scope="module")
-def short_budget(tmp_path_factory: pytest.TempPathFactory):
-    """`zeromode serve` with offloading on and a 2 s budget: (URL)."""
-    tmp = tmp_path_factory.mktemp("short-budget")
+@contextmanager
+def offloading_service(tmp: Path, budget_s: float) -> Iterator[str]:
+    """`zeromode serve` with offloading on, one Dask worker and a budget of ``budget_s``: (URL)."""
     env = {"ZEROMODE_DATABASE_URL": f"sqlite:///{tmp}/jobs.sqlite3", "ZEROMODE_OFFLOAD": "true",
-           "ZEROMODE_TIME_BUDGET_S": "2", "ZEROMODE_DASK_WORKERS": "1"}
-    with running_service(tmp, env, "short") as (url, _):
+           "ZEROMODE_TIME_BUDGET_S": str(budget_s), "ZEROMODE_DASK_WORKERS": "1"}
+    with running_service(tmp, env, "offloading") as (url, _):
         yield url
 
 
-def test_large_bodies_validated_on_a_worker_answer_as_the_route(short_budget, tmp_path):
+@pytest.fixture(scope="module")
+def short_budget(tmp_path_factory: pytest.TempPathFactory):
+    """A service whose 2 s budget a large plot passes."""
+    with offloading_service(tmp_path_factory.mktemp("short-budget"), 2.0) as url:
+        yield url
+
+
+@pytest.fixture(scope="module")
+def ample_budget(tmp_path_factory: pytest.TempPathFactory):
+    """A service whose budget (an hour) no request of these tests comes near on any machine, however
+    loaded: its answers never depend on the clock."""
+    with offloading_service(tmp_path_factory.mktemp("ample-budget"), 3600.0) as url:
+        yield url
+
+
+def test_large_bodies_validated_on_a_worker_answer_as_the_route(ample_budget, tmp_path):
     """Bodies past VALIDATE_HERE_BYTES are validated by the worker (inside the budget): valid or
-    not, the answer is the route's own, compared with the app in process. (Before the plot test,
-    which restarts the worker.)"""
+    not, the answer is the route's own, compared with the app in process (both under budgets
+    their work cannot reach: with 2 s, a loaded machine answered the valid frame too_expensive)."""
     frame = big_frame(30_000)
     ragged = {**frame, "positions": [*frame["positions"][:-1], [1.0]]}
     out_of_range = {**frame, "edges": [*frame["edges"], [0, 30_000]]}
@@ -111,10 +129,11 @@ def test_large_bodies_validated_on_a_worker_answer_as_the_route(short_budget, tm
         ("/v1/analyze", {"frame": out_of_range}),
         ("/v1/plot", {"frame": ragged}),
     ]
-    inline = TestClient(create_app(Settings(offload=False, database_url=f"sqlite:///{tmp_path}/jobs.sqlite3")))
+    inline = TestClient(create_app(Settings(offload=False, time_budget_s=3600.0,
+                                            database_url=f"sqlite:///{tmp_path}/jobs.sqlite3")))
     for path, body in cases:
         assert len(json.dumps(body)) > VALIDATE_HERE_BYTES and heavy(path, body)
-        offloaded = httpx.post(short_budget + path, json=body, timeout=60)
+        offloaded = httpx.post(ample_budget + path, json=body, timeout=600)
         direct = inline.post(path, json=body)
         assert offloaded.status_code == direct.status_code, (path, offloaded.text)
         numbers_close(offloaded.json(), direct.json())

@@ -16,6 +16,11 @@ class Health(BaseModel):
         "offloading on, work to adopt or a database shared by replicas, while it starts and between "
         "the retries of a failed start)."
     )
+    kernels: str = Field(
+        description="The analysis's compiled kernels: 'compiling' while the service loads them at "
+        "startup (compiles them, in a fresh environment), then 'ready'. A request that needs one "
+        "before waits for it; the wait is not charged to its time budget."
+    )
 
 
 @router.get("/health", response_model=Health)
@@ -23,4 +28,5 @@ async def health(request: Request) -> dict:
     # async: served on the event loop, never queued behind compute in the thread pool.
     jobs = request.app.state.jobs
     running = jobs is not None and jobs.engine.started
-    return {"status": "ok", "version": __version__, "engine": "running" if running else "idle"}
+    kernels = "ready" if request.app.state.kernels_ready.is_set() else "compiling"
+    return {"status": "ok", "version": __version__, "engine": "running" if running else "idle", "kernels": kernels}
