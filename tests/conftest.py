@@ -9,6 +9,7 @@ import os
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
+import shutil
 import tempfile
 
 # Apps built with default settings keep their job records in this session's own SQLite file,
@@ -34,6 +35,11 @@ def pytest_sessionstart(session: pytest.Session) -> None:
     from zeromode.solver.rigidity import warm_up
 
     warm_up()
+
+
+def pytest_sessionfinish(session: pytest.Session) -> None:
+    """The session's state directory goes with it (the services it started have stopped)."""
+    shutil.rmtree(_STATE, ignore_errors=True)
 
 
 @pytest.fixture(scope="session")
