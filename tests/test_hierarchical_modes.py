@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from oracles.designs import check_frame_modes
+from oracles.rigidity import compatibility_matrix, normalised, rigid_generators
 from oracles.wire import assert_error
 
 from zeromode.solver.design import design
@@ -76,22 +77,12 @@ def test_the_api_refuses_more_motions_than_its_limit(client):
     assert_error(client.post("/v1/design", json=body), {"invalid_request", "too_many_motions"})
 
 
-def _compatibility(positions: np.ndarray, edges: np.ndarray) -> np.ndarray:
-    """C (N_B × dN) from Eq. 3, bar by bar: x_i − x_j at node i, x_j − x_i at node j."""
-    n, d = positions.shape
-    c = np.zeros((len(edges), n * d))
-    for row, (i, j) in enumerate(edges):
-        c[row, d * i : d * i + d] = positions[i] - positions[j]
-        c[row, d * j : d * j + d] = positions[j] - positions[i]
-    return c
-
-
 def test_many_motions_in_3d_k64_m4_exact_by_numpy_svd():
     """Issue 42, item 4: 3D, k = 64 specified nodes spread as a scene's (uniform in a cube of
-    volume 64), four standard-normal motions. From numpy's SVD of a C written here (centred
-    frame, RMS radius 1, σ ≤ 1e-9 σ_max counted as zero): exactly d(d+1)/2 + 4 zero modes,
-    rank [rigid motions | modes] = d(d+1)/2 + 4 (exactly M = 4 nontrivial ones, the requested
-    ones), no self-stress, ‖C u‖ ≤ 1e-9 ‖C‖‖u‖ for each motion; the rank decision is clear
+    volume 64), four standard-normal motions. From numpy's SVD of C built bar by bar from its
+    definition (oracles.rigidity; centred frame, RMS radius 1, σ ≤ 1e-9 σ_max counted as
+    zero): exactly d(d+1)/2 + 4 zero modes, rank [rigid motions | modes] = d(d+1)/2 + 4
+    (exactly M = 4 nontrivial ones, the requested ones), no self-stress, ‖C u‖ ≤ 1e-9 ‖C‖‖u‖ for each motion; the rank decision is clear
     (σ_r/σ_max far above the threshold). Specified rows are the request, exactly."""
     rng = np.random.default_rng([42, 3, 64, 4])
     k, d, m = 64, 3, 4
@@ -102,9 +93,8 @@ def test_many_motions_in_3d_k64_m4_exact_by_numpy_svd():
     assert np.array_equal(positions[:k], x)
     for mode, wanted in zip(result.modes, motions, strict=True):
         assert np.array_equal(mode[:k], wanted)
-    y = positions - positions.mean(axis=0)
-    y /= np.sqrt(np.mean(np.sum(y**2, axis=1)))
-    c = _compatibility(y, edges)
+    y = normalised(positions)
+    c = compatibility_matrix(y, edges)
     s = np.linalg.svd(c, compute_uv=False)
     rank = int(np.count_nonzero(s > 1e-9 * s[0]))
     n = len(positions)
@@ -114,14 +104,7 @@ def test_many_motions_in_3d_k64_m4_exact_by_numpy_svd():
     assert s[rank - 1] > 1e-7 * s[0], "rank decision not clear"
     for mode in result.modes:
         assert np.linalg.norm(c @ mode.ravel()) <= 1e-9 * s[0] * np.linalg.norm(mode)
-    translations = [np.tile(np.eye(d)[a], n) for a in range(d)]
-    rotations = []
-    for a in range(d):
-        for b in range(a + 1, d):
-            r = np.zeros((n, d))
-            r[:, a], r[:, b] = -y[:, b], y[:, a]
-            rotations.append(r.ravel())
-    together = np.column_stack([*translations, *rotations, *(mode.ravel() for mode in result.modes)])
+    together = np.column_stack([rigid_generators(y), *(mode.ravel() for mode in result.modes)])
     sv = np.linalg.svd(together / np.linalg.norm(together, axis=0), compute_uv=False)
     assert np.count_nonzero(sv > 1e-8 * sv[0]) == rigid + m, "modes independent of each other and of the rigid motions"
 
