@@ -23,7 +23,10 @@ isolated and often far, so a second helper (a one-dimensional family) is tried w
 A group adds (h + 1)d coordinates and hd + d + 1 bars: one degree of freedom less. Groups are
 found by Gauss–Newton (minimum-norm steps) from seeded starts and placed until
 N_D = d(d+1)/2 + M, each kept only if its bars raise rank C by hd + d + 1, the best conditioned
-of GROUP_TRIES tries. The helpers' free positions are what let V's over-determined system close.
+of GROUP_TRIES tries. The starts of a round, and of the rounds after it (LOOKAHEAD_ROUNDS),
+are solved together: the consistency equations involve the specified nodes only, so one batched
+Gauss–Newton serves them all, and the placed nodes enter only the checks of each round. The
+helpers' free positions are what let V's over-determined system close.
 """
 
 from __future__ import annotations
