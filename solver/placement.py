@@ -179,6 +179,44 @@ class Placement:
         rows = np.hstack([np.einsum("ad,adz->az", diff, null_blocks), -diff])
         return rows / np.linalg.norm(rows, axis=1, keepdims=True)
 
+    def independent_conditioning(self, nodes) -> float | None:
+        """The smallest σ_min/σ_max of the unit bar rows (``bar_rows``) of ``nodes`` — (position,
+        anchors) pairs, anchors indexing the existing nodes and those before it in the list —
+        joined in turn, or None unless each node's bars raise rank C by their number
+        (PLACEMENT_RTOL).  The state is unchanged.
+
+        In the coordinates [N_old's z, the new nodes' d each] a node's rows are R_j (its bars:
+        (x_i − x)ᵀN_old[i] for an existing anchor, ±(x_i − x)ᵀ on a new node's columns);
+        ``add`` would score them on blockdiag(N_cur, I_d) with N_cur an orthonormal basis of
+        N(R_1; …; R_{j−1}), and R_j·N_cur has the singular values of R_j·(I − SᵀS), S an
+        orthonormal basis of the rows placed before (S Sᵀ = I): so the trial projects the rows
+        instead of forming N_cur, O((z + hd)·a) per node, not a copy of the dN × z basis."""
+        d, first = self.d, len(self.positions)
+        z = self._null.shape[1]
+        old_blocks = self._null.reshape(first, d, z)
+        width = z + d * len(nodes)
+        points = list(self.positions)
+        span = np.zeros((0, width))  # orthonormal rows spanning the bars of the nodes before
+        score = np.inf
+        for j, (position, anchors) in enumerate(nodes):
+            diff = np.asarray([points[i] for i in anchors]) - position
+            rows = np.zeros((len(anchors), width))
+            for r, (i, bar) in enumerate(zip(anchors, diff)):
+                if i < first:
+                    rows[r, :z] = bar @ old_blocks[i]
+                else:
+                    rows[r, z + d * (i - first) : z + d * (i - first + 1)] = bar
+            rows[:, z + d * j : z + d * (j + 1)] = -diff
+            rows -= (rows @ span.T) @ span
+            rows /= np.maximum(np.linalg.norm(rows, axis=1, keepdims=True), 1e-300)
+            _, s, vt = np.linalg.svd(rows, full_matrices=False)
+            if np.count_nonzero(s > PLACEMENT_RTOL * s[0]) != len(anchors):
+                return None
+            score = min(score, float(s[-1] / s[0]))
+            span = np.vstack([span, vt])
+            points.append(position)
+        return score
+
     def add(self, position: np.ndarray, motions: np.ndarray, anchors: list[int]) -> None:
         """Join a node at ``position`` to ``anchors`` and update N(C) incrementally.
 

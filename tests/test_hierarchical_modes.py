@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from oracles.designs import check_frame_modes
+from oracles.rigidity import compatibility_matrix, normalised, rigid_generators
 from oracles.wire import assert_error
 
 from zeromode.solver.design import design
@@ -74,3 +75,46 @@ def test_the_api_refuses_more_motions_than_its_limit(client):
     x, motions = request(2, 5, 5, 0)
     body = {"dim": 2, "positions": x.tolist(), "motions": motions.tolist()}
     assert_error(client.post("/v1/design", json=body), {"invalid_request", "too_many_motions"})
+
+
+def test_many_motions_in_3d_k64_m4_exact_by_numpy_svd():
+    """Issue 42, item 4: 3D, k = 64 specified nodes spread as a scene's (uniform in a cube of
+    volume 64), four standard-normal motions. From numpy's SVD of C built bar by bar from its
+    definition (oracles.rigidity; centred frame, RMS radius 1, σ ≤ 1e-9 σ_max counted as
+    zero): exactly d(d+1)/2 + 4 zero modes, rank [rigid motions | modes] = d(d+1)/2 + 4
+    (exactly M = 4 nontrivial ones, the requested ones), no self-stress, ‖C u‖ ≤ 1e-9 ‖C‖‖u‖ for each motion; the rank decision is clear
+    (σ_r/σ_max far above the threshold). Specified rows are the request, exactly."""
+    rng = np.random.default_rng([42, 3, 64, 4])
+    k, d, m = 64, 3, 4
+    x = rng.uniform(-2.0, 2.0, (k, d))
+    motions = rng.standard_normal((m, k, d))
+    result = design(x, motions, seed=7)
+    positions, edges = np.asarray(result.frame.positions), np.asarray(result.frame.edges)
+    assert np.array_equal(positions[:k], x)
+    for mode, wanted in zip(result.modes, motions, strict=True):
+        assert np.array_equal(mode[:k], wanted)
+    y = normalised(positions)
+    c = compatibility_matrix(y, edges)
+    s = np.linalg.svd(c, compute_uv=False)
+    rank = int(np.count_nonzero(s > 1e-9 * s[0]))
+    n = len(positions)
+    rigid = d * (d + 1) // 2
+    assert d * n - rank == rigid + m, "zero modes"
+    assert len(edges) - rank == 0, "self-stresses"
+    assert s[rank - 1] > 1e-7 * s[0], "rank decision not clear"
+    for mode in result.modes:
+        assert np.linalg.norm(c @ mode.ravel()) <= 1e-9 * s[0] * np.linalg.norm(mode)
+    together = np.column_stack([rigid_generators(y), *(mode.ravel() for mode in result.modes)])
+    sv = np.linalg.svd(together / np.linalg.norm(together, axis=0), compute_uv=False)
+    assert np.count_nonzero(sv > 1e-8 * sv[0]) == rigid + m, "modes independent of each other and of the rigid motions"
+
+
+@pytest.mark.parametrize(("d", "m", "k"), [(2, 3, 5), (3, 4, 6)])
+def test_hierarchical_design_is_the_same_for_the_same_request(d, m, k):
+    """Seeded: the same request gives the same frame and modes, bit for bit (the groups' starts
+    are solved in one batch)."""
+    x, motions = request(d, m, k, 3)
+    first, second = design(x, motions, seed=3), design(x, motions, seed=3)
+    assert np.array_equal(first.frame.positions, second.frame.positions)
+    assert np.array_equal(first.frame.edges, second.frame.edges)
+    assert np.array_equal(first.modes, second.modes)
