@@ -112,6 +112,21 @@ ALTERNATIVES = (
 )
 
 
+# robustness="robust" (the default): these chains are all designed (fields a caller fixed are
+# kept) and the acceptable one with the smallest amplification A is returned; measured
+# (benchmarks/bench_allostery.py), A depends on the chain erratically — a lever near the source
+# site, where errors of ℓ̄ meet the smallest modules — so a search beats any single rule. Ports in
+# site sizes; growth 1 lays equal relays. robustness="economy": the first acceptable of
+# ALTERNATIVES (fewest nodes).
+ROBUST_CHAINS = tuple(
+    {"port": port, "growth": growth} for port in (2.0, 4.0, 8.0, 16.0) for growth in (1.0, 1.5, 2.0)
+)
+# Robust candidates needing more modules than this are skipped (equal small relays across a long
+# distance: hundreds of nodes, each relay adding to the lever).
+ROBUST_MAX_MODULES = 40
+ROBUSTNESS = ("robust", "economy")
+
+
 @dataclass(frozen=True, eq=False)
 class ResponseFigures:
     """How well a frame does what it was designed for.
@@ -122,7 +137,12 @@ class ResponseFigures:
     sensitivity: the largest relative change of the target site's shape change (its motion
     modulo rigid motions of the site) when the nodes move by ``perturbation`` site sizes (all
     together, Euclidean norm, worst direction); motion_sensitivity: the same for the target's
-    whole motion, rigid part included (grows with the distance: a lever). See linear_figures.
+    whole motion, rigid part included (grows with the distance: a lever). amplification: the
+    builder's amplification A — the relative change of the target's whole motion per relative
+    node error, every node moved by ε·ℓ̄ (ℓ̄ the mean bar length) in an independent uniformly
+    random direction, root mean square over those errors; amplification_worst: the same ratio
+    for the worst perturbation of RMS node error ε·ℓ̄ (an upper bound of every sampled A, to
+    first order). See linear_figures.
     """
 
     achieved_target_motion: np.ndarray
@@ -130,6 +150,8 @@ class ResponseFigures:
     gap: float
     sensitivity: float
     motion_sensitivity: float
+    amplification: float
+    amplification_worst: float
     perturbation: float = PERTURBATION
 
     def acceptable(self) -> bool:
@@ -523,8 +545,10 @@ def _unit_rows(x: np.ndarray, edges: np.ndarray, u: np.ndarray | None = None):
     return (q, None) if u is None else (q, scale @ compatibility_matrix(u, edges))
 
 
-def linear_figures(frame: Frame, mode: np.ndarray, source, target, site_size: float) -> tuple[float, float, float]:
-    """(gap, κ_shape, κ_motion) of a frame whose zero modes are rigid ⊕ span(mode), no self-stress.
+def linear_figures(
+    frame: Frame, mode: np.ndarray, source, target, site_size: float
+) -> tuple[float, float, float, float, float]:
+    """(gap, κ_shape, κ_motion, A, A_worst) of a frame whose zero modes are rigid ⊕ span(mode), no self-stress.
 
     gap = σ_min(Q)/σ_max(Q) on N(C)^⊥, Q = diag(1/ℓ)·C the unit compatibility matrix (N(Q) =
     N(C); unit rows make it free of the bar-length spread of multi-scale frames): how far the
@@ -547,6 +571,16 @@ def linear_figures(frame: Frame, mode: np.ndarray, source, target, site_size: fl
     Any long frame turns an angle error near the source into a displacement of the far end
     proportional to the distance, so κ_motion grows with it; κ_shape — what the target site
     does — need not. Jᵀ comes from one factorisation of QQᵀ and k_tgt·d solves.
+
+    Amplification, the figure a builder feels: node errors in units of the mean bar length ℓ̄
+    (what a cutter or printer gets wrong scales with the parts it makes, not with the sites).
+    Every node i moves by δx_i = ε ℓ̄ e_i, e_i independent unit vectors uniformly distributed
+    in R^d, so E[δx δxᵀ] = (ε ℓ̄)²/d · I and E‖J δx‖² = (ε ℓ̄)² ‖J‖_F²/d; the amplification is
+    that relative change of the target's whole motion per relative node error ε, as an RMS:
+        A = ‖J‖_F ℓ̄ / (√d ‖u_T‖);
+    the worst perturbation with the same RMS node error ε ℓ̄ (‖δx‖ = ε ℓ̄ √N) gives
+        A_worst = ‖J‖₂ ℓ̄ √N / ‖u_T‖ ≥ any sampled ‖δw_T‖/(ε ‖u_T‖), to first order in ε.
+    Both are free of translation, rotation and scale (ℓ̄ and J taken on the normalised frame).
     """
     d = frame.dim
     norm = Normalisation.of(frame.positions)
@@ -579,7 +613,10 @@ def linear_figures(frame: Frame, mode: np.ndarray, source, target, site_size: fl
     unit = site_size / norm.length
     shape = float(np.linalg.norm(off_rigid @ jac, 2) / np.linalg.norm(off_rigid @ u_t)) * unit
     motion = float(np.linalg.norm(jac, 2) / np.linalg.norm(u_t)) * unit
-    return gap, shape, motion
+    mean_bar = float(np.mean(np.linalg.norm(x[frame.edges[:, 0]] - x[frame.edges[:, 1]], axis=1)))
+    amplification = float(np.linalg.norm(jac) * mean_bar / (math.sqrt(d) * np.linalg.norm(u_t)))
+    worst = float(np.linalg.norm(jac, 2) * mean_bar * math.sqrt(frame.n_nodes) / np.linalg.norm(u_t))
+    return gap, shape, motion, amplification, worst
 
 
 # ----------------------------------------------------------------------------- the designer
@@ -636,6 +673,7 @@ def allosteric_inputs(
     seed: int = 0,
     relay_spacing: float | None = None,
     relay_growth: float | None = None,
+    robustness: str = "robust",
 ):
     """design_allosteric's refusals before any chain is built (O(k²) work): the sites
     ((x_src, u_src), (x_tgt, u_tgt)), their canonical similarity and the chain options fixed by
@@ -653,6 +691,8 @@ def allosteric_inputs(
         raise InvalidInput("invalid_options", "relay_spacing must be positive.")
     if relay_growth is not None and not (np.isfinite(relay_growth) and relay_growth >= 1):
         raise InvalidInput("invalid_options", "relay_growth must be at least 1.")
+    if robustness not in ROBUSTNESS:
+        raise InvalidInput("invalid_options", f"robustness must be one of {', '.join(ROBUSTNESS)}.")
     _site_checks(x_src, u_src, x_tgt, u_tgt)
     sim = canonical(x_src, u_src, x_tgt)
     fixed = {"seed": seed}
@@ -680,43 +720,61 @@ def design_allosteric(
     seed: int = 0,
     relay_spacing: float | None = None,
     relay_growth: float | None = None,
+    robustness: str = "robust",
 ) -> AllostericDesign:
     """A frame whose only nontrivial zero mode drives the target with u_tgt when the source moves
     with u_src, meeting TARGET_ERROR_MAX and GAP_FLOOR (see the module docstring).
 
     relay_spacing: size of the first ports next to the sites, in the caller's units (default
-    DEFAULT_PORT site sizes); relay_growth: g ≥ 1 (1: equal relays). Raises InvalidInput for
+    DEFAULT_PORT site sizes); relay_growth: g ≥ 1 (1: equal relays); robustness: "robust"
+    designs every chain of ROBUST_CHAINS and returns the acceptable one with the smallest
+    amplification A (ResponseFigures), "economy" the first acceptable of ALTERNATIVES (fewest
+    nodes; its A grows faster with the distance); either falls back to ALTERNATIVES when no
+    robust chain is acceptable. Raises InvalidInput for
     bad shapes or options; DomainError ``overlapping_sites``, ``degenerate_specified``,
     ``rigid_source``, ``rigid_target``, ``underdetermined_source``, ``too_expensive`` (more than MAX_MODULES modules,
     refused before any work), or InaccurateDesign (``inaccurate_design``, with the best figures).
     """
     (x_src, u_src), (x_tgt, u_tgt), sim, fixed = allosteric_inputs(
-        source_positions, source_motion, target_positions, target_motion, dim, seed, relay_spacing, relay_growth
+        source_positions, source_motion, target_positions, target_motion, dim, seed, relay_spacing, relay_growth,
+        robustness,
     )
     first = replace(ChainOptions(), **fixed)
     distance = float(np.linalg.norm(x_tgt.mean(axis=0) - x_src.mean(axis=0)))
+    gap = float(sim.positions_in(x_tgt)[:, 0].min() - sim.positions_in(x_src)[:, 0].max())
+    robust = []
+    if robustness == "robust":
+        robust = [c for c in ROBUST_CHAINS if estimated_modules(gap, replace(first, **{**c, **fixed})) <= ROBUST_MAX_MODULES]
+    candidates = [(change, True) for change in robust] + [(change, False) for change in ALTERNATIVES]
     best: AllostericDesign | None = None
+    robust_best: AllostericDesign | None = None
     failures = []
     tried = set()
-    for i, change in enumerate(ALTERNATIVES):
+    for i, (change, searched) in enumerate(candidates):
         options = replace(first, **{**change, **fixed}) if change else first
-        if options in tried:
+        if options in tried or (not searched and robust_best is not None):
             continue
         tried.add(options)
         check_budget()
         try:
-            with progress_stage(i / len(ALTERNATIVES), (i + 1) / len(ALTERNATIVES), f"chain options {i + 1}"):
+            with progress_stage(i / len(candidates), (i + 1) / len(candidates), f"chain options {i + 1}"):
                 result = _attempt(sim, (x_src, u_src), (x_tgt, u_tgt), options, distance)
         except DomainError as exc:
             if exc.code == "too_expensive":
                 raise
             failures.append(exc.message)
             continue
-        if result.figures.acceptable():
+        if result.figures.acceptable() and not searched:
             report_progress(1.0, "designed")
             return result
-        if best is None or result.figures.rank() < best.figures.rank():
+        if result.figures.acceptable():
+            if robust_best is None or result.figures.amplification < robust_best.figures.amplification:
+                robust_best = result
+        elif best is None or result.figures.rank() < best.figures.rank():
             best = result
+    if robust_best is not None:
+        report_progress(1.0, "designed")
+        return robust_best
     if best is None:
         raise InaccurateDesign(
             f"no chain of modules could be built ({len(failures)} attempts; first: {failures[0]})",
@@ -771,8 +829,8 @@ def _attempt(sim: Similarity, src, tgt, options: ChainOptions, distance: float) 
     source, target = np.arange(k_src), np.arange(k_src, k)
     achieved = response(frame, source, u_src)[target]
     error = float(np.linalg.norm(achieved - u_tgt) / np.linalg.norm(u_tgt))
-    gap, shape, motion_k = linear_figures(frame, u, source, target, sim.length)
-    figures = ResponseFigures(achieved, error, gap, shape * PERTURBATION, motion_k * PERTURBATION)
+    gap, shape, motion_k, amplification, worst = linear_figures(frame, u, source, target, sim.length)
+    figures = ResponseFigures(achieved, error, gap, shape * PERTURBATION, motion_k * PERTURBATION, amplification, worst)
     return AllostericDesign(
         design=result,
         source=tuple(source.tolist()),
