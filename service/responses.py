@@ -236,6 +236,8 @@ def figures_body(f) -> dict:
         "gap": f.gap,
         "sensitivity": f.sensitivity,
         "motion_sensitivity": f.motion_sensitivity,
+        "amplification": f.amplification,
+        "amplification_worst": f.amplification_worst,
         "perturbation": f.perturbation,
     }
 
