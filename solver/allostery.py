@@ -116,10 +116,19 @@ ALTERNATIVES = (
 # kept) and the acceptable one with the smallest amplification A is returned; measured
 # (benchmarks/bench_allostery.py), A depends on the chain erratically — a lever near the source
 # site, where errors of ℓ̄ meet the smallest modules — so a search beats any single rule. Ports in
-# site sizes; growth 1 lays equal relays. robustness="economy": the first acceptable of
-# ALTERNATIVES (fewest nodes).
-ROBUST_CHAINS = tuple(
-    {"port": port, "growth": growth} for port in (2.0, 4.0, 8.0, 16.0) for growth in (1.0, 1.5, 2.0)
+# site sizes; growth 1 lays equal relays; longer modules (aspect 1.5 … 3) often did best, and
+# the sites joined directly (DIRECT_PORT: no relay fits) gave A ∝ D, best of all near D ≈ 100
+# site sizes in 2D. robustness="economy": the first acceptable of ALTERNATIVES (fewest nodes).
+DIRECT_PORT = 1e3
+ROBUST_CHAINS = (
+    *({"port": port, "growth": growth} for port in (2.0, 4.0, 8.0, 16.0) for growth in (1.0, 1.5, 2.0)),
+    *(
+        {"port": port, "growth": growth, "aspect": aspect}
+        for port in (4.0, 8.0)
+        for growth in (1.0, 1.5)
+        for aspect in (1.5, 2.0, 3.0)
+    ),
+    {"port": DIRECT_PORT},
 )
 # Robust candidates needing more modules than this are skipped (equal small relays across a long
 # distance: hundreds of nodes, each relay adding to the lever).
