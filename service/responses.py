@@ -250,6 +250,7 @@ def chain_body(options, site_size: float) -> dict:
         "relay_growth": options.growth,
         "module_aspect": options.aspect,
         "seed": options.seed,
+        "gain_one": options.amplitude is not None,
     }
 
 

@@ -67,6 +67,12 @@ class ChainModel(BaseModel):
     relay_growth: float = Field(description="Ratio of consecutive relay sizes.")
     module_aspect: float = Field(description="Module length per smaller-port size.")
     seed: int = Field(description="Seed of the module placements.")
+    gain_one: bool = Field(
+        description=(
+            "true: every relay port moves with the source's RMS motion whatever its size (relays of gain 1, "
+            "robust chains); false: port motions grow with their size (constant strain, economy chains)."
+        )
+    )
 
 
 class AllostericReport(BaseModel):
