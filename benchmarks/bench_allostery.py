@@ -213,14 +213,18 @@ def distance_chart(rows: list[dict], path: Path) -> None:
     )
 
 
-def save_log_chart(fig, axes, xlabel: str, titles, path: Path, titled: bool = True) -> None:
+def save_log_chart(fig, axes, xlabel: str, titles, path: Path, titled: bool = True, xticks=()) -> None:
     """Log–log axes with grid and legend, each (title, y label); written to ``path``. titled=False
-    keeps the titles the axes already have."""
+    keeps the titles the axes already have; ``xticks``: the only labelled x values."""
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import NullFormatter
 
     for ax, (title, label) in zip(axes, titles):
         ax.set_xscale("log")
         ax.set_yscale("log")
+        if len(xticks):
+            ax.set_xticks(list(xticks), [f"{t:g}" for t in xticks])
+            ax.xaxis.set_minor_formatter(NullFormatter())
         ax.set_xlabel(xlabel)
         ax.set_ylabel(label)
         if titled:
@@ -351,7 +355,8 @@ def amplification_chart(rows: list[dict], path: Path) -> None:
             ax.plot(dist, reported, "x" + ls, color=colours[d], alpha=0.55, label=f"{name}: reported A")
         ax.set_title(f"{d}D: amplification a builder feels", color=style.TITLE_INK)
     save_log_chart(fig, axes, "site distance D", (
-        ("2D", "A = relative response change / relative node error"), ("3D", "")), path, titled=False)
+        ("2D", "A = relative response change / relative node error"), ("3D", "")), path, titled=False,
+        xticks=AMPLIFICATION_DISTANCES)
 
 
 # ----------------------------------------------------------------------------- network
