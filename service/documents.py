@@ -130,7 +130,7 @@ def allosteric_arguments(r: AllostericRequest) -> dict:
         "source_positions": r.source.positions, "source_motion": r.source.motion,
         "target_positions": r.target.positions, "target_motion": r.target.motion,
         "dim": r.dim, "seed": r.options.seed, "relay_spacing": r.options.relay_spacing,
-        "relay_growth": r.options.relay_growth,
+        "relay_growth": r.options.relay_growth, "robustness": r.options.robustness,
     }
 
 

@@ -236,6 +236,8 @@ def figures_body(f) -> dict:
         "gap": f.gap,
         "sensitivity": f.sensitivity,
         "motion_sensitivity": f.motion_sensitivity,
+        "amplification": f.amplification,
+        "amplification_worst": f.amplification_worst,
         "perturbation": f.perturbation,
     }
 
@@ -248,6 +250,7 @@ def chain_body(options, site_size: float) -> dict:
         "relay_growth": options.growth,
         "module_aspect": options.aspect,
         "seed": options.seed,
+        "gain_one": options.amplitude is not None,
     }
 
 

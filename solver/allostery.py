@@ -20,14 +20,20 @@ source's RMS motion), so that every choice is free of translation, rotation and 
   * the growth modules are similar copies of one module (port 1 → port g at distance λ), designed
     once; with g > 1 a distance D needs O(log_g D) modules, the small modules sit only next to
     the sites, and the response's sensitivity to node positions (measured in site units) stays
-    bounded instead of adding up over D/a identical relays.
+    bounded instead of adding up over D/a identical relays;
+  * the ports' motions grow with their size (constant strain), or (robust chains, the default)
+    all have the amplitude PORT_AMPLITUDE: relays of gain 1, so no relay carries a motion, and
+    an angle error, larger than the sites'.
 Sites closer than two module lengths are joined directly by one design (design.design).
 
 Every answer carries its accuracy (target error, from the frame's own zero modes), the
-relative singular-value gap of the designed mode and the linear sensitivity of the response
-(``ResponseFigures``). An answer with target error above TARGET_ERROR_MAX or gap below
-GAP_FLOOR is not returned: other port sizes, growths, module lengths and seeds are tried
-(``ALTERNATIVES``) and, if none meets both, DomainError ``inaccurate_design`` reports the best.
+relative singular-value gap of the designed mode, the linear sensitivity of the response and
+the amplification of fabrication errors a builder feels (``ResponseFigures``). An answer with
+target error above TARGET_ERROR_MAX or gap below GAP_FLOOR is not returned: by default the
+chains of ROBUST_CHAINS are all designed and the acceptable one with the smallest amplification
+is kept; then (or with robustness="economy" first) other port sizes, growths, module lengths and
+seeds are tried (``ALTERNATIVES``) and, if none meets both, DomainError ``inaccurate_design``
+reports the best.
 """
 
 from __future__ import annotations
@@ -81,6 +87,14 @@ MAX_MODULES = 400
 DEFAULT_PORT, DEFAULT_GROWTH, DEFAULT_ASPECT = 2.0, 2.0, 1.0
 # Sites whose facing fronts are closer than this many first-port lengths are designed directly.
 DIRECT_GAP = 2.0
+# Robust chains' ports all move with this amplitude (canonical units: the source's RMS motion),
+# whatever their size: relays of gain 1. Ports whose motion grows with their size (constant
+# strain, ChainOptions.amplitude None: the economy chains, whose shape sensitivity stays flat) carry
+# motions up to D/2 in the middle of a long chain, and every relay's angle error, proportional
+# to its strain rate × its node error, reached the target through a lever of the remaining
+# distance: measured (bench_allostery, amplification), gain 1 brought the 2D amplification at
+# D = 200 from 733 to 300 (worst of three sites), 3D at D = 96 from 1415 to 593.
+PORT_AMPLITUDE = 1.0
 # Above this many bars the response and the figures use sparse factorisations instead of dense
 # matrices (a dense least-squares solve of 400 bars takes ~20 ms, of 1500 ~0.5 s).
 DENSE_MAX_BARS = 400
@@ -89,12 +103,15 @@ DENSE_MAX_BARS = 400
 @dataclass(frozen=True)
 class ChainOptions:
     """port: size of the first port next to each site (site units); growth g ≥ 1; aspect λ:
-    module length per smaller-port size; seed of the module placements."""
+    module length per smaller-port size; seed of the module placements; amplitude: every port's
+    motion amplitude (canonical units; relays of gain 1), or None for motions growing with the
+    port's size (constant strain)."""
 
     port: float = DEFAULT_PORT
     growth: float = DEFAULT_GROWTH
     aspect: float = DEFAULT_ASPECT
     seed: int = 0
+    amplitude: float | None = None
 
 
 # The alternatives tried, in order, when an answer misses the floors (fields a caller fixed
@@ -112,6 +129,34 @@ ALTERNATIVES = (
 )
 
 
+# robustness="robust" (the default): these chains are all designed (fields a caller fixed are
+# kept) and the acceptable one with the smallest amplification A is returned; measured
+# (benchmarks/bench_allostery.py), A depends on the chain erratically — a lever near the source
+# site, where errors of ℓ̄ meet the smallest modules — so a search beats any single rule. Ports in
+# site sizes; growth 1 lays equal relays; longer modules (aspect 1.5 … 3) often did best, and
+# the sites joined directly (DIRECT_PORT: no relay fits) gave A ∝ D, best of all near D ≈ 100
+# site sizes in 2D. robustness="economy": the first acceptable of ALTERNATIVES (fewest nodes).
+DIRECT_PORT = 1e3
+ROBUST_CHAINS = (
+    *(
+        {"port": port, "growth": growth, "amplitude": PORT_AMPLITUDE}
+        for port in (2.0, 4.0, 8.0, 16.0)
+        for growth in (1.0, 1.5, 2.0)
+    ),
+    *(
+        {"port": port, "growth": growth, "aspect": aspect, "amplitude": PORT_AMPLITUDE}
+        for port in (4.0, 8.0)
+        for growth in (1.0, 1.5)
+        for aspect in (1.5, 2.0, 3.0)
+    ),
+    {"port": DIRECT_PORT},
+)
+# Robust candidates needing more modules than this are skipped (equal small relays across a long
+# distance: hundreds of nodes, each relay adding to the lever; 3D designs of 200 nodes took 20 s).
+ROBUST_MAX_MODULES = 16
+ROBUSTNESS = ("robust", "economy")
+
+
 @dataclass(frozen=True, eq=False)
 class ResponseFigures:
     """How well a frame does what it was designed for.
@@ -122,7 +167,12 @@ class ResponseFigures:
     sensitivity: the largest relative change of the target site's shape change (its motion
     modulo rigid motions of the site) when the nodes move by ``perturbation`` site sizes (all
     together, Euclidean norm, worst direction); motion_sensitivity: the same for the target's
-    whole motion, rigid part included (grows with the distance: a lever). See linear_figures.
+    whole motion, rigid part included (grows with the distance: a lever). amplification: the
+    builder's amplification A — the relative change of the target's whole motion per relative
+    node error, every node moved by ε·ℓ̄ (ℓ̄ the mean bar length) in an independent uniformly
+    random direction, root mean square over those errors; amplification_worst: the same ratio
+    for the worst perturbation of RMS node error ε·ℓ̄ (an upper bound of every sampled A, to
+    first order). See linear_figures.
     """
 
     achieved_target_motion: np.ndarray
@@ -130,6 +180,8 @@ class ResponseFigures:
     gap: float
     sensitivity: float
     motion_sensitivity: float
+    amplification: float
+    amplification_worst: float
     perturbation: float = PERTURBATION
 
     def acceptable(self) -> bool:
@@ -246,13 +298,16 @@ def _axes(axis: np.ndarray, *clouds: np.ndarray) -> np.ndarray:
 # ----------------------------------------------------------------------------- ports and plan
 
 
-def port(d: int, t: float, size: float, mirrored: bool = False) -> tuple[np.ndarray, np.ndarray]:
+def port(
+    d: int, t: float, size: float, mirrored: bool = False, amplitude: float | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """A port of ``size`` across the axis at e_1-coordinate t: positions and motion (p, d).
 
-    2D: a rung (t, ±size/2), stretched along itself (motion ±size/2 · e_2).
+    2D: a rung (t, ±size/2), stretched along itself (motion ±a/2 · e_2).
     3D: an equilateral triangle of circumradius size/2 in the plane e_1 = t, dilated in its
-    plane (motion = its offset from the axis). Both motions are non-rigid on the port and scale
-    with it (constant strain). ``mirrored`` reflects e_1 (ports built from the target side)."""
+    plane (motion = a × its offset from the axis per unit size). a = ``amplitude`` (the same at
+    every size: relays of gain 1), or ``size`` when None (constant strain). Both motions are
+    non-rigid on the port. ``mirrored`` reflects e_1 (ports built from the target side)."""
     if d == 2:
         offsets = np.array([[0.0, -0.5], [0.0, 0.5]])
     else:
@@ -260,7 +315,7 @@ def port(d: int, t: float, size: float, mirrored: bool = False) -> tuple[np.ndar
         offsets = 0.5 * np.column_stack([np.zeros(3), np.cos(angles), np.sin(angles)])
     positions = size * offsets
     positions[:, 0] += t
-    motion = size * offsets
+    motion = (size if amplitude is None else amplitude) * offsets
     if mirrored:
         motion = motion * np.r_[-1.0, np.ones(d - 1)]
     return positions, motion
@@ -323,11 +378,12 @@ def plan_chain(front_src: float, front_tgt: float, options: ChainOptions) -> Pla
 
 
 @lru_cache(maxsize=64)
-def growth_module(d: int, growth: float, aspect: float, seed: int) -> Module:
+def growth_module(d: int, growth: float, aspect: float, seed: int, amplitude: float | None = None) -> Module:
     """The module from a tied port of size 1 at e_1 = 0 to a free port of size g at e_1 = λ
-    (canonical units), designed once and copied along every chain with these parameters."""
-    x_a, u_a = port(d, 0.0, 1.0)
-    x_b, u_b = port(d, aspect, growth)
+    (canonical units; with ``amplitude`` both move with it: gain 1), designed once and copied
+    along every chain with these parameters."""
+    x_a, u_a = port(d, 0.0, 1.0, amplitude=amplitude)
+    x_b, u_b = port(d, aspect, growth, amplitude=amplitude)
     return _module((x_a, u_a, True), (x_b, u_b, False), seed)[0]
 
 
@@ -360,14 +416,15 @@ class Side:
         c, s = math.cos(self.twist), math.sin(self.twist)
         return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
 
-    def place(self, y: np.ndarray, v: np.ndarray, t: float = 0.0, scale: float = 1.0):
+    def place(self, y: np.ndarray, v: np.ndarray, t: float = 0.0, scale: float = 1.0, gain_one: bool = False):
         """Canonical positions and motions of a port or module drawn at e_1 = 0 with size 1:
-        scaled, reflected, rotated, then moved to e_1 = t and across by ``offset``."""
+        scaled (positions only with ``gain_one``: the bar constraint is invariant under scaling
+        either alone), reflected, rotated, then moved to e_1 = t and across by ``offset``."""
         d = y.shape[1]
         flip = np.r_[-1.0 if self.mirrored else 1.0, np.ones(d - 1)]
         r = self.rotation(d)
         shift = np.r_[t, self.offset, np.zeros(d - 2)]
-        return (scale * y * flip) @ r.T + shift, (scale * v * flip) @ r.T
+        return (scale * y * flip) @ r.T + shift, ((1.0 if gain_one else scale) * v * flip) @ r.T
 
 
 # Where the first port next to a site may sit (twist about e_1 in turns of the port's symmetry,
@@ -414,11 +471,12 @@ def _site_module(y, v, ports, mirrored: bool, options: ChainOptions):
     module, gap) of the best one."""
     d = y.shape[1]
     t, size = ports[0]
-    x_unit, u_unit = port(d, 0.0, 1.0)
+    x_unit, u_unit = port(d, 0.0, 1.0, amplitude=options.amplitude)
+    gain_one = options.amplitude is not None
     best = None
     for turn, shift in SIDE_VARIANTS if d == 3 else [v for v in SIDE_VARIANTS if v[0] == 0.0]:
         side = Side(mirrored, turn * 2 * math.pi / 3, shift * size)
-        x_p, u_p = side.place(x_unit, u_unit, t, size)
+        x_p, u_p = side.place(x_unit, u_unit, t, size, gain_one)
         try:
             module, gap = _module((y, v, False), (x_p, u_p, False), options.seed)
         except DomainError:
@@ -442,7 +500,8 @@ def build_chain(y_src, v_src, y_tgt, v_tgt, plan: Plan, options: ChainOptions):
     asm = _Assembly(np.vstack([y_src, y_tgt]), np.vstack([v_src, v_tgt]))
     k_src = len(y_src)
     sites = ((np.arange(k_src), y_src, v_src), (np.arange(k_src, k_src + len(y_tgt)), y_tgt, v_tgt))
-    x_unit, u_unit = port(d, 0.0, 1.0)
+    x_unit, u_unit = port(d, 0.0, 1.0, amplitude=options.amplitude)
+    gain_one = options.amplitude is not None
     relays: list[int] = []
     fronts = []
     placed = itertools.count(1)
@@ -451,18 +510,18 @@ def build_chain(y_src, v_src, y_tgt, v_tgt, plan: Plan, options: ChainOptions):
             fronts.append((index, y, v, False))
             continue
         side, module, _ = _site_module(y, v, ports, mirrored, options)
-        x_p, u_p = side.place(x_unit, u_unit, *ports[0])
+        x_p, u_p = side.place(x_unit, u_unit, *ports[0], gain_one)
         p_index = asm.add_nodes(x_p, u_p)
         k = module.given
         asm.add_module(module, np.concatenate([index, p_index]), module.positions[k:], module.motion[k:])
         report_progress(next(placed) / plan.modules, "placed a site's module")
         relays.extend(p_index.tolist())
-        base = growth_module(d, options.growth, options.aspect, options.seed)
+        base = growth_module(d, options.growth, options.aspect, options.seed, options.amplitude)
         for (t0, a0), (t1, a1) in itertools.pairwise(ports):
             previous = p_index
-            x_p, u_p = side.place(x_unit, u_unit, t1, a1)
+            x_p, u_p = side.place(x_unit, u_unit, t1, a1, gain_one)
             p_index = asm.add_nodes(x_p, u_p)
-            x_new, u_new = side.place(base.positions[base.given :], base.motion[base.given :], t0, a0)
+            x_new, u_new = side.place(base.positions[base.given :], base.motion[base.given :], t0, a0, gain_one)
             asm.add_module(base, np.concatenate([previous, p_index]), x_new, u_new)
             report_progress(next(placed) / plan.modules, "placed a relay")
             relays.extend(p_index.tolist())
@@ -523,8 +582,10 @@ def _unit_rows(x: np.ndarray, edges: np.ndarray, u: np.ndarray | None = None):
     return (q, None) if u is None else (q, scale @ compatibility_matrix(u, edges))
 
 
-def linear_figures(frame: Frame, mode: np.ndarray, source, target, site_size: float) -> tuple[float, float, float]:
-    """(gap, κ_shape, κ_motion) of a frame whose zero modes are rigid ⊕ span(mode), no self-stress.
+def linear_figures(
+    frame: Frame, mode: np.ndarray, source, target, site_size: float
+) -> tuple[float, float, float, float, float]:
+    """(gap, κ_shape, κ_motion, A, A_worst) of a frame whose zero modes are rigid ⊕ span(mode), no self-stress.
 
     gap = σ_min(Q)/σ_max(Q) on N(C)^⊥, Q = diag(1/ℓ)·C the unit compatibility matrix (N(Q) =
     N(C); unit rows make it free of the bar-length spread of multi-scale frames): how far the
@@ -547,6 +608,16 @@ def linear_figures(frame: Frame, mode: np.ndarray, source, target, site_size: fl
     Any long frame turns an angle error near the source into a displacement of the far end
     proportional to the distance, so κ_motion grows with it; κ_shape — what the target site
     does — need not. Jᵀ comes from one factorisation of QQᵀ and k_tgt·d solves.
+
+    Amplification, the figure a builder feels: node errors in units of the mean bar length ℓ̄
+    (what a cutter or printer gets wrong scales with the parts it makes, not with the sites).
+    Every node i moves by δx_i = ε ℓ̄ e_i, e_i independent unit vectors uniformly distributed
+    in R^d, so E[δx δxᵀ] = (ε ℓ̄)²/d · I and E‖J δx‖² = (ε ℓ̄)² ‖J‖_F²/d; the amplification is
+    that relative change of the target's whole motion per relative node error ε, as an RMS:
+        A = ‖J‖_F ℓ̄ / (√d ‖u_T‖);
+    the worst perturbation with the same RMS node error ε ℓ̄ (‖δx‖ = ε ℓ̄ √N) gives
+        A_worst = ‖J‖₂ ℓ̄ √N / ‖u_T‖ ≥ any sampled ‖δw_T‖/(ε ‖u_T‖), to first order in ε.
+    Both are free of translation, rotation and scale (ℓ̄ and J taken on the normalised frame).
     """
     d = frame.dim
     norm = Normalisation.of(frame.positions)
@@ -579,7 +650,10 @@ def linear_figures(frame: Frame, mode: np.ndarray, source, target, site_size: fl
     unit = site_size / norm.length
     shape = float(np.linalg.norm(off_rigid @ jac, 2) / np.linalg.norm(off_rigid @ u_t)) * unit
     motion = float(np.linalg.norm(jac, 2) / np.linalg.norm(u_t)) * unit
-    return gap, shape, motion
+    mean_bar = float(np.mean(np.linalg.norm(x[frame.edges[:, 0]] - x[frame.edges[:, 1]], axis=1)))
+    amplification = float(np.linalg.norm(jac) * mean_bar / (math.sqrt(d) * np.linalg.norm(u_t)))
+    worst = float(np.linalg.norm(jac, 2) * mean_bar * math.sqrt(frame.n_nodes) / np.linalg.norm(u_t))
+    return gap, shape, motion, amplification, worst
 
 
 # ----------------------------------------------------------------------------- the designer
@@ -636,6 +710,7 @@ def allosteric_inputs(
     seed: int = 0,
     relay_spacing: float | None = None,
     relay_growth: float | None = None,
+    robustness: str = "robust",
 ):
     """design_allosteric's refusals before any chain is built (O(k²) work): the sites
     ((x_src, u_src), (x_tgt, u_tgt)), their canonical similarity and the chain options fixed by
@@ -653,6 +728,8 @@ def allosteric_inputs(
         raise InvalidInput("invalid_options", "relay_spacing must be positive.")
     if relay_growth is not None and not (np.isfinite(relay_growth) and relay_growth >= 1):
         raise InvalidInput("invalid_options", "relay_growth must be at least 1.")
+    if robustness not in ROBUSTNESS:
+        raise InvalidInput("invalid_options", f"robustness must be one of {', '.join(ROBUSTNESS)}.")
     _site_checks(x_src, u_src, x_tgt, u_tgt)
     sim = canonical(x_src, u_src, x_tgt)
     fixed = {"seed": seed}
@@ -680,43 +757,61 @@ def design_allosteric(
     seed: int = 0,
     relay_spacing: float | None = None,
     relay_growth: float | None = None,
+    robustness: str = "robust",
 ) -> AllostericDesign:
     """A frame whose only nontrivial zero mode drives the target with u_tgt when the source moves
     with u_src, meeting TARGET_ERROR_MAX and GAP_FLOOR (see the module docstring).
 
     relay_spacing: size of the first ports next to the sites, in the caller's units (default
-    DEFAULT_PORT site sizes); relay_growth: g ≥ 1 (1: equal relays). Raises InvalidInput for
+    DEFAULT_PORT site sizes); relay_growth: g ≥ 1 (1: equal relays); robustness: "robust"
+    designs every chain of ROBUST_CHAINS and returns the acceptable one with the smallest
+    amplification A (ResponseFigures), "economy" the first acceptable of ALTERNATIVES (fewest
+    nodes; its A grows faster with the distance); either falls back to ALTERNATIVES when no
+    robust chain is acceptable. Raises InvalidInput for
     bad shapes or options; DomainError ``overlapping_sites``, ``degenerate_specified``,
     ``rigid_source``, ``rigid_target``, ``underdetermined_source``, ``too_expensive`` (more than MAX_MODULES modules,
     refused before any work), or InaccurateDesign (``inaccurate_design``, with the best figures).
     """
     (x_src, u_src), (x_tgt, u_tgt), sim, fixed = allosteric_inputs(
-        source_positions, source_motion, target_positions, target_motion, dim, seed, relay_spacing, relay_growth
+        source_positions, source_motion, target_positions, target_motion, dim, seed, relay_spacing, relay_growth,
+        robustness,
     )
     first = replace(ChainOptions(), **fixed)
     distance = float(np.linalg.norm(x_tgt.mean(axis=0) - x_src.mean(axis=0)))
+    gap = float(sim.positions_in(x_tgt)[:, 0].min() - sim.positions_in(x_src)[:, 0].max())
+    robust = []
+    if robustness == "robust":
+        robust = [c for c in ROBUST_CHAINS if estimated_modules(gap, replace(first, **{**c, **fixed})) <= ROBUST_MAX_MODULES]
+    candidates = [(change, True) for change in robust] + [(change, False) for change in ALTERNATIVES]
     best: AllostericDesign | None = None
+    robust_best: AllostericDesign | None = None
     failures = []
     tried = set()
-    for i, change in enumerate(ALTERNATIVES):
+    for i, (change, searched) in enumerate(candidates):
         options = replace(first, **{**change, **fixed}) if change else first
-        if options in tried:
+        if options in tried or (not searched and robust_best is not None):
             continue
         tried.add(options)
         check_budget()
         try:
-            with progress_stage(i / len(ALTERNATIVES), (i + 1) / len(ALTERNATIVES), f"chain options {i + 1}"):
+            with progress_stage(i / len(candidates), (i + 1) / len(candidates), f"chain options {i + 1}"):
                 result = _attempt(sim, (x_src, u_src), (x_tgt, u_tgt), options, distance)
         except DomainError as exc:
             if exc.code == "too_expensive":
                 raise
             failures.append(exc.message)
             continue
-        if result.figures.acceptable():
+        if result.figures.acceptable() and not searched:
             report_progress(1.0, "designed")
             return result
-        if best is None or result.figures.rank() < best.figures.rank():
+        if result.figures.acceptable():
+            if robust_best is None or result.figures.amplification < robust_best.figures.amplification:
+                robust_best = result
+        elif best is None or result.figures.rank() < best.figures.rank():
             best = result
+    if robust_best is not None:
+        report_progress(1.0, "designed")
+        return robust_best
     if best is None:
         raise InaccurateDesign(
             f"no chain of modules could be built ({len(failures)} attempts; first: {failures[0]})",
@@ -771,8 +866,8 @@ def _attempt(sim: Similarity, src, tgt, options: ChainOptions, distance: float) 
     source, target = np.arange(k_src), np.arange(k_src, k)
     achieved = response(frame, source, u_src)[target]
     error = float(np.linalg.norm(achieved - u_tgt) / np.linalg.norm(u_tgt))
-    gap, shape, motion_k = linear_figures(frame, u, source, target, sim.length)
-    figures = ResponseFigures(achieved, error, gap, shape * PERTURBATION, motion_k * PERTURBATION)
+    gap, shape, motion_k, amplification, worst = linear_figures(frame, u, source, target, sim.length)
+    figures = ResponseFigures(achieved, error, gap, shape * PERTURBATION, motion_k * PERTURBATION, amplification, worst)
     return AllostericDesign(
         design=result,
         source=tuple(source.tolist()),

@@ -589,6 +589,8 @@ def allosteric_request():
         "dim": 2,
         "source": {"positions": [[0, -0.5], [0, 0.5]], "motion": [[0, -1], [0, 1]]},
         "target": {"positions": [[6, -1], [6, 1]], "motion": [[0, 1], [0, -1]]},
+        # Economy: a chain with relays to draw (the default search may join these sites directly).
+        "options": {"robustness": "economy"},
     }
 
 

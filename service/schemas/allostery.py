@@ -42,6 +42,14 @@ class AllostericOptions(RequestModel):
             "too_expensive past 400)."
         ),
     )
+    robustness: Literal["robust", "economy"] = Field(
+        default="robust",
+        description=(
+            "robust: several relay chains are designed and the one with the smallest amplification "
+            "(report.amplification) is returned; economy: the first chain that meets the floors, fewest "
+            "nodes, whose amplification grows faster with the distance. Either answer states its amplification."
+        ),
+    )
     tolerance: ToleranceOptions | None = Field(
         default=None, description="Report in `report.tolerance` how precisely the design must be built (as /v1/design)."
     )
@@ -59,6 +67,12 @@ class ChainModel(BaseModel):
     relay_growth: float = Field(description="Ratio of consecutive relay sizes.")
     module_aspect: float = Field(description="Module length per smaller-port size.")
     seed: int = Field(description="Seed of the module placements.")
+    gain_one: bool = Field(
+        description=(
+            "true: every relay port moves with the source's RMS motion whatever its size (relays of gain 1, "
+            "robust chains); false: port motions grow with their size (constant strain, economy chains)."
+        )
+    )
 
 
 class AllostericReport(BaseModel):
@@ -89,6 +103,20 @@ class AllostericReport(BaseModel):
         description=(
             "The same for the target's whole response, rigid part included; it grows with the distance "
             "(an angle error near the source moves the far end in proportion)."
+        )
+    )
+    amplification: float = Field(
+        description=(
+            "A, the fabrication error a builder feels: move every node by ε·ℓ̄ (ℓ̄ the mean bar length) in an "
+            "independent uniformly random direction; A is the RMS over those errors of the relative change of "
+            "the target's whole response ‖δw_T‖/‖w_T‖, per ε, from the linearisation of C(x)u = 0: "
+            "A = ‖J‖_F ℓ̄ / (√d ‖w_T‖), J = ∂w_T/∂x."
+        )
+    )
+    amplification_worst: float = Field(
+        description=(
+            "The same ratio for the worst node errors of RMS size ε·ℓ̄: ‖J‖₂ ℓ̄ √N / ‖w_T‖, an upper bound of any "
+            "such perturbation's relative change per ε (to first order)."
         )
     )
     perturbation: float = Field(description="The stated relative perturbation of the sensitivities, in site sizes.")

@@ -309,6 +309,8 @@ def test_allosteric_design_drives_the_target(client: Client) -> None:
     response = driven_response(frame.positions, frame.edges, report["source"], u_src)
     target = response[report["target"]]
     assert np.linalg.norm(target - u_tgt) < 1e-8 * np.linalg.norm(u_tgt)
+    # The builder's amplification is stated, its RMS figure below the worst-direction bound.
+    assert 0 < report["amplification"] <= report["amplification_worst"]
 
 
 def test_two_configuration_design_realises_both(client: Client) -> None:
