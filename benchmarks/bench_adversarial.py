@@ -133,21 +133,33 @@ def size_probes() -> list[Probe]:
     ]
 
 
-def refusal_times(url: str, probes: list[Probe], repeats: int = 5) -> list[dict]:
+def process_cpu_s(pid: int) -> float:
+    """CPU seconds (user + system) the process ``pid`` has used, from /proc (Linux)."""
+    with open(f"/proc/{pid}/stat") as fh:
+        fields = fh.read().rpartition(")")[2].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def refusal_times(url: str, probes: list[Probe], repeats: int = 5, server_pid: int | None = None) -> list[dict]:
     """Each probe sent ``repeats`` times on one kept-alive connection (bodies encoded before the
-    clock starts): its statuses, codes and the median round trip in ms."""
+    clock starts): its statuses, codes, the median round trip in ms and, given the server's
+    process, the median CPU time the server spent on it (``median_cpu_ms``: what a refusal
+    costs, unlike the round trip not stretched by other work on a busy machine)."""
     rows = []
     with httpx.Client(base_url=url, timeout=120) as http:
         for probe in probes:
             content = json.dumps(probe.body).encode()
-            times, answers = [], []
+            times, cpu, answers = [], [], []
             for _ in range(repeats):
+                c0 = process_cpu_s(server_pid) if server_pid else 0.0
                 t0 = time.perf_counter()
                 r = http.request(probe.method, probe.path, content=content, headers={"content-type": "application/json"})
                 times.append(1e3 * (time.perf_counter() - t0))
+                cpu.append(1e3 * ((process_cpu_s(server_pid) if server_pid else 0.0) - c0))
                 answers.append((r.status_code, _code(r)))
             rows.append({"probe": probe.name, "bytes": len(content), "answers": sorted(set(answers)),
                          "median_ms": statistics.median(times), "max_ms": max(times),
+                         "median_cpu_ms": statistics.median(cpu) if server_pid else None,
                          "ok": all(s == probe.status and c in probe.codes for s, c in answers)})
     return rows
 

@@ -97,7 +97,7 @@ def offloading_service(tmp: Path, budget_s: float) -> Iterator[str]:
     """`zeromode serve` with offloading on, one Dask worker and a budget of ``budget_s``: (URL)."""
     env = {"ZEROMODE_DATABASE_URL": f"sqlite:///{tmp}/jobs.sqlite3", "ZEROMODE_OFFLOAD": "true",
            "ZEROMODE_TIME_BUDGET_S": str(budget_s), "ZEROMODE_DASK_WORKERS": "1"}
-    with running_service(tmp, env, "offloading") as (url, _):
+    with running_service(tmp, env, "offloading") as (url, _, _):
         yield url
 
 

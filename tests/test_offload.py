@@ -7,6 +7,7 @@ heavy requests run.
 from __future__ import annotations
 
 import socket
+import subprocess
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -52,18 +53,18 @@ def service(tmp_path_factory: pytest.TempPathFactory):
 
 
 @contextmanager
-def running_service(tmp: Path, env: dict[str, str], name: str) -> Iterator[tuple[str, Path]]:
-    """`zeromode serve` once its engine runs: (URL, its log)."""
-    with zeromode_service(tmp, env, name) as (url, _):
+def running_service(tmp: Path, env: dict[str, str], name: str) -> Iterator[tuple[str, Path, subprocess.Popen]]:
+    """`zeromode serve` once its engine runs: (URL, its log, its process)."""
+    with zeromode_service(tmp, env, name) as (url, proc):
         deadline = time.monotonic() + 60
         while httpx.get(url + "/health").json()["engine"] != "running":  # started in the background
             assert time.monotonic() < deadline, (tmp / f"{name}.log").read_text()
             time.sleep(0.1)
-        yield url, tmp / f"{name}.log"
+        yield url, tmp / f"{name}.log", proc
 
 
 def test_heavy_requests_answer_as_in_process(service):
-    service, _ = service
+    service, _, _ = service
     inline = TestClient(create_app(Settings(offload=False)))
     frame = inline.post("/v1/design/auxetic", json=SHEET).json()["frame"]
     for path, body in [
@@ -85,7 +86,7 @@ def test_the_time_budget_holds_inside_a_long_call(tmp_path):
     the next request."""
     env = {"ZEROMODE_DATABASE_URL": f"sqlite:///{tmp_path}/jobs.sqlite3", "ZEROMODE_OFFLOAD": "true",
            "ZEROMODE_TIME_BUDGET_S": "2", "ZEROMODE_DASK_WORKERS": "1"}
-    with running_service(tmp_path, env, "budget") as (service, _):
+    with running_service(tmp_path, env, "budget") as (service, _, _):
         overrun(service)
 
 
@@ -114,7 +115,7 @@ def test_work_stops_when_the_client_leaves(service):
     (its worker restarted), seen by GET /v1/engine, and the service goes on answering."""
     import json
 
-    service, log = service
+    service, log, _ = service
     restarts = log.read_text().count("Restarting worker")
     body = json.dumps({"frame": big_frame(100_000), "options": {"bases": False}}).encode()
     port = int(service.rsplit(":", 1)[1])
@@ -138,7 +139,7 @@ def test_work_stops_when_the_client_leaves(service):
 
 
 def test_health_stays_quick_while_48_heavy_requests_run(service):
-    service, _ = service
+    service, _, _ = service
     load = heavy_load(service, 48)
     assert sum(load["statuses"].values()) == 48 and set(load["statuses"]) <= {"200", "422"}, load["statuses"]
     p99 = load["health"]["p99_ms"]
