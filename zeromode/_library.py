@@ -68,15 +68,26 @@ def _frame_body(frame: Frame | Result | Mapping) -> dict:
     return frame_body(frame)
 
 
-def _request(model_name: str, body: dict) -> Any:
-    """``body`` validated as the REST request model ``model_name`` of zeromode.service.schemas."""
+def _schema(model_name: str) -> Any:
+    """The model ``module.Name`` of zeromode.service.schemas."""
     import importlib
 
+    module, name = model_name.rsplit(".", 1)
+    return getattr(importlib.import_module(f"zeromode.service.schemas.{module}"), name)
+
+
+def _request(model_name: str, body: dict) -> Any:
+    """``body`` validated as the REST request model ``model_name`` (InvalidInput naming the
+    first bad field, as documents.validated refuses a document)."""
     from zeromode.service.documents import validated
 
-    module, name = model_name.rsplit(".", 1)
-    model = getattr(importlib.import_module(f"zeromode.service.schemas.{module}"), name)
-    return validated(plain(body), model)
+    return validated(plain(body), _schema(model_name))
+
+
+def _wire(model_name: str, body: dict) -> dict:
+    """The body as the route's response model sends it (absent optional fields as null), as a
+    job's answer is made (service.tasks.answer)."""
+    return _schema(model_name).model_validate(body).model_dump(mode="json")
 
 
 def _dim(points: Points, dim: int | None) -> int:
@@ -133,7 +144,7 @@ def analyze(frame: Frame | Result | Mapping, **options: Any) -> AnalysisResult:
             frame_from_model(request.frame), rtol=o.rtol, method=o.method, bases=o.bases,
             basis_limit=current_settings().max_basis_numbers, gap_rtol=o.gap_rtol,
         )
-    return AnalysisResult(request, result, analyze_body(result, _total_ms(t0)))
+    return AnalysisResult(request, result, _wire("analyze.AnalyzeResponse", analyze_body(result, _total_ms(t0))))
 
 
 # ----------------------------------------------------------------------------- design
@@ -186,7 +197,7 @@ def design(positions: Points, motions: Points | Sequence[Points], *, dim: int | 
         "dim": _dim(positions, dim), "positions": positions, "motions": motions, "options": options,
     })
     result = design_pipeline(**design_arguments(request))
-    return DesignResult(request, result, design_body(result, result.timings_ms))
+    return DesignResult(request, result, _wire("design.DesignResponse", design_body(result, result.timings_ms)))
 
 
 def auxetic(poisson_ratio: float, cells: Sequence[int] = (4, 4), **fields: Any) -> DesignResult:
@@ -215,7 +226,7 @@ def auxetic(poisson_ratio: float, cells: Sequence[int] = (4, 4), **fields: Any) 
     Examples
     --------
     >>> import zeromode as zm
-    >>> sheet = zm.auxetic(-0.5, (2, 2)); round(sheet.to_dict()["poisson_ratio"], 6)
+    >>> sheet = zm.auxetic(-0.5, (2, 2)); print(round(sheet.to_dict()["poisson_ratio"], 6))
     -0.5
     """
     from zeromode.service.documents import auxetic as auxetic_design
@@ -226,7 +237,7 @@ def auxetic(poisson_ratio: float, cells: Sequence[int] = (4, 4), **fields: Any) 
     })
     t0 = time.perf_counter()
     result = auxetic_design(request)
-    return DesignResult(request, result, auxetic_body(result, _total_ms(t0)))
+    return DesignResult(request, result, _wire("lattice.AuxeticResponse", auxetic_body(result, _total_ms(t0))))
 
 
 def allosteric(source: Any, target: Any, *, frame: Frame | Result | Mapping | None = None,
@@ -283,7 +294,9 @@ def allosteric(source: Any, target: Any, *, frame: Frame | Result | Mapping | No
             given, request.source, request.target, source_motion=request.source_motion,
             target_motion=request.target_motion, strain_ratio=request.strain_ratio, seed=request.options.seed,
         )
-        return DesignResult(request, result, network_allosteric_body(result, given.edges))
+        return DesignResult(request, result, _wire(
+            "allostery.NetworkAllostericResponse", network_allosteric_body(result, given.edges)
+        ))
     from zeromode.service.documents import allosteric as allosteric_design
     from zeromode.service.documents import allosteric_tolerance
 
@@ -294,7 +307,9 @@ def allosteric(source: Any, target: Any, *, frame: Frame | Result | Mapping | No
     t0 = time.perf_counter()
     result = allosteric_design(request)
     tolerance = allosteric_tolerance(request, result)
-    return DesignResult(request, result, allosteric_body(result, _total_ms(t0), tolerance))
+    return DesignResult(request, result, _wire(
+        "allostery.AllostericResponse", allosteric_body(result, _total_ms(t0), tolerance)
+    ))
 
 
 def two_configuration(initial: Points, final: Points, *, dim: int | None = None, seed: int = 0) -> DesignResult:
@@ -335,7 +350,9 @@ def two_configuration(initial: Points, final: Points, *, dim: int | None = None,
     })
     t0 = time.perf_counter()
     result = design_two_configurations(request.initial, request.final, dim=request.dim, seed=request.options.seed)
-    return DesignResult(request, result, two_configuration_body(result, _total_ms(t0)))
+    return DesignResult(request, result, _wire(
+        "design.TwoConfigurationResponse", two_configuration_body(result, _total_ms(t0))
+    ))
 
 
 # ----------------------------------------------------------------------------- beyond the linear design
@@ -404,7 +421,7 @@ def motion(frame: Frame | Result | Mapping, mode: int | Points | None = None, **
     body = motion_body(path, _total_ms(t0), strains, aimed)
     if path.singularities and request.on_singularity == "error":
         raise SingularPath(path)
-    return MotionResult(request, path, body)
+    return MotionResult(request, path, _wire("motion.MotionResponse", body))
 
 
 def refine(frame: Frame | Result | Mapping, motion: Points | None = None, **fields: Any) -> RefineResult:
@@ -453,7 +470,7 @@ def refine(frame: Frame | Result | Mapping, motion: Points | None = None, **fiel
         targets=request.targets,
         **request.options.model_dump(include={"K", "tol", "max_iter", "max_time_s", "stay_on_solution_space"}),
     )
-    return RefineResult(request, result, refinement_body(result))
+    return RefineResult(request, result, _wire("motion.RefineResponse", refinement_body(result)))
 
 
 def certify(frame: Frame | Result | Mapping, modes: Sequence[Points] = (), **options: Any) -> CertificateResult:
@@ -494,7 +511,7 @@ def certify(frame: Frame | Result | Mapping, modes: Sequence[Points] = (), **opt
     result = certify_frame(
         frame_from_model(request.frame), request.modes, solver=o.solver, stiffness=o.stiffness, max_iters=o.max_iters
     )
-    return CertificateResult(request, result, certificate_body(result))
+    return CertificateResult(request, result, _wire("certify.CertifyResponse", certificate_body(result)))
 
 
 def sweep(endpoint: str, template: Mapping | None = None, grid: Mapping[str, Sequence] | None = None,

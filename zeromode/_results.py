@@ -159,7 +159,7 @@ class Result:
         from zeromode._library import refine
 
         if motion is None and "targets" not in fields:
-            motion = self.modes[0][self.frame.specified]
+            motion = self.modes[0][list(self.frame.specified)]
         return refine(self, motion, **fields)
 
     def certify(self, modes: Any = None, **options: Any) -> Result:
