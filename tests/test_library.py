@@ -56,6 +56,19 @@ def square_design():
     return zm.design(SQUARE, SQUARE)
 
 
+@pytest.fixture(scope="module")
+def square_refined(square_design):
+    # A time limit far above the refinement's need: two runs of one request give one answer.
+    return square_design.refine(SQUARE, options={"max_time_s": 60.0})
+
+
+def svg_bars(result) -> int:
+    """How many bars the result's SVG draws (it must parse as SVG)."""
+    root = ET.fromstring(result._repr_svg_())
+    assert root.tag == SVG + "svg"
+    return len([e for e in root.iter(SVG + "line") if "bar" in e.get("class", "").split()])
+
+
 # --- the surface ------------------------------------------------------------------------------
 
 
@@ -169,17 +182,21 @@ def test_two_configuration_keeps_every_bar():
     assert np.allclose(lengths(x), lengths(y), rtol=1e-9)
 
 
-def test_continuations_motion_refine_certify(square_design):
+def test_continuations_motion_refine_certify(square_design, square_refined):
     d = square_design
     m = d.motion(amplitude=0.2)
     path = np.array(m.to_dict()["path"])
     assert len(path) > 2 and relative_bar_error(path, d.frame.edges, d.frame.positions) <= 1e-9
-    r = d.refine(options={"max_time_s": 60.0})
-    assert r.epsilon_after <= r.epsilon_before
-    refined = r.to_dict()["frame"]
+    r = square_refined.to_dict()
+    assert r["status"] == "ok" and r["epsilon_after"] <= r["epsilon_before"]
+    refined = r["frame"]
     assert reference_counts(np.array(refined["positions"]), refined["edges"])["nontrivial_zero_modes"] == 1
+    # The default motion of d.refine() is the design's mode on the specified nodes: u_S.
+    assert np.allclose(square_refined.request.motion, SQUARE)
     c = d.certify()
     assert c.to_dict()["self_stress"]["count"] == reference_counts(d.frame.positions, d.frame.edges)["self_stresses"] == 0
+    # Each draws its frame: the motion beside its two ends (three panels).
+    assert (svg_bars(m), svg_bars(square_refined), svg_bars(c)) == (3 * 8, 8, 8)
 
 
 def test_sweep_rows_meet_maxwells_count():
@@ -222,14 +239,13 @@ def test_to_dict_is_the_rest_body(client, endpoint, body, call):
     assert as_json(call().to_dict()) == untimed(response.json())
 
 
-def test_continuations_answer_as_their_routes(client, square_design):
+def test_continuations_answer_as_their_routes(client, square_design, square_refined):
     d = square_design
     frame, modes = d.frame_body(), d.to_dict()["modes"]
     pairs = [
         ("/v1/motion", {"frame": frame, "mode": modes[0], "amplitude": 0.2}, d.motion(amplitude=0.2)),
         ("/v1/certify", {"frame": frame, "modes": modes}, d.certify()),
-        ("/v1/refine", {"frame": frame, "motion": SQUARE, "options": {"max_time_s": 60.0}},
-         d.refine(SQUARE, options={"max_time_s": 60.0})),
+        ("/v1/refine", {"frame": frame, "motion": SQUARE, "options": {"max_time_s": 60.0}}, square_refined),
     ]
     for endpoint, body, result in pairs:
         response = client.post(endpoint, json=body)
@@ -240,14 +256,10 @@ def test_continuations_answer_as_their_routes(client, square_design):
 # --- pictures and files -----------------------------------------------------------------------
 
 
-def test_repr_svg_draws_every_bar(square_design, client):
-    root = ET.fromstring(square_design._repr_svg_())
-    assert root.tag == SVG + "svg"
-    bars = [e for e in root.iter(SVG + "line") if "bar" in e.get("class", "").split()]
-    assert len(bars) == 8
+def test_repr_svg_draws_every_bar(square_design):
+    assert svg_bars(square_design) == 8
     # The analysis result draws the frame it was given.
-    root = ET.fromstring(zm.analyze(zm.Frame.build(SQUARE, SQUARE_EDGES))._repr_svg_())
-    assert len([e for e in root.iter(SVG + "line") if "bar" in e.get("class", "").split()]) == 4
+    assert svg_bars(zm.analyze(zm.Frame.build(SQUARE, SQUARE_EDGES))) == 4
 
 
 def test_plot_is_a_matplotlib_figure(square_design):
