@@ -96,6 +96,21 @@ def test_import_zeromode_is_light():
     assert out[1] == ""
 
 
+def test_first_design_needs_no_web_stack_and_stays_within_the_floor(tmp_path):
+    # A fresh process (the session's warm-up has the compiled kernels cached, as an installed
+    # service has): import + the first design of Fig. 3b within the issue's 3 s, in CPU time;
+    # designing, drawing, exporting and moving it load no web framework and no Dask.
+    code = (
+        "import sys, time; t = time.process_time(); import zeromode as zm; "
+        "s = [[1, 1], [-1, 1], [-1, -1], [1, -1]]; d = zm.design(s, s); print(time.process_time() - t); "
+        f"d._repr_svg_(); d.export({str(tmp_path / 'x.vtu')!r}); d.to_networkx(); d.motion(); "
+        "print(' '.join(m for m in ('fastapi', 'starlette', 'uvicorn', 'distributed') if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split("\n")
+    assert float(out[0]) <= 3.0
+    assert out[1] == ""
+
+
 @pytest.mark.parametrize("module", ["zeromode", "zeromode._library", "zeromode._results", "zeromode.examples"])
 def test_doctests(module):
     # The zeromode package's doctests (solver/'s docstrings are not written as doctests).
