@@ -214,6 +214,17 @@ def test_continuations_motion_refine_certify(square_design, square_refined):
     assert (svg_bars(m), svg_bars(square_refined), svg_bars(c)) == (3 * 8, 8, 8)
 
 
+def test_motion_and_certify_of_a_given_frame():
+    # The square is a four-bar linkage: its one mode (by number) moves it keeping every bar.
+    square = zm.Frame.build(SQUARE, SQUARE_EDGES)
+    path = np.array(zm.motion(square, 0, amplitude=0.3).to_dict()["path"])
+    assert len(path) > 2 and relative_bar_error(path, square.edges, square.positions) <= 1e-9
+    assert np.ptp(path[:, 0, 0]) > 0.1  # it moved
+    modes = zm.analyze(square).modes
+    c = zm.certify(square, modes)
+    assert c.modes.shape == (1, 4, 2) and c.to_dict()["self_stress"]["count"] == 0
+
+
 def test_sweep_rows_meet_maxwells_count():
     frame = {"dim": 2, "positions": SQUARE, "motions": [SQUARE]}
     df = zm.sweep("design", frame, {"options.n_unspecified": [2, 4]})

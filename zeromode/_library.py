@@ -400,8 +400,8 @@ def motion(frame: Frame | Result | Mapping, mode: int | Points | None = None, **
     from zeromode.solver.motion_target import MotionTarget, aim_motion
     from zeromode.solver.periodic import trace_motion_through_cell
 
-    if isinstance(mode, int):
-        mode = frame.modes[mode]
+    if isinstance(mode, int):  # the number of one of the result's modes, or of the frame's
+        mode = (frame if isinstance(frame, Result) else analyze(frame)).modes[mode]
     request = _request("motion.MotionRequest", {"frame": _frame_body(frame), "mode": mode, **fields})
     t0 = time.perf_counter()
     moved = motion_frame(request)

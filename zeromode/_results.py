@@ -76,7 +76,8 @@ class Result:
         import numpy as np
 
         frame = self.frame
-        return np.asarray(self.document().get("modes") or np.zeros((0, frame.n_nodes, frame.dim)), dtype=float)
+        modes = self.body.get("modes") or self.document().get("modes")
+        return np.asarray(modes or np.zeros((0, frame.n_nodes, frame.dim)), dtype=float)
 
     # --- pictures ---------------------------------------------------------------------------
 
@@ -233,6 +234,14 @@ class CertificateResult(Result):
 
     def document(self) -> dict:
         return {"frame": self.request.frame.model_dump(), "modes": self.request.modes[:_plot_modes()]}
+
+    @property
+    def modes(self) -> np.ndarray:
+        """The modes the certificates were asked about (M, N, d)."""
+        import numpy as np
+
+        frame = self.frame
+        return np.asarray(self.request.modes or np.zeros((0, frame.n_nodes, frame.dim)), dtype=float)
 
 
 def _plot_modes() -> int:
