@@ -311,6 +311,11 @@ def test_export_picture_and_unknown_suffix(square_design, tmp_path):
         square_design.export(tmp_path / "x.unknown")
 
 
+def test_animate_plays_the_motion(square_design):
+    root = ET.fromstring(square_design.animate(animation={"frames": 6}))
+    assert root.tag == SVG + "svg" and any(True for _ in root.iter(SVG + "animate"))
+
+
 def test_to_networkx_has_the_bars_and_their_lengths(square_design):
     graph = square_design.to_networkx()
     frame = square_design.frame

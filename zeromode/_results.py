@@ -144,6 +144,15 @@ class Result:
 
         return validated(plain({"format": fmt, "document": self.document(), **options}), ExportRequest)
 
+    def animate(self, **options: Any) -> str:
+        """The finite motion as an animated SVG (SMIL), as /v1/export writes ``svg_animation``:
+        the result's own path, or one traced along its first mode. ``options``: the other
+        fields of a /v1/export request (animation, motion)."""
+        from zeromode.service.exporting import export_file
+
+        content, _, _ = export_file(self._export_request("svg_animation", **options))
+        return content.decode()
+
     def to_networkx(self) -> nx.Graph:
         """The frame as a networkx Graph, as the GraphML export writes it: node positions
         (``x``, ``y``[, ``z``]), ``role``, ``site``, mode components; bar ``length`` and index."""
