@@ -5,9 +5,8 @@ networks").
 The library door: each function runs the one pipeline the REST service runs (solver/pipeline.py
 and the solver functions its routes call) and returns a result that draws itself in Jupyter
 (``_repr_svg_``), plots (``.plot()``), animates (``.animate()``), exports by suffix
-(``.export(path)``), converts
-(``.to_networkx()``, ``.to_dict()`` — the REST body) and continues the pipeline
-(``.refine()``, ``.certify()``, ``.motion()``). No server is needed.
+(``.export(path)``), converts (``.to_networkx()``, ``.to_dict()`` — the REST body) and
+continues the pipeline (``.refine()``, ``.certify()``, ``.motion()``). No server is needed.
 
 Every name is loaded on first use (PEP 562), so ``import zeromode`` loads no numpy.
 
