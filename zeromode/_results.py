@@ -138,11 +138,16 @@ class Result:
         return path
 
     def _export_request(self, fmt: str, **options: Any):
+        """The /v1/export request that writes this result in format ``fmt``."""
         from zeromode._library import plain
         from zeromode.service.documents import validated
         from zeromode.service.schemas.export import ExportRequest
 
-        return validated(plain({"format": fmt, "document": self.document(), **options}), ExportRequest)
+        return validated(plain({"format": fmt, **self._exported(), **options}), ExportRequest)
+
+    def _exported(self) -> dict:
+        """What a /v1/export request carries of this result: its document."""
+        return {"document": self.document()}
 
     def animate(self, **options: Any) -> str:
         """The finite motion as an animated SVG (SMIL), as /v1/export writes ``svg_animation``:
@@ -204,25 +209,19 @@ class MotionResult(Result):
         return {**self.body, "frame": self.request.frame.model_dump()}
 
     def picture(self, solution_space: bool = True) -> Picture:
-        """The moved frame with its configurations along the path (first, last) beside it."""
+        """The given frame, with the two ends of its path beside it (a /v1/plot body)."""
         from zeromode.service.plotting import picture_for_document
 
         ends = [self.body["path"][0], self.body["path"][-1]]
         return picture_for_document(
             {"frame": self.request.frame.model_dump(), "configurations": ends,
-             "labels": ["reference", "path start", "path end"]},
+             "labels": ["given", "one end of the path", "the other end"]},
             solution_space=False,
         )
 
-    def _export_request(self, fmt: str, **options: Any):
-        from zeromode._library import plain
-        from zeromode.service.documents import validated
-        from zeromode.service.schemas.export import ExportRequest
-
-        return validated(
-            plain({"format": fmt, "document": self.body, "frame": self.request.frame.model_dump(), **options}),
-            ExportRequest,
-        )
+    def _exported(self) -> dict:
+        """A /v1/motion response with the frame it moved (the response has none)."""
+        return {"document": self.body, "frame": self.request.frame.model_dump()}
 
 
 class RefineResult(Result):
