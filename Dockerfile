@@ -17,6 +17,7 @@ COPY requirements.lock ./
 RUN pip install --no-cache-dir --only-binary=:all: -r requirements.lock
 
 COPY pyproject.toml README.md ./
+COPY zeromode ./zeromode
 COPY solver ./solver
 COPY service ./service
 COPY viz ./viz

@@ -1,0 +1,77 @@
+"""zeromode — inverse design of bar-and-joint frames whose only non-rigid zero modes are the
+motions you choose (Kim, Lu, Strogatz & Bassett, "Conformational control of mechanical
+networks").
+
+The library door: each function runs the one pipeline the REST service runs (solver/pipeline.py
+and the solver functions its routes call) and returns a result that draws itself in Jupyter
+(``_repr_svg_``), plots (``.plot()``), animates (``.animate()``), exports by suffix
+(``.export(path)``), converts (``.to_networkx()``, ``.to_dict()`` — the REST body) and
+continues the pipeline (``.refine()``, ``.certify()``, ``.motion()``). No server is needed.
+
+Every name is loaded on first use (PEP 562), so ``import zeromode`` loads no numpy.
+
+>>> import zeromode as zm
+>>> zm.analyze(zm.Frame.build([[0, 0], [1, 0], [1, 1], [0, 1]], [[0, 1], [1, 2], [2, 3], [3, 0]])).nontrivial_zero_modes
+1
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+__all__ = [
+    "Frame",
+    "allosteric",
+    "analyze",
+    "auxetic",
+    "certify",
+    "design",
+    "examples",
+    "motion",
+    "refine",
+    "sweep",
+    "two_configuration",
+]
+
+# Where each public name lives: (module, attribute); None for a submodule.
+_HOMES: dict[str, tuple[str, str | None]] = {
+    "Frame": ("zeromode.solver.frame", "Frame"),
+    "examples": ("zeromode.examples", None),
+    **{
+        name: ("zeromode._library", name)
+        for name in ("allosteric", "analyze", "auxetic", "certify", "design", "motion", "refine", "sweep",
+                     "two_configuration")
+    },
+}
+
+if TYPE_CHECKING:  # the names as a type checker sees them, without importing them at run time
+    from zeromode import examples
+    from zeromode._library import (
+        allosteric,
+        analyze,
+        auxetic,
+        certify,
+        design,
+        motion,
+        refine,
+        sweep,
+        two_configuration,
+    )
+    from zeromode.solver.frame import Frame
+
+
+def __getattr__(name: str) -> Any:
+    """Load a public name on first use and keep it (PEP 562)."""
+    if name not in _HOMES:
+        raise AttributeError(f"module 'zeromode' has no attribute {name!r}")
+    module, attribute = _HOMES[name]
+    value = importlib.import_module(module)
+    if attribute is not None:
+        value = getattr(value, attribute)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
