@@ -19,6 +19,11 @@ _STATE = tempfile.mkdtemp(prefix="zeromode-tests-")
 os.environ.setdefault("ZEROMODE_DATABASE_URL", f"sqlite:///{_STATE}/jobs.sqlite3")
 os.environ["XDG_STATE_HOME"] = f"{_STATE}/state"
 os.environ["XDG_CACHE_HOME"] = f"{_STATE}/cache"
+os.environ["XDG_CONFIG_HOME"] = f"{_STATE}/config"
+# What reads HOME itself (chromium's crash reports and dconf, matplotlib's and ezdxf's caches)
+# writes there too, never in the user's home.
+os.environ["HOME"] = f"{_STATE}/home"
+os.makedirs(os.environ["HOME"])
 # Apps under test answer every request in process unless a test turns offloading on
 # (tests/test_offload.py): no Dask cluster per test app.
 os.environ.setdefault("ZEROMODE_OFFLOAD", "false")
