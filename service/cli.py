@@ -134,9 +134,14 @@ def cmd_design(args) -> int:
     from zeromode.service.documents import respond
 
     body, _ = respond(_load_json(args.request))
+    return _write_json(body, args.output)
+
+
+def _write_json(body: dict, output: str | None) -> int:
+    """``body`` as one line of JSON, to the file ``output`` or to stdout."""
     text = json.dumps(body, allow_nan=False)
-    if args.output:
-        with open(args.output, "w", encoding="utf-8") as fh:
+    if output:
+        with open(output, "w", encoding="utf-8") as fh:
             fh.write(text + "\n")
     else:
         print(text)
@@ -308,10 +313,7 @@ def cmd_job(args) -> int:
 
 
 def cmd_motion(args) -> int:
-    import contextlib
-
-    from pydantic import ValidationError
-
+    from zeromode.service.documents import validated
     from zeromode.service.routes.motion import post_motion
     from zeromode.service.schemas.motion import MotionRequest
 
@@ -319,18 +321,12 @@ def cmd_motion(args) -> int:
     body = dict(doc) if "frame" in doc else {"frame": doc}  # a /v1/motion request, or a frame
     options = {"target": args.target and json.loads(args.target), "amplitude": args.amplitude, "direction": args.direction}
     body.update({k: v for k, v in options.items() if v is not None})
-    try:
-        answer = post_motion(MotionRequest.model_validate(body))
-    except ValidationError as exc:
-        print(f"error [invalid_request]: {exc.errors()[0]['msg']}", file=sys.stderr)
-        return 2
+    answer = post_motion(validated(body, MotionRequest))
     if not isinstance(answer, dict):  # a 422 with the best path found
         detail = json.loads(answer.body)["detail"]
         print(f"error [{detail['code']}]: {detail['message']}", file=sys.stderr)
         return 2
-    with open(args.output, "w", encoding="utf-8") if args.output else contextlib.nullcontext(sys.stdout) as out:
-        out.write(json.dumps(answer, allow_nan=False) + "\n")
-    return 0
+    return _write_json(answer, args.output)
 
 
 def build_parser() -> argparse.ArgumentParser:
