@@ -59,6 +59,7 @@ from zeromode.solver.design import (
 from zeromode.solver.eigen import smallest_eigenpairs
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.factorisation import cholesky
+from zeromode.solver.finite_motion import bar_lengths
 from zeromode.solver.frame import Frame, check_positions
 from zeromode.solver.hierarchy import Module, module_gap, place_module, tied_space
 from zeromode.solver.normalisation import Normalisation, rms_radius, unit_scaled
@@ -649,10 +650,11 @@ def linear_figures(
     off_rigid = np.eye(len(tgt)) - rigid_t @ rigid_t.T
     unit = site_size / norm.length
     shape = float(np.linalg.norm(off_rigid @ jac, 2) / np.linalg.norm(off_rigid @ u_t)) * unit
-    motion = float(np.linalg.norm(jac, 2) / np.linalg.norm(u_t)) * unit
-    mean_bar = float(np.mean(np.linalg.norm(x[frame.edges[:, 0]] - x[frame.edges[:, 1]], axis=1)))
+    largest = float(np.linalg.norm(jac, 2))  # ‖J‖₂, one SVD for both figures below
+    motion = largest / float(np.linalg.norm(u_t)) * unit
+    mean_bar = float(np.mean(bar_lengths(x, frame.edges)))
     amplification = float(np.linalg.norm(jac) * mean_bar / (math.sqrt(d) * np.linalg.norm(u_t)))
-    worst = float(np.linalg.norm(jac, 2) * mean_bar * math.sqrt(frame.n_nodes) / np.linalg.norm(u_t))
+    worst = float(largest * mean_bar * math.sqrt(frame.n_nodes) / np.linalg.norm(u_t))
     return gap, shape, motion, amplification, worst
 
 

@@ -482,6 +482,8 @@ class _Lander:
         offset = sign * (found[0] - float(self.path.parameter[idx[k]]))  # along the side, from idx[k]
         if offset >= 0:
             return self.land(idx, k, (0.0, offset), values)
+        if k == 0:  # before the side's first sample, the start: the other side's trace holds it
+            return None
         # The extreme lies before idx[k]: land between idx[k − 1] and it.
         before = float(self.path.parameter[idx[k]] - self.path.parameter[idx[k - 1]]) * sign
         return self.land(idx, k - 1, (0.0, before + offset), values)
