@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from client.conftest import served
 from oracles.motion import boundary_strains, relative_bar_error
-from oracles.sheet_range import first_event
+from oracles.sheet_range import SheetEvents, first_event
 
 from zeromode.service.app import create_app
 
@@ -44,12 +44,14 @@ def test_two_column_sheet_is_served_with_the_sheets_own_range(url, cells, poisso
         assert end["reason"] == reason and abs(end["strain"] - found) <= 1e-9, (end, found, reason)
     # The states are at ±strain, keep every bar, and keep nodes apart as the report says.
     assert body["report"]["max_relative_bar_error"] <= 1e-9
+    apart = SheetEvents(x0, edges, usable["proximity_fraction"])
     for state in body["states"]:
         x = np.array(state["positions"])
         sign = 1 if state["name"] == "expanded" else -1
         ex, _ = boundary_strains(x0, x, boundary, finite=True)
         assert abs(ex - sign * strain) <= 1e-12 and abs(state["strain"] - ex) <= 1e-12
         assert relative_bar_error([x], edges, x0) <= body["report"]["max_relative_bar_error"] + 1e-15
+        assert apart.gap(x) >= 0  # no two nodes without a bar closer than the stated fraction
     assert body["report"]["min_node_distance"] >= usable["proximity_fraction"]
     # Past the sheet's own end: refused, naming the range.
     refused = post(url, {"dim": 2, "cells": cells, "poisson_ratio": poisson, "strain": abs(lower) + 1e-3})

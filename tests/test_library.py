@@ -330,4 +330,4 @@ def test_bad_input_is_refused_with_a_code():
 
     with pytest.raises(InvalidInput) as err:
         zm.design(SQUARE, [[1.0, 1.0]])
-    assert err.value.code
+    assert err.value.code == "invalid_shape" and "one row per specified node" in err.value.message

@@ -7,7 +7,14 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from oracles.mechanisms import four_bar, four_bar_at_crank_angle, in_ground_frame, parallelogram
+from oracles.mechanisms import (
+    crank_angle,
+    crank_angle_limit,
+    four_bar,
+    four_bar_at_crank_angle,
+    in_ground_frame,
+    parallelogram,
+)
 from oracles.motion import boundary_strains, relative_bar_error
 
 from zeromode.solver.errors import InvalidInput
@@ -24,17 +31,11 @@ from zeromode.solver.motion_target import (
 
 FOUR_BAR = four_bar()  # a triple rocker: its crank angle at node 0 is bounded
 X = FOUR_BAR.positions
-A, B = np.linalg.norm(X[1] - X[0]), np.linalg.norm(X[2] - X[1])
-C, G = np.linalg.norm(X[3] - X[2]), np.linalg.norm(X[3] - X[0])
+A, B = np.linalg.norm(X[1] - X[0]), np.linalg.norm(X[2] - X[1])  # crank, coupler
+C, G = np.linalg.norm(X[3] - X[2]), np.linalg.norm(X[3] - X[0])  # rocker, ground
 PHI0 = float(np.arctan2(X[1, 1], X[1, 0]))
-# The crank angle's turning points: coupler and rocker collinear, |B − D| = b + c.
-PHI_MAX = float(np.arccos((A * A + G * G - (B + C) ** 2) / (2 * A * G)))
+PHI_MAX = crank_angle_limit(X)  # the crank angle's turning point
 CRANK = (3, 0, 1)
-
-
-def crank_angle(positions) -> float:
-    x = in_ground_frame(positions)
-    return float(np.arctan2(x[1, 1], x[1, 0]))
 
 
 @pytest.mark.parametrize("phi", [PHI0 + 0.4, PHI0 - 0.25, 1.2, -1.0])

@@ -11,7 +11,13 @@ import sys
 import httpx
 import numpy as np
 import pytest
-from oracles.mechanisms import four_bar, four_bar_at_crank_angle, in_ground_frame
+from oracles.mechanisms import (
+    crank_angle,
+    crank_angle_limit,
+    four_bar,
+    four_bar_at_crank_angle,
+    in_ground_frame,
+)
 from oracles.motion import boundary_strains, relative_bar_error
 from oracles.wire import frame_body
 
@@ -19,15 +25,10 @@ from zeromode_client import Client, ZeromodeError
 
 FOUR_BAR = four_bar()
 X = FOUR_BAR.positions
-A, B = np.linalg.norm(X[1] - X[0]), np.linalg.norm(X[2] - X[1])
-C, G = np.linalg.norm(X[3] - X[2]), np.linalg.norm(X[3] - X[0])
-PHI_MAX = float(np.arccos((A * A + G * G - (B + C) ** 2) / (2 * A * G)))
+A, B = np.linalg.norm(X[1] - X[0]), np.linalg.norm(X[2] - X[1])  # crank, coupler
+C, G = np.linalg.norm(X[3] - X[2]), np.linalg.norm(X[3] - X[0])  # rocker, ground
+PHI_MAX = crank_angle_limit(X)  # the crank angle's turning point
 CRANK = [3, 0, 1]
-
-
-def crank_angle(positions) -> float:
-    x = in_ground_frame(positions)
-    return float(np.arctan2(x[1, 1], x[1, 0]))
 
 
 def check_crank(body: dict, phi: float) -> None:

@@ -133,3 +133,18 @@ def four_bar_at_crank_angle(reference, phi: float) -> np.ndarray:
     normal = np.array([-e[1], e[0]]) / dist
     C = B + along * e / dist + side * h * normal
     return np.array([[0.0, 0.0], B, C, D])
+
+
+def crank_angle(positions) -> float:
+    """The four-bar's signed crank angle at node 0, from the ground (node 3) to node 1."""
+    x = in_ground_frame(positions)
+    return float(np.arctan2(x[1, 1], x[1, 0]))
+
+
+def crank_angle_limit(reference) -> float:
+    """The largest crank angle of a four-bar whose crank cannot turn fully (a rocker): coupler and
+    rocker collinear, |B − D| = b + c, so cos φ_max = (a² + g² − (b + c)²)/(2ag)."""
+    x = np.asarray(reference, float)
+    a, b = np.linalg.norm(x[1] - x[0]), np.linalg.norm(x[2] - x[1])
+    c, g = np.linalg.norm(x[3] - x[2]), np.linalg.norm(x[3] - x[0])
+    return float(np.arccos((a * a + g * g - (b + c) ** 2) / (2 * a * g)))
