@@ -59,17 +59,17 @@ from zeromode.solver.applications.sheet_module import (
     trammel_coordinates,
     trammel_module,
 )
-from zeromode.solver.budget import check_budget, remaining
-from zeromode.solver.errors import DomainError, InvalidInput
-from zeromode.solver.frame import Frame
-from zeromode.solver.motion.refine import ipopt_solver
-from zeromode.solver.motion.strain_range import (
+from zeromode.solver.applications.strain_range import (
     PROXIMITY_FRACTION,
     Patch,
     StrainRange,
     module_range,
     needed_reach,
 )
+from zeromode.solver.budget import check_budget, remaining
+from zeromode.solver.errors import DomainError, InvalidInput
+from zeromode.solver.frame import Frame
+from zeromode.solver.motion.refine import ipopt_solver
 from zeromode.solver.progress import progress_stage, report_steps
 
 # The stretches s searched (geometric grid: the deviation falls like 1/s², the size grows like s).

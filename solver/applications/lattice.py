@@ -40,13 +40,7 @@ from zeromode.solver.applications.sheet_module import (
     sheet_positions,
     two_node_module,
 )
-from zeromode.solver.construction.coupling import Module, check_transmission, couple
-from zeromode.solver.construction.design import design
-from zeromode.solver.construction.multimode import spatial_quadric
-from zeromode.solver.construction.solution_space import solution_space
-from zeromode.solver.errors import DomainError, InvalidInput
-from zeromode.solver.frame import Frame, check_extent
-from zeromode.solver.motion.strain_range import (
+from zeromode.solver.applications.strain_range import (
     PROXIMITY_FRACTION,
     ModuleMotion,
     StrainRange,
@@ -54,6 +48,12 @@ from zeromode.solver.motion.strain_range import (
     module_range,
     needed_reach,
 )
+from zeromode.solver.construction.coupling import Module, check_transmission, couple
+from zeromode.solver.construction.design import design
+from zeromode.solver.construction.multimode import spatial_quadric
+from zeromode.solver.construction.solution_space import solution_space
+from zeromode.solver.errors import DomainError, InvalidInput
+from zeromode.solver.frame import Frame, check_extent
 from zeromode.solver.progress import progress_stage, report_progress
 from zeromode.solver.tolerances import ROOT_IMAG_RTOL
 

@@ -3,6 +3,5 @@
 ``finite_motion`` continues the frame along its mode keeping every bar length (the nonlinear
 counterpart of C·u = 0); ``periodic`` does it one cell at a time for tiled frames; ``refine``
 moves the unspecified nodes (casadi/IPOPT) so the finite path follows the prescribed motions;
-``strain_range`` finds where a sheet's motion meets a collision or a turning point; ``target``
-stops the motion at a requested distance, angle, strain or fraction.
+``target`` stops the motion at a requested distance, angle, strain or fraction.
 """

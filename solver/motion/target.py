@@ -50,6 +50,7 @@ from scipy.spatial import cKDTree
 from zeromode.solver.analysis.normalisation import Normalisation
 from zeromode.solver.analysis.rigidity import DENSE_MAX_DOF
 from zeromode.solver.applications.lattice import boundary_sets
+from zeromode.solver.applications.strain_range import PROXIMITY_FRACTION
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame
 from zeromode.solver.motion.finite_motion import (
@@ -65,7 +66,6 @@ from zeromode.solver.motion.finite_motion import (
     trace_motion,
 )
 from zeromode.solver.motion.periodic import STOP_BISECTIONS, trace_motion_through_cell
-from zeromode.solver.motion.strain_range import PROXIMITY_FRACTION
 from zeromode.solver.tolerances import DISTINCT_RTOL, TARGET_RTOL
 
 # The search horizon: the largest path parameter (/v1/motion's largest amplitude) up to which a
