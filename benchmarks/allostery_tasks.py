@@ -21,8 +21,8 @@ from functools import lru_cache
 import numpy as np
 from scipy.spatial import Delaunay, cKDTree
 
-from benchmarks.pruning import SpringNetwork
 from zeromode.solver import Frame
+from zeromode.solver.analysis.bond_green import SpringNetwork
 
 DIM = 2
 PACKING_FRACTION = 0.9
@@ -98,7 +98,7 @@ def random_network(
 
     Z = 2 N_B / N and Z_iso = 2(dN − 3)/N, so the dilution stops at
     N_B = dN − 3 + round(ΔZ · N / 2) bars, or earlier if no bar can go without opening a zero
-    mode (D_b ≤ FLOPPY_RTOL, unit stiffnesses; see benchmarks.pruning). Each removal takes a
+    mode (D_b ≤ FLOPPY_RTOL, unit stiffnesses; see solver.analysis.bond_green). Each removal takes a
     long wall bar if any is left, else a bar joining the two best-connected nodes (largest
     z_i + z_j, seeded ties): this keeps Z uniform, so states of self-stress stay extended as
     in a jammed packing rather than pooling in over-braced clusters.

@@ -289,6 +289,43 @@ def network_allosteric_body(result, given_edges) -> dict:
     }
 
 
+def elastic_allosteric_body(result, given_edges) -> dict:
+    """POST /v1/design/allosteric/network with options.response "elastic", for an
+    elastic_allostery.ElasticAllostery; given_edges: the given frame's edges."""
+    given_edges = np.asarray(given_edges)
+    tuned = None
+    if result.tuned_edge is not None:
+        tuned = {
+            "edge": result.tuned_edge,
+            "bar": given_edges[result.tuned_edge].tolist(),
+            "given": result.tuned_stiffness[0],
+            "stiffness": result.tuned_stiffness[1],
+            "sensitivity": result.sensitivity,
+            "relative_sensitivity": result.relative_sensitivity,
+        }
+    return {
+        "response": "elastic",
+        "frame": frame_body(result.frame),
+        "stiffness": result.stiffness.tolist(),
+        "displacement": result.response.tolist(),
+        "report": {
+            "source": list(result.source_pair),
+            "target": list(result.target_pair),
+            "requested_strain_ratio": result.ratio,
+            "strain_ratio": result.strain_ratio,
+            "ratio_error": result.ratio_error,
+            "initial_strain_ratio": result.initial_ratio,
+            "removed_edges": list(result.removed_edges),
+            "removed_bars": given_edges[list(result.removed_edges)].reshape(-1, 2).tolist(),
+            "tuned": tuned,
+            "changes": result.changes,
+            "max_stiffness": result.max_stiffness,
+            "softest_mode_ratio": result.softest_mode,
+            "timings_ms": dict(result.timings_ms),
+        },
+    }
+
+
 # ----------------------------------------------------------------------------- finite motion
 
 

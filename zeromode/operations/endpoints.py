@@ -34,6 +34,7 @@ from zeromode.service.wire.responses import (
     auxetic_body,
     certificate_body,
     design_body,
+    elastic_allosteric_body,
     inaccurate_design_best,
     json_safe,
     motion_body,
@@ -45,8 +46,8 @@ from zeromode.service.wire.responses import (
 from zeromode.service.wire.schemas.allostery import (
     AllostericRequest,
     AllostericResponse,
+    NetworkAllostericAnswer,
     NetworkAllostericRequest,
-    NetworkAllostericResponse,
 )
 from zeromode.service.wire.schemas.analyze import AnalyzeRequest, AnalyzeResponse
 from zeromode.service.wire.schemas.certify import CertifyRequest, CertifyResponse
@@ -67,6 +68,11 @@ from zeromode.service.wire.schemas.motion import (
 )
 from zeromode.service.wire.settings import current_settings
 from zeromode.solver.applications.allostery import InaccurateDesign, design_allosteric
+from zeromode.solver.applications.elastic_allostery import (
+    MAX_STIFFNESS,
+    RatioOutOfReach,
+    tune_elastic,
+)
 from zeromode.solver.applications.finite_strain import FiniteStrainUnreachable
 from zeromode.solver.applications.lattice import path_strains
 from zeromode.solver.applications.network_allostery import tune_network
@@ -178,8 +184,31 @@ def allosteric(r: AllostericRequest) -> Outcome:
 
 def network_allosteric(r: NetworkAllostericRequest) -> Outcome:
     """POST /v1/design/allosteric/network: the smallest change found that makes a given network
-    respond exactly (bars removed, nodes added on solution spaces)."""
+    respond exactly — as one mechanism (bars removed, nodes added on solution spaces; the
+    default) or, with options.response "elastic", as a spring network relaxing under the
+    imposed source strain (bars removed, one stiffness changed). A ratio out of the elastic
+    edit's reach is refused with the best figures found."""
     given = Frame.build(r.frame.positions, r.frame.edges, dim=r.frame.dim)
+    o = r.options
+    if o.response == "elastic":
+        if r.strain_ratio is None or r.source_motion is not None or r.target_motion is not None:
+            raise InvalidInput(
+                "invalid_response", "the elastic response model takes strain_ratio for a source and a target pair, "
+                "not motions.",
+            )
+        try:
+            result = tune_elastic(
+                given, r.source, r.target, r.strain_ratio, stiffness=o.stiffness,
+                max_stiffness=MAX_STIFFNESS if o.max_stiffness is None else o.max_stiffness,
+            )
+        except RatioOutOfReach as exc:
+            raise with_best(exc, json_safe(exc.best)) from None
+        return Outcome(result, elastic_allosteric_body(result, given.edges))
+    if o.stiffness is not None or o.max_stiffness is not None:
+        raise InvalidInput(
+            "invalid_options", "stiffness and max_stiffness belong to the elastic response model "
+            "(options.response \"elastic\"); a mechanism holds whatever the stiffnesses.",
+        )
     result = tune_network(
         given, r.source, r.target, source_motion=r.source_motion, target_motion=r.target_motion,
         strain_ratio=r.strain_ratio, seed=r.options.seed,
@@ -287,7 +316,7 @@ OPERATIONS: dict[str, Operation] = {
     "/v1/design/two-configuration": Operation(two_configuration, TwoConfigurationRequest, TwoConfigurationResponse),
     "/v1/design/auxetic": Operation(auxetic, AuxeticRequest, AuxeticResponse),
     "/v1/design/allosteric": Operation(allosteric, AllostericRequest, AllostericResponse),
-    "/v1/design/allosteric/network": Operation(network_allosteric, NetworkAllostericRequest, NetworkAllostericResponse),
+    "/v1/design/allosteric/network": Operation(network_allosteric, NetworkAllostericRequest, NetworkAllostericAnswer),
     "/v1/motion": Operation(motion, MotionRequest, MotionResponse),
     "/v1/refine": Operation(refine, RefineRequest, RefineResponse),
     "/v1/certify": Operation(certify, CertifyRequest, CertifyResponse),

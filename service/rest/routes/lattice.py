@@ -9,8 +9,8 @@ from zeromode.operations import endpoints
 from zeromode.service.wire.schemas.allostery import (
     AllostericRequest,
     AllostericResponse,
+    NetworkAllostericAnswer,
     NetworkAllostericRequest,
-    NetworkAllostericResponse,
 )
 from zeromode.service.wire.schemas.common import ERROR_RESPONSES
 from zeromode.service.wire.schemas.lattice import AuxeticRequest, AuxeticResponse
@@ -34,10 +34,13 @@ def post_allosteric(request: AllostericRequest) -> dict:
     return endpoints.allosteric(request).body
 
 
-@router.post("/allosteric/network", response_model=NetworkAllostericResponse, responses=ERROR_RESPONSES)
+@router.post("/allosteric/network", response_model=NetworkAllostericAnswer, responses=ERROR_RESPONSES)
 def post_allosteric_network(request: NetworkAllostericRequest) -> dict:
     """The smallest change found that makes a given rigid network respond exactly: driving the
     source moves the target as prescribed (motions), or strains the target pair by η* times the
     source pair's strain. Bars the response strains are removed and nodes added on solution
-    spaces; the report lists what changed."""
+    spaces; the report lists what changed. With options.response "elastic" the bars are springs
+    and the source strain is imposed: bars are removed as tuning-by-pruning ranks them and one
+    bar's stiffness is changed so that η = η* exactly for the stated stiffnesses (the report gives
+    dη/dk of that bar); out of reach: 422 `ratio_out_of_reach` with the best figures."""
     return endpoints.network_allosteric(request).body

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, Field, FiniteFloat
+from pydantic import BaseModel, Field, FiniteFloat, RootModel
 
 from zeromode.service.wire.schemas.common import (
     AnalysisCounts,
@@ -138,10 +138,28 @@ class AllostericResponse(BaseModel):
 
 # ----------------------------------------------------------------------------- given network
 SpecifiedNodes = Annotated[list[int], Limited("max_specified")]
+PositiveFiniteFloat = Annotated[FiniteFloat, Field(gt=0)]
 
 
 class NetworkOptions(RequestModel):
     seed: int = Field(default=0, ge=0, description="Seed of the placement of added nodes.")
+    response: Literal["mechanism", "elastic"] = Field(
+        default="mechanism",
+        description=(
+            "mechanism: the network becomes one exact mechanism whose source drives the target (holds whatever "
+            "the bars' stiffnesses). elastic: the bars are springs, the source strain is imposed and the network "
+            "relaxes (linear response, pruning's model); bars are removed as pruning ranks them and one bar's "
+            "stiffness is changed so that η = η* exactly (holds for the stated stiffnesses; needs strain_ratio)."
+        ),
+    )
+    stiffness: Annotated[list[PositiveFiniteFloat], Limited("max_edges")] | None = Field(
+        default=None, description="elastic: the bars' stiffnesses, one per edge in order (default 1 each)."
+    )
+    max_stiffness: FiniteFloat | None = Field(
+        default=None,
+        ge=1,
+        description="elastic: the tuned bar's new stiffness lies in [0, max_stiffness × its own] (default 10).",
+    )
 
 
 class NetworkAllostericRequest(RequestModel):
@@ -193,3 +211,50 @@ class NetworkAllostericResponse(BaseModel):
     )
     modes: list[Points] = Field(description="Its one nontrivial zero mode (N×d), zero on the unmoved network.")
     report: NetworkAllostericReport
+
+
+class TunedStiffness(BaseModel):
+    edge: int = Field(description="Index into the given frame's edges.")
+    bar: tuple[int, int] = Field(description="That bar as a node pair.")
+    given: float = Field(description="Its stiffness in the given network.")
+    stiffness: float = Field(description="Its new stiffness, in (0, max_stiffness × given].")
+    sensitivity: float = Field(
+        description="dη/dk of this bar at its new stiffness: an error δk in making it moves η by about sensitivity × δk."
+    )
+    relative_sensitivity: float = Field(
+        description="k dη/dk: η's change per relative error of this stiffness (the bar is chosen to make it smallest)."
+    )
+
+
+class ElasticAllostericReport(BaseModel):
+    source: list[int]
+    target: list[int]
+    requested_strain_ratio: float = Field(description="η* asked for.")
+    strain_ratio: float = Field(
+        description="η = ε_T/ε_S of the edited network, from a fresh solve (sparse LU of the bordered system)."
+    )
+    ratio_error: float = Field(description="|η − η*| / max(1, |η*|); at most 1e-9.")
+    initial_strain_ratio: float = Field(description="η of the given network.")
+    removed_edges: list[int] = Field(description="Indices into the given frame's edges of the bars removed.")
+    removed_bars: list[tuple[int, int]] = Field(description="Those bars as node pairs.")
+    tuned: TunedStiffness | None = Field(description="The one bar whose stiffness changed (null: removals alone).")
+    changes: int = Field(description="Bars removed plus the bar whose stiffness changed.")
+    max_stiffness: float
+    softest_mode_ratio: float = Field(
+        description="Softest nontrivial stiffness eigenvalue of the edited network over the given network's (> 1e-4)."
+    )
+    timings_ms: dict[str, float]
+
+
+class ElasticAllostericResponse(BaseModel):
+    response: Literal["elastic"] = "elastic"
+    frame: ResultFrame = Field(description="The edited network: the given nodes, the kept bars in their order.")
+    stiffness: list[float] = Field(description="Stiffness of each kept bar (the tuned one changed).")
+    displacement: Points = Field(
+        description="The relaxed motion (N×d) for a unit source strain, orthogonal to the rigid motions."
+    )
+    report: ElasticAllostericReport
+
+
+class NetworkAllostericAnswer(RootModel[NetworkAllostericResponse | ElasticAllostericResponse]):
+    """The mechanism answer (options.response "mechanism", the default) or the elastic one."""
