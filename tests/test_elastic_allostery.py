@@ -1,11 +1,10 @@
 """The elastic response model of allostery in a given network (solver/applications/
 elastic_allostery.py), checked from its definition.
 
-The oracle, written here from scratch: the dense stiffness matrix K = Σ_b k_b q_b q_bᵀ (q_b the
-unit row of bar b: ±n_b on its two nodes), the source strain imposed by minimising ½uᵀKu under
-q_Sᵀu = ℓ_S through the KKT system solved by dense least squares (K is singular on the rigid
-motions, which strain nothing), η = ε_T/ε_S read off u. Stability: the singular values of
-diag(√k) Q (numpy SVD) leave exactly d(d+1)/2 zero modes. The edit is read from the answer's
+The oracle (tests/oracles/springs.py, from the definition): the dense stiffness matrix
+K = Σ_b k_b q_b q_bᵀ, the source strain imposed by minimising ½uᵀKu under q_Sᵀu = ℓ_S through the
+KKT system solved by dense least squares, η = ε_T/ε_S read off u. Stability: the singular values
+of diag(√k) Q (numpy SVD) leave exactly d(d+1)/2 zero modes. The edit is read from the answer's
 frame (kept bars = given bars less the removed ones) and stiffnesses (one changed at most).
 Networks: the issue's seeded jammed-like Delaunay networks (benchmarks/allostery_tasks.py).
 """
@@ -14,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from oracles.springs import spring_ratio, spring_zero_modes
 
 from benchmarks.allostery_tasks import make_task
 from zeromode.solver import DomainError, Frame, InvalidInput
@@ -22,38 +22,6 @@ from zeromode.solver.applications.elastic_allostery import (
     RatioOutOfReach,
     tune_elastic,
 )
-
-
-def unit_rows(x: np.ndarray, pairs) -> np.ndarray:
-    rows = np.zeros((len(pairs), x.size))
-    d = x.shape[1]
-    for r, (i, j) in enumerate(pairs):
-        unit = (x[i] - x[j]) / np.linalg.norm(x[i] - x[j])
-        rows[r, d * i : d * i + d] = unit
-        rows[r, d * j : d * j + d] = -unit
-    return rows
-
-
-def oracle_ratio(x: np.ndarray, edges: np.ndarray, k: np.ndarray, source, target) -> float:
-    """η = ε_T/ε_S of the spring network (stiffness k) relaxed under an imposed source strain."""
-    q = unit_rows(x, edges)
-    q_s = unit_rows(x, [source])[0]
-    kkt = np.block([[q.T @ (k[:, None] * q), q_s[:, None]], [q_s[None, :], np.zeros((1, 1))]])
-    rhs = np.zeros(x.size + 1)
-    rhs[-1] = np.linalg.norm(x[source[0]] - x[source[1]])  # ε_S = 1
-    u = np.linalg.lstsq(kkt, rhs, rcond=None)[0][:-1].reshape(x.shape)
-
-    def strain(pair):
-        i, j = pair
-        return (x[i] - x[j]) @ (u[i] - u[j]) / np.sum((x[i] - x[j]) ** 2)
-
-    return strain(target) / strain(source)
-
-
-def zero_modes(x: np.ndarray, edges: np.ndarray, k: np.ndarray) -> int:
-    """dim N(diag(√k) Q) by numpy's SVD, singular values below 1e-9 of the largest."""
-    s = np.linalg.svd(np.sqrt(k)[:, None] * unit_rows(x, edges), compute_uv=False)
-    return x.size - int(np.sum(s > 1e-9 * s[0]))
 
 
 def edited(task, result) -> tuple[np.ndarray, np.ndarray]:
@@ -81,13 +49,13 @@ def test_edit_is_exact_fewest_and_keeps_the_network_rigid(n, seed, ratio):
     result = tune_elastic(task.frame, task.source_pair, task.target_pair, ratio)
     x = task.frame.positions
     edges, k = edited(task, result)
-    eta = oracle_ratio(x, edges, k, task.source_pair, task.target_pair)
+    eta = spring_ratio(x, edges, k, task.source_pair, task.target_pair)
     assert abs(eta - ratio) <= 1e-9 * max(1.0, abs(ratio))
     assert result.strain_ratio == pytest.approx(eta, abs=1e-9)
     assert result.initial_ratio == pytest.approx(
-        oracle_ratio(x, task.frame.edges, np.ones(task.frame.n_edges), task.source_pair, task.target_pair), abs=1e-9
+        spring_ratio(x, task.frame.edges, np.ones(task.frame.n_edges), task.source_pair, task.target_pair), abs=1e-9
     )
-    assert zero_modes(x, edges, k) == 3 == zero_modes(x, task.frame.edges, np.ones(task.frame.n_edges))
+    assert spring_zero_modes(x, edges, k) == 3 == spring_zero_modes(x, task.frame.edges, np.ones(task.frame.n_edges))
     assert result.changes >= 1 and result.tuned_edge is not None
 
 
@@ -101,8 +69,8 @@ def test_sensitivity_is_the_slope_of_the_ratio_in_the_tuned_stiffness():
     up[b] += h
     down[b] -= h
     x = task.frame.positions
-    slope = (oracle_ratio(x, edges, up, task.source_pair, task.target_pair)
-             - oracle_ratio(x, edges, down, task.source_pair, task.target_pair)) / (2 * h)
+    slope = (spring_ratio(x, edges, up, task.source_pair, task.target_pair)
+             - spring_ratio(x, edges, down, task.source_pair, task.target_pair)) / (2 * h)
     assert result.sensitivity == pytest.approx(slope, rel=1e-4)
 
 
@@ -118,8 +86,8 @@ def test_no_single_stiffness_of_the_given_network_reaches_the_ratio_when_bars_we
         for value in (0.0, MAX_STIFFNESS):
             k = np.ones(len(edges))
             k[b] = value
-            ends.append(oracle_ratio(x, edges, k, task.source_pair, task.target_pair))
-        assert not min(ends) <= 2.0 <= max(ends) or zero_modes(x, edges[np.arange(len(edges)) != b], np.ones(len(edges) - 1)) > 3
+            ends.append(spring_ratio(x, edges, k, task.source_pair, task.target_pair))
+        assert not min(ends) <= 2.0 <= max(ends) or spring_zero_modes(x, edges[np.arange(len(edges)) != b], np.ones(len(edges) - 1)) > 3
 
 
 def test_stated_stiffnesses_are_honoured():
@@ -130,7 +98,7 @@ def test_stated_stiffnesses_are_honoured():
     kept = np.delete(np.arange(len(edges)), list(result.removed_edges))
     k = np.asarray(result.stiffness)
     assert np.count_nonzero(k != stiffness[kept]) == (result.tuned_edge is not None)
-    eta = oracle_ratio(x, edges[kept], k, task.source_pair, task.target_pair)
+    eta = spring_ratio(x, edges[kept], k, task.source_pair, task.target_pair)
     assert abs(eta + 1.0) <= 1e-9
 
 
@@ -147,7 +115,7 @@ def test_a_ratio_out_of_reach_is_refused_with_the_best_figures():
     keep[best["removed_edges"]] = False
     keep &= k > 0
     x = task.frame.positions
-    eta = oracle_ratio(x, task.frame.edges[keep], k[keep], task.source_pair, task.target_pair)
+    eta = spring_ratio(x, task.frame.edges[keep], k[keep], task.source_pair, task.target_pair)
     assert best["strain_ratio"] == pytest.approx(eta, rel=1e-6)
     assert abs(eta - 1e6) > 1e-9 * 1e6
 

@@ -10,37 +10,16 @@ import numpy as np
 import pytest
 from oracles.frames import SQUARE, TRIANGLE
 from oracles.rigidity import reference_counts
+from oracles.springs import spring_ratio
 
 from benchmarks.allostery_tasks import make_task
 from benchmarks.pruning import prune_for_allostery
 from zeromode.solver import DomainError, Frame, InvalidInput
 
 
-def unit_rows(x: np.ndarray, pairs) -> np.ndarray:
-    rows = np.zeros((len(pairs), x.size))
-    d = x.shape[1]
-    for r, (i, j) in enumerate(pairs):
-        unit = (x[i] - x[j]) / np.linalg.norm(x[i] - x[j])
-        rows[r, d * i : d * i + d] = unit
-        rows[r, d * j : d * j + d] = -unit
-    return rows
-
-
 def dense_ratio(x: np.ndarray, edges: np.ndarray, source, target) -> float:
     """η = ε_T/ε_S of the spring network (k = 1/ℓ) under an imposed source strain."""
-    q = unit_rows(x, edges)
-    k = 1.0 / np.linalg.norm(x[edges[:, 0]] - x[edges[:, 1]], axis=1)
-    q_s = unit_rows(x, [source])[0]
-    kkt = np.block([[q.T @ np.diag(k) @ q, q_s[:, None]], [q_s[None, :], np.zeros((1, 1))]])
-    rhs = np.zeros(x.size + 1)
-    rhs[-1] = 1.0
-    u = np.linalg.lstsq(kkt, rhs, rcond=None)[0][:-1].reshape(x.shape)
-
-    def strain(pair):
-        i, j = pair
-        return (x[i] - x[j]) @ (u[i] - u[j]) / np.sum((x[i] - x[j]) ** 2)
-
-    return strain(target) / strain(source)
+    return spring_ratio(x, edges, 1.0 / np.linalg.norm(x[edges[:, 0]] - x[edges[:, 1]], axis=1), source, target)
 
 
 def nontrivial_zero_modes(x: np.ndarray, edges: np.ndarray) -> int:

@@ -459,7 +459,11 @@ def allosteric(source: Any, target: Any, *, frame: Frame | Result | Mapping | No
     source_motion, target_motion, strain_ratio
         In a frame: the motions of the sites, or the target pair's strain over the source pair's.
     **options
-        The request's ``options`` (seed; from scratch also relay_spacing, relay_growth, tolerance).
+        The request's ``options`` (seed; from scratch also relay_spacing, relay_growth, tolerance;
+        in a frame also ``response="elastic"`` — the bars are springs, the source strain is imposed,
+        and bars are removed and one stiffness changed so that η = ``strain_ratio`` exactly for the
+        stated ``stiffness`` (default 1 each, the tuned bar within ``max_stiffness`` × its own,
+        default 10); the report gives that bar's dη/dk).
 
     Returns
     -------

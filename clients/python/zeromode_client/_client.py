@@ -191,11 +191,14 @@ class Client(_BaseClient):
         """POST /v1/design/allosteric with ``fields`` as the request object."""
         return self._send(ep.capability("/v1/design/allosteric", fields))
 
-    def design_allosteric_network(self, frame: FrameLike, **fields: Any) -> Result:
+    def design_allosteric_network(self, frame: FrameLike, *, response: str | None = None, **fields: Any) -> Result:
         """POST /v1/design/allosteric/network with ``{"frame": frame, **fields}`` (source, target,
         and source_motion with target_motion, or strain_ratio): the given network changed so
-        that its response is exact; ``result.frame`` is the modified network."""
-        return self._send(ep.capability("/v1/design/allosteric/network", fields, frame))
+        that its response is exact; ``result.frame`` is the modified network. ``response``:
+        "mechanism" (the server's default: one exact mechanism, bars removed and nodes added) or
+        "elastic" (springs under an imposed source strain: bars removed and one stiffness
+        changed; ``result["stiffness"]``, ``result["report"]["tuned"]``), sent as options.response."""
+        return self._send(ep.allosteric_network(frame, fields, response))
 
     def design_two_configuration(self, **fields: Any) -> Result:
         """POST /v1/design/two-configuration with ``fields`` (dim, initial, final, options)."""
@@ -412,8 +415,9 @@ class AsyncClient(_BaseClient):
     async def design_allosteric(self, **fields: Any) -> Result:
         return await self._send(ep.capability("/v1/design/allosteric", fields))
 
-    async def design_allosteric_network(self, frame: FrameLike, **fields: Any) -> Result:
-        return await self._send(ep.capability("/v1/design/allosteric/network", fields, frame))
+    async def design_allosteric_network(self, frame: FrameLike, *, response: str | None = None,
+                                        **fields: Any) -> Result:
+        return await self._send(ep.allosteric_network(frame, fields, response))
 
     async def design_two_configuration(self, **fields: Any) -> Result:
         return await self._send(ep.capability("/v1/design/two-configuration", fields))

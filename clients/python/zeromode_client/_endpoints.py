@@ -89,6 +89,15 @@ def capability(
     return Call("POST", path, jsonable(body), lambda data: Result(path, data))
 
 
+def allosteric_network(frame: Frame | Mapping[str, Any], fields: Mapping[str, Any],
+                       response: str | None) -> Call[Result]:
+    """POST /v1/design/allosteric/network; ``response`` ("mechanism" or "elastic"), when given,
+    goes into the request's options beside any the caller set."""
+    if response is not None:
+        fields = {**fields, "options": {**(fields.get("options") or {}), "response": response}}
+    return capability("/v1/design/allosteric/network", fields, frame)
+
+
 def motion(frame: Frame | Mapping[str, Any], options: Mapping[str, Any]) -> Call[Result]:
     """POST /v1/motion: the frame and the options the caller set."""
     return capability("/v1/motion", options, frame)
