@@ -301,7 +301,7 @@ def elastic_allosteric_body(result, given_edges) -> dict:
             "given": result.tuned_stiffness[0],
             "stiffness": result.tuned_stiffness[1],
             "sensitivity": result.sensitivity,
-            "relative_sensitivity": result.relative_sensitivity,
+            "scaled_sensitivity": result.scaled_sensitivity,
         }
     return {
         "response": "elastic",

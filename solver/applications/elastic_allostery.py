@@ -24,8 +24,9 @@ a ratio of affine functions of δ, without a pole while k_b + δ ≥ 0 (G_SS + �
 Before the first removal and after each, every bar's δ is solved; a bar lands when its new
 stiffness k_b + δ lies in [0, k_max·k_b] (k = 0: removed) and keeps 1 + δ G_bb > FLOPPY_RTOL (no
 new zero mode, as pruning's guard). The first step with a landing bar ends the search: its bars
-are tried least sensitive first (smallest |k dη/dk|, the change of η per relative error of the
-stiffness, which is how a bar's stiffness is made) and the first that passes ``verify`` is the
+are tried least sensitive first (smallest k_b |dη/dk|, the change of η per error of the new
+stiffness in units of the bar's given one — a bar's thickness is made to an absolute tolerance,
+whatever thickness is asked) and the first that passes ``verify`` is the
 answer — fewest changes: the removals so far plus one changed stiffness. Otherwise the bar whose
 removal brings η nearest η* goes (pruning's ranking: the same δ = −k_b formula over the bars whose
 removal opens no zero mode), until no removal brings η nearer, which is a 422 with the best
@@ -52,7 +53,7 @@ import scipy.sparse.linalg as spla
 from zeromode.solver.analysis.bond_green import FLOPPY_RTOL, SpringNetwork, check_pair, pair_row
 from zeromode.solver.analysis.eigen import smallest_eigenpairs
 from zeromode.solver.analysis.normalisation import rms_radius
-from zeromode.solver.analysis.rigidity import analyze
+from zeromode.solver.analysis.rigidity import analyze, rigid_motions
 from zeromode.solver.applications.network_allostery import TARGET_ERROR_MAX
 from zeromode.solver.budget import check_budget
 from zeromode.solver.errors import DomainError, InvalidInput
@@ -103,9 +104,10 @@ class ElasticAllostery:
     timings_ms: dict
 
     @property
-    def relative_sensitivity(self) -> float | None:
-        """k dη/dk of the tuned bar: η's change per relative error of its stiffness."""
-        return None if self.tuned_stiffness is None else self.tuned_stiffness[1] * self.sensitivity
+    def scaled_sensitivity(self) -> float | None:
+        """k_b dη/dk of the tuned bar, k_b its given stiffness: η's change per error of the new
+        stiffness in units of the given one."""
+        return None if self.tuned_stiffness is None else self.tuned_stiffness[0] * self.sensitivity
 
     @property
     def changes(self) -> int:
@@ -148,24 +150,6 @@ def stiffness_matrix(positions: np.ndarray, edges: np.ndarray, stiffness: np.nda
     return sp.csc_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(d * n, d * n))
 
 
-def rigid_basis(positions: np.ndarray) -> np.ndarray:
-    """Orthonormal (dN × d(d+1)/2) basis of the translations and infinitesimal rotations
-    u_i = E_ab x_i (E_ab = e_a e_bᵀ − e_b e_aᵀ), positions (N, d) centred."""
-    n, d = positions.shape
-    columns = []
-    for a in range(d):
-        t = np.zeros((n, d))
-        t[:, a] = 1.0
-        columns.append(t.ravel())
-    for a in range(d):
-        for b in range(a + 1, d):
-            r = np.zeros((n, d))
-            r[:, a], r[:, b] = -positions[:, b], positions[:, a]
-            columns.append(r.ravel())
-    q, _ = np.linalg.qr(np.column_stack(columns))
-    return q
-
-
 def verify(positions, edges, stiffness, source_pair, target_pair) -> Verified:
     """η of the network (positions (N, d) centred, edges (N_B, 2), stiffness (N_B,)) by the
     bordered system of the module docstring, solved by sparse LU."""
@@ -177,7 +161,7 @@ def verify(positions, edges, stiffness, source_pair, target_pair) -> Verified:
         q[i], q[j] = e / np.linalg.norm(e), -e / np.linalg.norm(e)
         rows.append((q.ravel(), float(np.linalg.norm(e))))
     (q_s, l_s), (q_t, l_t) = rows
-    border = sp.csc_matrix(np.column_stack([q_s, rigid_basis(positions)]))
+    border = sp.csc_matrix(np.column_stack([q_s, rigid_motions(positions)]))
     system = sp.bmat([[stiffness_matrix(positions, edges, stiffness), border], [border.T, None]], format="csc")
     rhs = np.zeros(system.shape[0])
     rhs[d * n] = l_s  # ε_S = 1
@@ -193,7 +177,8 @@ def verify(positions, edges, stiffness, source_pair, target_pair) -> Verified:
 def softest_mode(positions, edges, stiffness) -> float:
     """λ_min of K compressed to the complement of the rigid motions (Lanczos, eigen.py)."""
     k = stiffness_matrix(positions, edges, stiffness)
-    return float(smallest_eigenpairs(k, 1, deflate=rigid_basis(positions)).values[0])
+    values = smallest_eigenpairs(k, 1, deflate=rigid_motions(positions)).values
+    return float(values[0]) if values.size else float("inf")  # no motion but rigid ones
 
 
 def _stiffness(frame: Frame, stiffness) -> np.ndarray:
@@ -314,7 +299,7 @@ def tune_elastic(
             lands = stiff_enough(delta) & np.isfinite(delta) & (new_k >= 0) & (new_k <= max_stiffness * k)
             slope = rho * (a * g_ss - c * g_ts) / (g_ss + delta * c) ** 2  # dη/dk at k + δ
         bars = np.flatnonzero(lands)
-        for b in bars[np.argsort(np.abs(new_k[bars] * slope[bars]))][:MAX_VERIFIED]:
+        for b in bars[np.argsort(np.abs(k[bars] * slope[bars]))][:MAX_VERIFIED]:
             edit = _Edit(tuple(removed), int(b), float(new_k[b]), float(slope[b]))
             if answer := _verified(problem, edit):
                 return _done(answer, started)

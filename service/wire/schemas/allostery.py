@@ -221,8 +221,11 @@ class TunedStiffness(BaseModel):
     sensitivity: float = Field(
         description="dη/dk of this bar at its new stiffness: an error δk in making it moves η by about sensitivity × δk."
     )
-    relative_sensitivity: float = Field(
-        description="k dη/dk: η's change per relative error of this stiffness (the bar is chosen to make it smallest)."
+    scaled_sensitivity: float = Field(
+        description=(
+            "given × dη/dk: η's change per error of the new stiffness in units of the given one (the bar is "
+            "chosen, among those that reach η*, to make it smallest)."
+        )
     )
 
 
