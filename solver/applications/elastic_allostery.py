@@ -22,15 +22,17 @@ a ratio of affine functions of δ, without a pole while k_b + δ ≥ 0 (G_SS + �
     dη/dk = ρ (a_b G_SS − c_b G_TS) / (G_SS + δ c_b)².
 
 Before the first removal and after each, every bar's δ is solved; a bar lands when its new
-stiffness k_b + δ lies in [0, k_max·k_b] (k = 0: removed) and keeps 1 + δ G_bb > FLOPPY_RTOL (no
-new zero mode, as pruning's guard). The first step with a landing bar ends the search: its bars
+stiffness k_b + δ lies in [0, k_max·k_b] (k = 0: removed) and the change passes ``_stiff_enough``:
+1 + δ G_bb > FLOPPY_RTOL (no new zero mode, pruning's guard) and the Rayleigh bound on the softest
+mode after it, 2(1 + δ G_bb)/G_bb, not below the floor of the verification (a change that must
+fail it is not tried). The first step with a landing bar ends the search: its bars
 are tried least sensitive first (smallest k_b |dη/dk|, the change of η per error of the new
 stiffness in units of the bar's given one — a bar's thickness is made to an absolute tolerance,
 whatever thickness is asked) and the first that passes ``verify`` is the
 answer — fewest changes: the removals so far plus one changed stiffness. Otherwise the bar whose
 removal brings η nearest η* goes (pruning's ranking: the same δ = −k_b formula over the bars whose
-removal opens no zero mode), until no removal brings η nearer, which is a 422 with the best
-figures found. One sparse factorisation serves the whole search (SpringNetwork: Woodbury
+removal passes ``_stiff_enough``), until no removal brings η nearer, which is a 422 with the best
+verified figures found (``_best_figures``). One sparse factorisation serves the whole search (SpringNetwork: Woodbury
 updates), the G_bb from the maintained redundancies D_b = 1 − k_b G_bb.
 
 Verification, by another route than the search's: K assembled afresh from the positions and the
