@@ -144,3 +144,20 @@ def test_a_floppy_network_is_refused():
     with pytest.raises(DomainError) as err:
         tune_elastic(square, (0, 2), (1, 3), 1.0)
     assert err.value.code == "floppy_network"
+
+
+def test_three_dimensional_network():
+    """The model is d-general: a 3D Delaunay network (over-braced), η* reached exactly."""
+    from scipy.spatial import Delaunay
+
+    x = np.random.default_rng(3).uniform(-1, 1, (60, 3))
+    tets = Delaunay(x).simplices
+    pairs = np.concatenate([tets[:, [i, j]] for i in range(4) for j in range(i + 1, 4)])
+    frame = Frame.build(x, np.unique(np.sort(pairs, axis=1), axis=0))
+    order = np.argsort(np.linalg.norm(x - x[0], axis=1))
+    source, target = (0, int(order[1])), (int(order[-1]), int(order[-2]))
+    result = tune_elastic(frame, source, target, -0.3)
+    k = np.asarray(result.stiffness)
+    assert np.array_equal(result.frame.edges, np.delete(frame.edges, list(result.removed_edges), axis=0))
+    assert abs(spring_ratio(x, result.frame.edges, k, source, target) + 0.3) <= 1e-9
+    assert spring_zero_modes(x, result.frame.edges, k) == 6

@@ -65,3 +65,19 @@ def test_async_client_tunes_a_spring_network_exactly(service_url: str) -> None:
             )
 
     check(asyncio.run(run()), -1.0)
+
+
+@pytest.mark.parametrize(
+    ("fields", "code"),
+    [
+        ({"response": "elastic", "source_motion": [[0.0, 0.0], [1.0, 0.0]], "target_motion": [[0.0, 0.0], [1.0, 0.0]]},
+         "invalid_response"),
+        ({"strain_ratio": 1.0, "options": {"stiffness": [1.0] * TASK.frame.n_edges}}, "invalid_options"),
+        ({"response": "elastic", "strain_ratio": 1.0, "options": {"stiffness": [1.0, 2.0]}}, "invalid_stiffness"),
+        ({"response": "elastic", "strain_ratio": 1.0, "options": {"max_stiffness": 0.5}}, "invalid_request"),
+    ],
+)
+def test_requests_without_meaning_are_refused(service_url: str, fields, code) -> None:
+    with Client(service_url, timeout=60.0) as client, pytest.raises(ZeromodeError) as err:
+        client.design_allosteric_network(GIVEN, **PAIRS, **fields)
+    assert 400 <= err.value.status < 500 and err.value.code == code
