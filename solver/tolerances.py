@@ -71,3 +71,11 @@ REACHED_EPS = 1e-6
 # 1 for an angle in radians or a strain); Newton on the augmented system converges
 # quadratically, so it goes to round-off (≈ 1e-15) and this leaves five decades of margin.
 TARGET_RTOL = 1e-10
+
+# --- multistable designs --------------------------------------------------------------------
+
+# A relaxation of the rods-and-springs energy from a perturbed minimum lands back in it when it
+# ends within this distance (over RMS radius · √N, modulo rigid motions): trust-region Newton
+# converges quadratically to round-off (≈ 1e-12 here, the Hessian's conditioning ~1e7 taking
+# four decades), so 1e-6 separates "the same minimum" from any other by orders of magnitude.
+MINIMUM_LANDING_RTOL = 1e-6
