@@ -14,7 +14,7 @@ from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.multistable.linkage import Linkage, design_linkage
 from zeromode.solver.multistable.springs import Landscape, Springs, design_springs
 from zeromode.solver.multistable.verify import MinimumCheck, check_minima
-from zeromode.solver.normalisation import Normalisation
+from zeromode.solver.analysis.normalisation import Normalisation
 from zeromode.solver.progress import progress_stage
 
 # The barrier asked for by default, in units of k_max · r² (r the RMS radius of conformation a).

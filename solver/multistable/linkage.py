@@ -40,9 +40,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from zeromode.solver.design import check_specified_distinct
+from zeromode.solver.construction.design import check_specified_distinct
 from zeromode.solver.errors import DomainError, InvalidInput
-from zeromode.solver.finite_motion import (
+from zeromode.solver.motion.finite_motion import (
     MotionPath,
     align_to,
     bar_lengths,
@@ -51,9 +51,9 @@ from zeromode.solver.finite_motion import (
     trace_motion,
 )
 from zeromode.solver.frame import Frame, check_extent, check_positions
-from zeromode.solver.normalisation import Normalisation
-from zeromode.solver.rank import decide_rank
-from zeromode.solver.rigidity import compatibility_matrix, rigid_motions
+from zeromode.solver.analysis.normalisation import Normalisation
+from zeromode.solver.analysis.rank import decide_rank
+from zeromode.solver.analysis.rigidity import compatibility_matrix, rigid_motions
 from zeromode.solver.tolerances import (
     CONSTRAINT_ATOL,
     PLACEMENT_RTOL,
@@ -61,7 +61,7 @@ from zeromode.solver.tolerances import (
     RIGID_RTOL,
     ROOT_IMAG_RTOL,
 )
-from zeromode.solver.two_configuration import design_two_configurations
+from zeromode.solver.construction.two_configuration import design_two_configurations
 
 # Bars of each added node (m): 3d + 2 − 2m ≥ 2 keeps a real solution set generic, and m − d = 1
 # removes one degree of freedom per node.

@@ -46,11 +46,11 @@ import cvxpy as cp
 import numpy as np
 
 from zeromode.solver.errors import DomainError
-from zeromode.solver.finite_motion import align_to
+from zeromode.solver.motion.finite_motion import align_to
 from zeromode.solver.multistable.linkage import Linkage
-from zeromode.solver.normalisation import Normalisation
-from zeromode.solver.rank import decide_rank
-from zeromode.solver.rigidity import compatibility_matrix, rigid_motions
+from zeromode.solver.analysis.normalisation import Normalisation
+from zeromode.solver.analysis.rank import decide_rank
+from zeromode.solver.analysis.rigidity import compatibility_matrix, rigid_motions
 
 # Rest lengths allowed, as multiples of (shortest, longest) length of the spring along the
 # motion: a spring neither collapses to a point nor is much longer than anything it joins.
