@@ -1,8 +1,8 @@
 """The service's documents, recognised by their fields: what ``zeromode plot``, ``zeromode export``,
 POST /v1/plot and POST /v1/export accept besides their own bodies.
 
-A document is a request or response body of /v1/design, /v1/design/auxetic or
-/v1/design/allosteric — a request is designed first (``respond``), so a request and its response
+A document is a request or response body of /v1/design, /v1/design/auxetic,
+/v1/design/allosteric or /v1/design/multistable — a request is designed first (``respond``), so a request and its response
 give the same document — a /v1/refine response, a /v1/motion response (which has no frame: the
 frame it moved comes with it), or any other body with a ``frame``.
 """
@@ -11,14 +11,16 @@ from __future__ import annotations
 
 from pydantic import BaseModel, ValidationError
 
-from zeromode.service.responses import allosteric_body, auxetic_body, design_body
+from zeromode.service.responses import allosteric_body, auxetic_body, design_body, multistable_body
 from zeromode.service.schemas.allostery import AllostericRequest
 from zeromode.service.schemas.common import FrameModel, Points
 from zeromode.service.schemas.design import DesignRequest
 from zeromode.service.schemas.lattice import AuxeticRequest, LatticeState
+from zeromode.service.schemas.multistable import MultistableRequest
 from zeromode.solver.applications.allostery import AllostericDesign, design_allosteric
 from zeromode.solver.certificates.fabrication import ToleranceReport, tolerance_report
 from zeromode.solver.errors import InvalidInput
+from zeromode.solver.multistable.design import design_multistable
 from zeromode.solver.pipeline import (
     AuxeticResult,
     RefineStage,
@@ -103,10 +105,13 @@ def respond(doc: dict) -> tuple[dict, BaseModel]:
         r = validated(doc, DesignRequest)
         result = design_pipeline(**design_arguments(r))
         return design_body(result, result.timings_ms), r
+    if "conformations" in doc:
+        r = validated(doc, MultistableRequest)
+        return multistable_body(design_multistable(**multistable_arguments(r)), {}), r
     raise InvalidInput(
         "invalid_document",
         "the document is neither a body with a frame nor a request or response of /v1/design, "
-        "/v1/design/auxetic or /v1/design/allosteric.",
+        "/v1/design/auxetic, /v1/design/allosteric or /v1/design/multistable.",
     )
 
 
@@ -120,6 +125,16 @@ def design_arguments(r: DesignRequest) -> dict:
         "refine_stage": None if o.refine is None else RefineStage(**o.refine.model_dump()),
         "certify_stage": o.certify,
         "tolerance_stage": None if o.tolerance is None else ToleranceStage(**o.tolerance.model_dump()),
+    }
+
+
+def multistable_arguments(r: MultistableRequest) -> dict:
+    """design_multistable's arguments for a /v1/design/multistable request (its route, the
+    library's zm.multistable and ``respond`` take them)."""
+    o = r.options
+    return {
+        "conformations": r.conformations, "barrier": o.barrier, "max_stiffness": o.max_stiffness,
+        "dim": r.dim, "seed": o.seed,
     }
 
 

@@ -557,3 +557,55 @@ def sweep_body(sweep: dict, finished_points: list[dict], after: int) -> dict:
         "results": [sweep_point_body(p) for p in finished_points],
         "next": finished_points[-1]["seq"] if finished_points else after,
     }
+
+
+def multistable_body(result, timings_ms: dict) -> dict:
+    """/v1/design/multistable for a MultistableDesign: the rods, the springs, the energy along
+    the motion, each minimum with its verification, and the report."""
+    link, springs, land = result.linkage, result.springs, result.landscape
+    frame = link.frame
+    return {
+        "frame": frame_body(frame),
+        "conformations": link.conformations.tolist(),
+        "springs": {
+            "pairs": springs.pairs.tolist(),
+            "stiffness": springs.stiffness.tolist(),
+            "rest_length": springs.rest_length.tolist(),
+        },
+        "landscape": {
+            "arclength": land.arclength.tolist(),
+            "energy": land.energy.tolist(),
+            "conformation_samples": land.conformation_samples.tolist(),
+        },
+        "minima": [
+            {
+                "index": m.index,
+                "arclength": m.arclength,
+                "energy": m.energy,
+                "slope": m.slope,
+                "curvature": m.curvature,
+                "barrier_before": m.barrier_before,
+                "barrier_after": m.barrier_after,
+                "hessian_min_eigenvalue": c.hessian_min_eigenvalue,
+                "relaxed_shift": c.relaxed_shift,
+                "worst_landing": c.worst_landing,
+            }
+            for m, c in zip(land.minima, result.checks)
+        ],
+        "report": {
+            "construction": link.construction,
+            "analysis": counts_body(link.analysis),
+            "unspecified_nodes": frame.n_nodes - len(frame.specified),
+            "rods": frame.n_edges,
+            "springs": len(springs.pairs),
+            "parameters": link.parameters.tolist(),
+            "epsilons": link.epsilons.tolist(),
+            "gap": link.gap,
+            "max_length_mismatch": link.max_length_mismatch,
+            "barrier": result.barrier,
+            "max_stiffness": result.max_stiffness,
+            "rod_stiffness_ratio": result.rod_stiffness_ratio,
+            "relaxations": result.relaxations,
+            "timings_ms": timings_ms,
+        },
+    }

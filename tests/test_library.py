@@ -76,7 +76,7 @@ def test_exported_members():
     # Like httpx's tests/test_exported_members.py: the public surface is this list, each name real.
     assert zm.__all__ == [
         "Frame", "allosteric", "analyze", "auxetic", "certify", "design", "examples", "motion",
-        "refine", "sweep", "two_configuration",
+        "multistable", "refine", "sweep", "two_configuration",
     ]
     for name in zm.__all__:
         assert getattr(zm, name) is not None

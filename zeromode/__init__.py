@@ -29,6 +29,7 @@ __all__ = [
     "design",
     "examples",
     "motion",
+    "multistable",
     "refine",
     "sweep",
     "two_configuration",
@@ -40,8 +41,8 @@ _HOMES: dict[str, tuple[str, str | None]] = {
     "examples": ("zeromode.examples", None),
     **{
         name: ("zeromode._library", name)
-        for name in ("allosteric", "analyze", "auxetic", "certify", "design", "motion", "refine", "sweep",
-                     "two_configuration")
+        for name in ("allosteric", "analyze", "auxetic", "certify", "design", "motion", "multistable", "refine",
+                     "sweep", "two_configuration")
     },
 }
 
@@ -54,6 +55,7 @@ if TYPE_CHECKING:  # the names as a type checker sees them, without importing th
         certify,
         design,
         motion,
+        multistable,
         refine,
         sweep,
         two_configuration,

@@ -22,6 +22,7 @@ from zeromode._results import (
     CertificateResult,
     DesignResult,
     MotionResult,
+    MultistableResult,
     RefineResult,
     Result,
 )
@@ -38,6 +39,7 @@ __all__ = [
     "certify",
     "design",
     "motion",
+    "multistable",
     "refine",
     "sweep",
     "two_configuration",
@@ -356,6 +358,62 @@ def two_configuration(initial: Points, final: Points, *, dim: int | None = None,
 
 
 # ----------------------------------------------------------------------------- beyond the linear design
+
+
+def multistable(conformations: Sequence[Points], *, barrier: float | None = None, max_stiffness: float = 1.0,
+                dim: int | None = None, seed: int = 0) -> MultistableResult:
+    """Rods and springs whose specified nodes rest in each of 2 or 3 conformations: a strict
+    local minimum of the elastic energy E = Σ_s k_s (|x_i − x_j| − L_s)²/2 along the rods'
+    one-degree-of-freedom motion, which passes through them in order (POST
+    /v1/design/multistable).
+
+    The linkage generalises the two-configuration design: for three conformations each new
+    node solves, per anchor, two linear equations in (p^a, p^b, p^c, s_ab, s_ac) and two
+    quadrics; the path is verified by continuation of the exact finite motion. The springs
+    solve a cone program (E′ = 0, E″ ≥ floor, barriers ≥ ``barrier``, least stored energy).
+    Every minimum is verified by the Hessian of the full energy (rods as stiff springs) and by
+    seeded relaxations before the result is returned.
+
+    Parameters
+    ----------
+    conformations : sequence of 2 or 3 (k, d) array_like
+        The specified nodes in each conformation, k ≥ d + 1, in the order of the motion.
+    barrier : float, optional
+        Smallest barrier between neighbouring minima (default 1e-4 · max_stiffness · r²).
+    max_stiffness : float
+        Largest spring stiffness.
+    dim : {2, 3}, optional
+        The dimension (by default the width of the first conformation).
+    seed : int
+        Seed of the placement and the relaxations.
+
+    Returns
+    -------
+    MultistableResult
+        ``solution`` is the solver's MultistableDesign; ``plot()`` the energy landscape.
+
+    Examples
+    --------
+    >>> import zeromode as zm
+    >>> apex = [[0.3, 0.8], [0.45, 1.0], [0.65, 1.15]]
+    >>> r = zm.multistable([[[0, 0], [1, 0], p] for p in apex])
+    >>> [m["curvature"] > 0 for m in r.to_dict()["minima"]]
+    [True, True, True]
+    """
+    from zeromode.service.documents import multistable_arguments
+    from zeromode.service.responses import multistable_body
+    from zeromode.solver.multistable.design import design_multistable
+
+    request = _request("multistable.MultistableRequest", {
+        "dim": _dim(conformations[0], dim), "conformations": conformations,
+        "options": {"barrier": barrier, "max_stiffness": max_stiffness, "seed": seed},
+    })
+    t0 = time.perf_counter()
+    result = design_multistable(**multistable_arguments(request))
+    return MultistableResult(request, result, _wire(
+        "multistable.MultistableResponse", multistable_body(result, _total_ms(t0))
+    ))
+
 
 
 def motion(frame: Frame | Result | Mapping, mode: int | Points | None = None, **fields: Any) -> MotionResult:

@@ -257,3 +257,16 @@ def _plot_modes() -> int:
     from zeromode.service.schemas.plot import MAX_PLOT_MODES
 
     return MAX_PLOT_MODES
+
+
+class MultistableResult(Result):
+    """``zm.multistable``: rods and springs whose conformations are energy minima (solution:
+    MultistableDesign). ``plot()`` draws the energy landscape under the motion; the picture
+    (``_repr_svg_``) is the rods in the first conformation."""
+
+    def plot(self, width: float = 6.4, height: float = 3.6) -> Figure:
+        """E(s) along the motion with each minimum, its curvature and the barriers (a matplotlib
+        Figure)."""
+        from zeromode.viz.landscape import landscape_figure
+
+        return landscape_figure(self.body, width, height)

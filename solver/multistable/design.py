@@ -13,7 +13,7 @@ import numpy as np
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.multistable.linkage import Linkage, design_linkage
 from zeromode.solver.multistable.springs import Landscape, Springs, design_springs
-from zeromode.solver.multistable.verify import MinimumCheck, check_minima
+from zeromode.solver.multistable.verify import RELAXATIONS, ROD_STIFFNESS_RATIO, MinimumCheck, check_minima
 from zeromode.solver.analysis.normalisation import Normalisation
 from zeromode.solver.progress import progress_stage
 
@@ -33,6 +33,8 @@ class MultistableDesign:
     checks: tuple[MinimumCheck, ...]
     barrier: float
     max_stiffness: float
+    rod_stiffness_ratio: float = ROD_STIFFNESS_RATIO
+    relaxations: int = RELAXATIONS
 
 
 def design_multistable(

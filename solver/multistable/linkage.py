@@ -36,7 +36,7 @@ nontrivial zero mode at every sample of the way; its smallest σ_r/σ_max is rep
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -53,7 +53,7 @@ from zeromode.solver.motion.finite_motion import (
 from zeromode.solver.frame import Frame, check_extent, check_positions
 from zeromode.solver.analysis.normalisation import Normalisation
 from zeromode.solver.analysis.rank import decide_rank
-from zeromode.solver.analysis.rigidity import compatibility_matrix, rigid_motions
+from zeromode.solver.analysis.rigidity import Analysis, analyze, compatibility_matrix, rigid_motions
 from zeromode.solver.tolerances import (
     CONSTRAINT_ATOL,
     PLACEMENT_RTOL,
@@ -89,6 +89,9 @@ POLISH_ITERATIONS = 6
 # EXTENSIONS times while the last conformation sits at its end.
 PATH_MARGIN = 1.6
 EXTENSIONS = 3
+# The motion is also traced this far before the first conformation (as a fraction of the mean
+# parameter distance between neighbouring conformations), for the energy landscape's view.
+OUTER_MARGIN = 0.3
 # Samples of the path between consecutive conformations (for the energy chart and the springs).
 SAMPLES_PER_LEG = 60
 
@@ -97,11 +100,12 @@ SAMPLES_PER_LEG = 60
 class Linkage:
     """frame: the linkage in conformation a (specified nodes first, at x_S^a exactly);
     conformations: (C, N, d) every node in each conformation (rows of the specified nodes
-    exact); path: the traced finite motion from a (forward, through b to c); parameters: (C,)
+    exact); path: the traced finite motion through a, b, c (and OUTER_MARGIN before a); parameters: (C,)
     path parameter τ of each conformation (τ_a = 0); epsilons: (C,) finite-motion fidelity of
     each (over all nodes; 0 for a); gap: smallest σ_r/σ_max of C (normalised) over the path
     samples from a to the last conformation, every one with exactly one nontrivial zero mode;
-    max_length_mismatch: largest relative difference of a bar's length between conformations."""
+    max_length_mismatch: largest relative difference of a bar's length between conformations;
+    construction: how it was built; analysis: the counts of the frame in conformation a."""
 
     frame: Frame
     conformations: np.ndarray
@@ -111,6 +115,7 @@ class Linkage:
     gap: float
     max_length_mismatch: float
     construction: str
+    analysis: Analysis
 
     @property
     def arclength_scale(self) -> float:
@@ -453,7 +458,29 @@ def _verified(frame: Frame, conformations: np.ndarray, construction: str):
     gap = _gap_along(path, frame.edges, taus[-1])
     if gap is None:
         return None, "the frame has more than one nontrivial zero mode somewhere along the motion"
-    return Linkage(frame, conformations, path, taus, eps, gap, mismatch, construction), ""
+    path = _with_lead_in(frame, mode, path, OUTER_MARGIN * taus[-1] / (len(taus) - 1), step)
+    return Linkage(frame, conformations, path, taus, eps, gap, mismatch, construction, analyze(frame, bases=False)), ""
+
+
+def _with_lead_in(frame: Frame, mode: np.ndarray, path: MotionPath, amplitude: float, step: float) -> MotionPath:
+    """``path`` (forward from conformation a) with the motion before a prepended, traced
+    backward to parameter −``amplitude`` (the energy landscape's view before the first
+    minimum); ``path`` unchanged if that stretch meets a singular point or cannot be traced."""
+    try:
+        back = trace_motion(frame, mode=mode, amplitude=amplitude, max_step=step, direction="backward")
+    except DomainError:
+        return path
+    if back.singularities:
+        return path
+    lead = back.reference_index  # samples before a, ordered by parameter
+    return replace(
+        path,
+        positions=np.concatenate([back.positions[:lead], path.positions]),
+        parameter=np.concatenate([back.parameter[:lead], path.parameter]),
+        reference_index=path.reference_index + lead,
+        max_relative_bar_error=max(path.max_relative_bar_error, back.max_relative_bar_error),
+        singularities=tuple(replace(x, step=x.step + lead) for x in path.singularities),
+    )
 
 
 def _mode_towards(frame: Frame, target: np.ndarray) -> np.ndarray:

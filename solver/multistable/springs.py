@@ -47,7 +47,7 @@ import numpy as np
 
 from zeromode.solver.errors import DomainError
 from zeromode.solver.motion.finite_motion import align_to
-from zeromode.solver.multistable.linkage import Linkage
+from zeromode.solver.multistable.linkage import OUTER_MARGIN, Linkage
 from zeromode.solver.analysis.normalisation import Normalisation
 from zeromode.solver.analysis.rank import decide_rank
 from zeromode.solver.analysis.rigidity import compatibility_matrix, rigid_motions
@@ -62,9 +62,6 @@ CURVATURE_FLOOR = 1e-3
 BARRIER_MARGIN = 1e-3
 # Springs whose stiffness the linear program leaves below this fraction of k_max are dropped.
 DROP_RTOL = 1e-7
-# Margins of the path sampled beyond the first and last conformations, as a fraction of the
-# mean distance (in τ) between neighbouring conformations.
-OUTER_MARGIN = 0.3
 
 
 @dataclass(frozen=True, eq=False)

@@ -201,13 +201,19 @@ class Client(_BaseClient):
         """POST /v1/design/two-configuration with ``fields`` (dim, initial, final, options)."""
         return self._send(ep.capability("/v1/design/two-configuration", fields))
 
+    def design_multistable(self, **fields: Any) -> Result:
+        """POST /v1/design/multistable with ``fields`` (dim, conformations, options: barrier,
+        max_stiffness, seed): rods and springs whose 2 or 3 conformations are energy minima."""
+        return self._send(ep.capability("/v1/design/multistable", fields))
+
     def plot(self, frame: FrameLike, **fields: Any) -> str:
         """POST /v1/plot with ``{"frame": frame, **fields}`` (modes, targets, solution_space, …):
         the picture as SVG text."""
         return self._send(ep.plot(frame, fields))
 
     def examples(self) -> list[dict[str, str]]:
-        """GET /v1/examples: the named examples, each ``{"name", "description"}``."""
+        """GET /v1/examples: the named examples, each ``{"name", "description", "endpoint"}`` (the
+        path its request is for)."""
         return self._send(ep.examples())
 
     def example(self, name: str) -> dict[str, Any]:
@@ -417,6 +423,9 @@ class AsyncClient(_BaseClient):
 
     async def design_two_configuration(self, **fields: Any) -> Result:
         return await self._send(ep.capability("/v1/design/two-configuration", fields))
+
+    async def design_multistable(self, **fields: Any) -> Result:
+        return await self._send(ep.capability("/v1/design/multistable", fields))
 
     async def plot(self, frame: FrameLike, **fields: Any) -> str:
         return await self._send(ep.plot(frame, fields))
