@@ -3,6 +3,8 @@ alone by the tests' own oracles: rods keep their lengths in every conformation, 
 continuation meets them, the energy and the rods-as-constraints curvature from the definition,
 and the barriers on the body's own landscape."""
 
+import itertools
+
 import numpy as np
 import pytest
 from oracles.elastic import constrained_curvature, energy
@@ -49,7 +51,7 @@ def test_served_design_is_tristable_by_the_definition(body):
     e = np.asarray(body["landscape"]["energy"])
     at = body["landscape"]["conformation_samples"]
     barrier = body["report"]["barrier"]
-    for left, right in zip(at[:-1], at[1:]):
+    for left, right in itertools.pairwise(at):
         top = e[left : right + 1].max()
         assert top - max(e[left], e[right]) >= barrier * (1 - 1e-9)
         assert e[left] < e[left + 1] and e[right] < e[right - 1]  # strict minima on the samples

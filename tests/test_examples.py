@@ -18,7 +18,12 @@ import numpy as np
 import pytest
 from oracles.rigidity import compatibility_matrix, normalised, reference_counts
 
-from zeromode.service.examples import example_description, example_endpoint, example_names, example_request
+from zeromode.service.examples import (
+    example_description,
+    example_endpoint,
+    example_names,
+    example_request,
+)
 
 REPO = Path(__file__).resolve().parents[1]
 

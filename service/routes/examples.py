@@ -2,7 +2,12 @@
 
 from fastapi import APIRouter, HTTPException
 
-from zeromode.service.examples import example_description, example_endpoint, example_names, example_request
+from zeromode.service.examples import (
+    example_description,
+    example_endpoint,
+    example_names,
+    example_request,
+)
 from zeromode.service.schemas.common import ErrorResponse
 from zeromode.solver.errors import InvalidInput
 

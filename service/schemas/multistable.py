@@ -6,7 +6,13 @@ from typing import Literal
 
 from pydantic import BaseModel, Field
 
-from zeromode.service.schemas.common import AnalysisCounts, Points, RequestModel, ResultFrame, SpecifiedPoints
+from zeromode.service.schemas.common import (
+    AnalysisCounts,
+    Points,
+    RequestModel,
+    ResultFrame,
+    SpecifiedPoints,
+)
 
 
 class MultistableOptions(RequestModel):

@@ -10,11 +10,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from zeromode.solver.analysis.normalisation import Normalisation
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.multistable.linkage import Linkage, design_linkage
 from zeromode.solver.multistable.springs import Landscape, Springs, design_springs
-from zeromode.solver.multistable.verify import RELAXATIONS, ROD_STIFFNESS_RATIO, MinimumCheck, check_minima
-from zeromode.solver.analysis.normalisation import Normalisation
+from zeromode.solver.multistable.verify import (
+    RELAXATIONS,
+    ROD_STIFFNESS_RATIO,
+    MinimumCheck,
+    check_minima,
+)
 from zeromode.solver.progress import progress_stage
 
 # The barrier asked for by default, in units of k_max · r² (r the RMS radius of conformation a).

@@ -40,8 +40,13 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from zeromode.solver.analysis.normalisation import Normalisation
+from zeromode.solver.analysis.rank import decide_rank
+from zeromode.solver.analysis.rigidity import Analysis, analyze, compatibility_matrix, rigid_motions
 from zeromode.solver.construction.design import check_specified_distinct
+from zeromode.solver.construction.two_configuration import design_two_configurations
 from zeromode.solver.errors import DomainError, InvalidInput
+from zeromode.solver.frame import Frame, check_extent, check_positions
 from zeromode.solver.motion.finite_motion import (
     MotionPath,
     align_to,
@@ -50,10 +55,6 @@ from zeromode.solver.motion.finite_motion import (
     kabsch_distance,
     trace_motion,
 )
-from zeromode.solver.frame import Frame, check_extent, check_positions
-from zeromode.solver.analysis.normalisation import Normalisation
-from zeromode.solver.analysis.rank import decide_rank
-from zeromode.solver.analysis.rigidity import Analysis, analyze, compatibility_matrix, rigid_motions
 from zeromode.solver.tolerances import (
     CONSTRAINT_ATOL,
     PLACEMENT_RTOL,
@@ -61,7 +62,6 @@ from zeromode.solver.tolerances import (
     RIGID_RTOL,
     ROOT_IMAG_RTOL,
 )
-from zeromode.solver.construction.two_configuration import design_two_configurations
 
 # Bars of each added node (m): 3d + 2 − 2m ≥ 2 keeps a real solution set generic, and m − d = 1
 # removes one degree of freedom per node.

@@ -21,12 +21,16 @@ outwards; 0 ≤ k_s ≤ k_max and L_s within REST_RANGE of the spring's lengths 
 The objective is the springs' stored energy at the conformations,
 Σ_m E(x_m) = Σ_s Σ_m (α_s ℓ_s,m − β_s)²/(2α_s) (convex: quadratic-over-linear terms, so the
 program is a second-order cone program): the least prestress, hence the least force the rods
-carry and the least the minima move when the rods give.  (Measured on the tristable triangle of
-docs/multistable.md: the springs' total force Σ|α_s ℓ_s,m − β_s|, a linear program, solves in
-0.09 s against 0.19 s but leaves twice the stored energy, 1.86 against 0.94 k_max r².)
+carry and the least the minima move when the rods give.  Measured on the tristable triangle of
+docs/multistable.md (benchmarks/bench_multistable.py, CPU time, load ≈ 9.8 on 2 cores): cvxpy +
+Clarabel solves it in 0.25 s, casadi + IPOPT on the same variables, constraints and objective in
+0.75 s (to the same stored energy, 2.816 against 2.807 k_max r², IPOPT stopping at its
+"acceptable" level); the springs' total force Σ_m Σ_s |α_s ℓ_s,m − β_s| as objective (a linear
+program) took 0.32 s and left twice the stored energy (5.58).
 The barriers are asked of the program with a relative margin BARRIER_MARGIN, which the solver's
-tolerance and the exact-minimum correction below can only eat into by far less.  ℓ′ and ℓ″ at a conformation come from the
-motion's tangent x′ (the unit nontrivial zero mode, ⟂ rigid motions) and its curvature x″ (the
+tolerance and the exact-minimum correction below can only eat into by far less.
+
+ℓ′ and ℓ″ at a conformation come from the motion's tangent x′ (the unit nontrivial zero mode, ⟂ rigid motions) and its curvature x″ (the
 minimum-norm solution of C x″ = −(|Δx′_e|²)_e, the second derivative of every bar's length
 along the motion, ⟂ N(C)):
 
@@ -45,12 +49,12 @@ from dataclasses import dataclass
 import cvxpy as cp
 import numpy as np
 
-from zeromode.solver.errors import DomainError
-from zeromode.solver.motion.finite_motion import align_to
-from zeromode.solver.multistable.linkage import OUTER_MARGIN, Linkage
 from zeromode.solver.analysis.normalisation import Normalisation
 from zeromode.solver.analysis.rank import decide_rank
 from zeromode.solver.analysis.rigidity import compatibility_matrix, rigid_motions
+from zeromode.solver.errors import DomainError
+from zeromode.solver.motion.finite_motion import align_to
+from zeromode.solver.multistable.linkage import OUTER_MARGIN, Linkage
 
 # Rest lengths allowed, as multiples of (shortest, longest) length of the spring along the
 # motion: a spring neither collapses to a point nor is much longer than anything it joins.

@@ -21,11 +21,11 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import minimize
 
-from zeromode.solver.motion.finite_motion import kabsch_distance
-from zeromode.solver.multistable.springs import Landscape, Springs
 from zeromode.solver.analysis.normalisation import Normalisation
 from zeromode.solver.analysis.rank import complement_within
 from zeromode.solver.analysis.rigidity import rigid_motions
+from zeromode.solver.motion.finite_motion import kabsch_distance
+from zeromode.solver.multistable.springs import Landscape, Springs
 from zeromode.solver.tolerances import MINIMUM_LANDING_RTOL
 
 ROD_STIFFNESS_RATIO = 1e5
