@@ -38,14 +38,14 @@ def landscape_figure(body: dict, width: float = 6.4, height: float = 3.6) -> Fig
                 arrowprops={"arrowstyle": "<->", "color": "#555555", "lw": 0.9},
             )
             ax.annotate(
-                f"barrier {e[top] - low:.3g}", (s[top], 0.5 * (e[top] + low) - base),
-                textcoords="offset points", xytext=(5, 0), va="center", fontsize=8, color="#555555",
+                f"barrier {e[top] - low:.3g}", (s[top], e[top] - base),
+                textcoords="offset points", xytext=(0, 6), ha="center", va="bottom", fontsize=8, color="#555555",
             )
     ax.set_xlabel("arc length s along the motion")
     ax.set_ylabel("E(s) − min E")
     ax.set_title(f"Energy along the motion ({len(at)} minima)", fontsize=10)
     span = float((e - base).max())
-    ax.set_ylim(-0.12 * span, 1.08 * span)
+    ax.set_ylim(-0.12 * span, 1.1 * span)
     ax.grid(alpha=0.3)
     fig.tight_layout()
     return fig
