@@ -114,15 +114,13 @@ def main() -> None:
               f"{[round(m.barrier, 8) for m in r.landscape.minima]}, E'' = {[round(m.curvature, 5) for m in r.landscape.minima]}")
     # Stages of the triangle.
     t_link, link = cpu(lambda: design_linkage(TRIANGLE), args.repeats)
-    r = Normalisation.of(link.frame.positions).length
-    barrier = 1e-4 * r * r
-    t_springs, (springs, land) = cpu(lambda: design_springs(link, barrier), args.repeats)
+    t_springs, (springs, land, _) = cpu(lambda: design_springs(link, None), args.repeats)
     t_check, _ = cpu(lambda: check_minima(link.frame, link.conformations, springs, land, 1.0), args.repeats)
     print(f"triangle by stage (CPU, medians): linkage + continuation {t_link:.2f} s, springs {t_springs:.2f} s, "
           f"verification {t_check:.2f} s")
     # The spring program both ways.
     samples = springs_module._samples(link, Normalisation.of(link.frame.positions))
-    h = 1e-4 * (1 + springs_module.BARRIER_MARGIN)
+    h = 0.5 * springs_module._largest_barrier(samples) * (1 + springs_module.BARRIER_MARGIN)
     t_cvx, sol = cpu(lambda: springs_module._program(samples, h), args.repeats)
     alpha, beta, _ = sol
     keep = alpha > springs_module.DROP_RTOL

@@ -182,6 +182,14 @@ def test_refuses_rigidly_related_conformations():
     assert err.value.code == "rigid_target"
 
 
+def test_refuses_too_many_specified_nodes_before_any_work():
+    rng = np.random.default_rng(2)
+    x = rng.standard_normal((17, 2))
+    with pytest.raises(DomainError) as err:
+        design_multistable([x, x + 0.1 * rng.standard_normal(x.shape)])
+    assert err.value.code == "too_expensive"
+
+
 def test_refuses_a_barrier_out_of_reach_with_the_best_figure():
     with pytest.raises(DomainError) as err:
         design_multistable(TRIANGLE, barrier=10.0)

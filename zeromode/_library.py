@@ -379,7 +379,7 @@ def multistable(conformations: Sequence[Points], *, barrier: float | None = None
     conformations : sequence of 2 or 3 (k, d) array_like
         The specified nodes in each conformation, k ≥ d + 1, in the order of the motion.
     barrier : float, optional
-        Smallest barrier between neighbouring minima (default 1e-4 · max_stiffness · r²).
+        Smallest barrier between neighbouring minima (default: half the largest the springs can make).
     max_stiffness : float
         Largest spring stiffness.
     dim : {2, 3}, optional

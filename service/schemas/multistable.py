@@ -20,7 +20,7 @@ class MultistableOptions(RequestModel):
         default=None,
         gt=0,
         description="Smallest energy barrier between neighbouring minima (energy units: max_stiffness × length²); "
-        "default 1e-4 · max_stiffness · r², r the RMS radius of the linkage in the first conformation.",
+        "default half the largest barrier the springs can make.",
     )
     max_stiffness: float = Field(default=1.0, gt=0, description="Largest spring stiffness k_max.")
     seed: int = Field(default=0, ge=0, description="Seed for the node placement and the relaxations: same request, same answer.")

@@ -10,7 +10,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from zeromode.solver.analysis.normalisation import Normalisation
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.multistable.linkage import Linkage, design_linkage
 from zeromode.solver.multistable.springs import Landscape, Springs, design_springs
@@ -21,9 +20,6 @@ from zeromode.solver.multistable.verify import (
     check_minima,
 )
 from zeromode.solver.progress import progress_stage
-
-# The barrier asked for by default, in units of k_max · r² (r the RMS radius of conformation a).
-DEFAULT_BARRIER = 1e-4
 
 
 @dataclass(frozen=True, eq=False)
@@ -46,7 +42,8 @@ def design_multistable(
     conformations, barrier: float | None = None, max_stiffness: float = 1.0, dim: int | None = None, seed: int = 0
 ) -> MultistableDesign:
     """Rods and springs through the conformations (C, k, d), C ∈ {2, 3}, each a strict minimum
-    of E along the motion with barriers ≥ ``barrier`` (default DEFAULT_BARRIER · k_max r²)
+    of E along the motion with barriers ≥ ``barrier`` (default: springs.DEFAULT_BARRIER_FRACTION of the largest
+    barrier the springs can make)
     between neighbours and stiffnesses ≤ ``max_stiffness``.  Refusals (DomainError):
     ``rigid_target``, ``no_linkage``, ``no_path``, ``no_springs``, ``not_verified``."""
     if not (np.isfinite(max_stiffness) and max_stiffness > 0):
@@ -55,10 +52,8 @@ def design_multistable(
         raise InvalidInput("invalid_barrier", "barrier must be a positive number.")
     with progress_stage(0.0, 0.5, "linkage through the conformations"):
         linkage = design_linkage(conformations, dim=dim, seed=seed)
-    if barrier is None:
-        barrier = DEFAULT_BARRIER * max_stiffness * Normalisation.of(linkage.frame.positions).length ** 2
     with progress_stage(0.5, 0.8, "springs"):
-        springs, landscape = design_springs(linkage, barrier, max_stiffness)
+        springs, landscape, barrier = design_springs(linkage, barrier, max_stiffness)
     with progress_stage(0.8, 1.0, "minima verified"):
         checks = check_minima(linkage.frame, linkage.conformations, springs, landscape, max_stiffness, seed=seed)
     low = [m for m in landscape.minima if m.barrier is not None and not m.barrier >= barrier]

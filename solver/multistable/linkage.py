@@ -43,6 +43,7 @@ import numpy as np
 from zeromode.solver.analysis.normalisation import Normalisation
 from zeromode.solver.analysis.rank import decide_rank
 from zeromode.solver.analysis.rigidity import Analysis, analyze, compatibility_matrix, rigid_motions
+from zeromode.solver.budget import check_budget
 from zeromode.solver.construction.design import check_specified_distinct
 from zeromode.solver.construction.two_configuration import design_two_configurations
 from zeromode.solver.errors import DomainError, InvalidInput
@@ -63,6 +64,10 @@ from zeromode.solver.tolerances import (
     ROOT_IMAG_RTOL,
 )
 
+# Specified nodes a request may have: the construction adds 2k − 4 (2D) or 3k − 7 (3D) nodes and
+# SPRING_ANCHORS more, and the spring program has a variable pair per two nodes not joined by a
+# rod; k = 10 in 2D (34 nodes) took 7.9 s CPU at load 10, so 16 stays within a request's budget.
+MAX_SPECIFIED = 16
 # Bars of each added node (m): 3d + 2 − 2m ≥ 2 keeps a real solution set generic, and m − d = 1
 # removes one degree of freedom per node.
 ANCHORS = {2: 3, 3: 4}
@@ -126,8 +131,8 @@ class Linkage:
 
 def check_conformations(conformations, dim: int | None = None) -> np.ndarray:
     """(C, k, d) specified positions in C ∈ {2, 3} conformations, or InvalidInput/DomainError:
-    equal shapes, k ≥ d + 1 distinct nodes in each, no two conformations related by a rigid
-    motion (``rigid_target``)."""
+    equal shapes, d + 1 ≤ k ≤ MAX_SPECIFIED (``too_expensive``) distinct nodes in each, no two
+    conformations related by a rigid motion (``rigid_target``)."""
     if not isinstance(conformations, (list, tuple, np.ndarray)) or len(conformations) not in (2, 3):
         raise InvalidInput("invalid_conformations", "conformations must list 2 or 3 conformations of the specified nodes.")
     first = check_positions(conformations[0], dim, "conformations[0]")
@@ -140,6 +145,10 @@ def check_conformations(conformations, dim: int | None = None) -> np.ndarray:
         check_specified_distinct(c)
     if k < d + 1:
         raise InvalidInput("too_few_nodes", f"a {d}D multistable design needs at least {d + 1} specified nodes, got {k}.")
+    if k > MAX_SPECIFIED:
+        raise DomainError(
+            "too_expensive", f"a multistable design takes up to {MAX_SPECIFIED} specified nodes; this one has {k}."
+        )
     x = np.stack(confs)
     for i, j in itertools.combinations(range(len(x)), 2):
         scale = max(np.linalg.norm(x[i] - x[i].mean(axis=0)), np.finfo(float).tiny)
@@ -165,6 +174,7 @@ def design_linkage(conformations, dim: int | None = None, seed: int = 0) -> Link
         construction = "three conformations (2 linear equations per anchor and two quadrics per node)"
     best_why, placed_any = "no node could be placed", False
     for attempt in range(ATTEMPTS):
+        check_budget()
         rng = np.random.default_rng([seed, attempt])
         if len(x) == 2:
             positions, edges = two_frame

@@ -62,6 +62,9 @@ REST_RANGE = (0.25, 3.0)
 # The curvature floor κ of each minimum along the motion, in units of k_max (a strict minimum,
 # with room for the rods' own compliance in the verification).
 CURVATURE_FLOOR = 1e-3
+# The barrier asked for by default, as a fraction of the largest the springs can make (which a
+# linear program finds first): well inside what they can do, and scale-free.
+DEFAULT_BARRIER_FRACTION = 0.5
 # Relative margin on the barrier asked of the program (Clarabel meets constraints to ~1e-8).
 BARRIER_MARGIN = 1e-3
 # Springs whose stiffness the linear program leaves below this fraction of k_max are dropped.
@@ -129,25 +132,26 @@ class _Samples:
     d2: np.ndarray
 
 
-def design_springs(linkage: Linkage, barrier: float, max_stiffness: float = 1.0) -> tuple[Springs, Landscape]:
+def design_springs(linkage: Linkage, barrier: float | None, max_stiffness: float = 1.0) -> tuple[Springs, Landscape, float]:
     """Springs on ``linkage`` making every conformation a strict minimum of E along its motion
-    with barriers ≥ ``barrier`` between neighbours (energy units: max_stiffness × length²).
-    DomainError ``no_springs`` (with the largest barrier reachable) otherwise."""
+    with barriers ≥ ``barrier`` between neighbours (energy units: max_stiffness × length²; None:
+    DEFAULT_BARRIER_FRACTION of the largest barrier the springs can make): (springs, landscape,
+    the barrier asked of them).  DomainError ``no_springs`` (with the largest barrier reachable)
+    otherwise."""
     norm = Normalisation.of(linkage.frame.positions)
     r = norm.length
+    scale = max_stiffness * r**2  # energy in normalised units × scale = energy
     samples = _samples(linkage, norm)
-    h = barrier / (max_stiffness * r**2)
-    solution = _program(samples, h * (1 + BARRIER_MARGIN))
+    best = None
+    if barrier is None:
+        best = _largest_barrier(samples)
+        barrier = DEFAULT_BARRIER_FRACTION * best * scale
+    solution = _program(samples, barrier / scale * (1 + BARRIER_MARGIN))
     if solution is None:
-        best = _program(samples, None)
-        if best is None:
-            raise DomainError(
-                "no_springs",
-                "no springs between the linkage's nodes make every conformation a strict minimum of the energy along the motion.",
-            )
+        best = _largest_barrier(samples) if best is None else best
         raise DomainError(
             "no_springs",
-            f"the largest barrier springs reach between neighbouring conformations is {best[2] * max_stiffness * r**2:.4g}, "
+            f"the largest barrier springs reach between neighbouring conformations is {best * scale:.4g}, "
             f"below the {barrier:.4g} requested.",
         )
     alpha, beta, _ = solution
@@ -156,7 +160,19 @@ def design_springs(linkage: Linkage, barrier: float, max_stiffness: float = 1.0)
     springs = Springs(
         samples.pairs[keep], alpha[keep] * max_stiffness, (beta[keep] / alpha[keep]) * r,
     )
-    return springs, _landscape(samples, springs, norm)
+    return springs, _landscape(samples, springs, norm), float(barrier)
+
+
+def _largest_barrier(samples: _Samples) -> float:
+    """The largest barrier (normalised units) of the program without one asked; DomainError
+    ``no_springs`` when no springs make every conformation a strict minimum at all."""
+    best = _program(samples, None)
+    if best is None:
+        raise DomainError(
+            "no_springs",
+            "no springs between the linkage's nodes make every conformation a strict minimum of the energy along the motion.",
+        )
+    return best[2]
 
 
 def _samples(linkage: Linkage, norm: Normalisation) -> _Samples:
@@ -260,7 +276,7 @@ def _program(samples: _Samples, h: float | None):
     if problem.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) or alpha.value is None:
         return None
     got = float(height.value) if h is None else h
-    return np.maximum(alpha.value, 0.0), beta.value, got
+    return np.clip(alpha.value, 0.0, 1.0), beta.value, got  # k_max bounds exactly, not to the solver tolerance
 
 
 def _exact_minima(samples: _Samples, alpha: np.ndarray, beta: np.ndarray, keep: np.ndarray):

@@ -24,6 +24,7 @@ from scipy.optimize import minimize
 from zeromode.solver.analysis.normalisation import Normalisation
 from zeromode.solver.analysis.rank import complement_within
 from zeromode.solver.analysis.rigidity import rigid_motions
+from zeromode.solver.budget import check_budget
 from zeromode.solver.motion.finite_motion import kabsch_distance
 from zeromode.solver.multistable.springs import Landscape, Springs
 from zeromode.solver.tolerances import MINIMUM_LANDING_RTOL
@@ -129,6 +130,7 @@ def check_minima(frame, conformations: np.ndarray, springs: Springs, landscape: 
         others = [y for i, y in enumerate(relaxed) if i != j]
         landing, ratio = 0.0, 0.0
         for _ in range(RELAXATIONS):
+            check_budget()
             kick = rng.standard_normal(x.shape)
             got = relax(x + PERTURBATION * reach * kick / np.linalg.norm(kick))
             dist = kabsch_distance(got, x)
