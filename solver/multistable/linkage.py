@@ -493,21 +493,27 @@ def _with_lead_in(frame: Frame, mode: np.ndarray, path: MotionPath, amplitude: f
     )
 
 
+def flexes(x: np.ndarray, edges: np.ndarray) -> tuple[np.ndarray, int, np.ndarray]:
+    """(C dense (N_B × dN), its rank, an orthonormal basis (dN × f) of the nontrivial zero
+    modes: N(C) with the rigid motions projected out) at positions x (N, d), normalised."""
+    c = compatibility_matrix(x, edges, dense=True)
+    _, s, vt = np.linalg.svd(c, full_matrices=True)
+    rank, _ = decide_rank(s)
+    rigid = rigid_motions(x)
+    null = vt[rank:].T
+    u, sv, _ = np.linalg.svd(null - rigid @ (rigid.T @ null), full_matrices=False)
+    return c, rank, u[:, sv > 0.5]  # singular values 1 (nontrivial) or 0 (rigid)
+
+
 def _mode_towards(frame: Frame, target: np.ndarray) -> np.ndarray:
     """The frame's nontrivial zero mode (N, d), signed towards ``target`` (its first-order
     displacement dotted with the aligned target's); DomainError unless there is exactly one."""
     x = frame.normalised_positions()
-    c = compatibility_matrix(x, frame.edges, dense=True)
-    _, s, vt = np.linalg.svd(c, full_matrices=True)
-    r, _ = decide_rank(s)
-    rigid = rigid_motions(x)
-    null = vt[r:].T
-    modes = null - rigid @ (rigid.T @ null)
-    u, sv, _ = np.linalg.svd(modes, full_matrices=False)
-    f = int(np.count_nonzero(sv > 0.5))
+    _, r, modes = flexes(x, frame.edges)
+    f = modes.shape[1]
     if f != 1 or r != frame.n_edges:
         raise DomainError("no_path", f"the linkage has {f} nontrivial zero modes and {frame.n_edges - r} self-stresses in conformation 0, not one mode")
-    mode = u[:, 0].reshape(x.shape)
+    mode = modes[:, 0].reshape(x.shape)
     towards = align_to(target, frame.positions) - frame.positions
     return mode if np.sum(mode * towards) >= 0 else -mode
 

@@ -50,11 +50,9 @@ import cvxpy as cp
 import numpy as np
 
 from zeromode.solver.analysis.normalisation import Normalisation
-from zeromode.solver.analysis.rank import decide_rank
-from zeromode.solver.analysis.rigidity import compatibility_matrix, rigid_motions
 from zeromode.solver.errors import DomainError
 from zeromode.solver.motion.finite_motion import align_to
-from zeromode.solver.multistable.linkage import OUTER_MARGIN, Linkage
+from zeromode.solver.multistable.linkage import OUTER_MARGIN, Linkage, flexes
 
 # Rest lengths allowed, as multiples of (shortest, longest) length of the spring along the
 # motion: a spring neither collapses to a point nor is much longer than anything it joins.
@@ -210,14 +208,8 @@ def motion_derivatives(x: np.ndarray, edges: np.ndarray, direction: np.ndarray):
     nontrivial zero mode (⟂ rigid motions) signed along ``direction`` (N, d), x″ the
     minimum-norm solution of C x″ = −(|x′_i − x′_j|²)_e (every bar length stationary to second
     order), ⟂ N(C)."""
-    c = compatibility_matrix(x, edges, dense=True)
-    _, s, vt = np.linalg.svd(c, full_matrices=True)
-    rank, _ = decide_rank(s)
-    rigid = rigid_motions(x)
-    null = vt[rank:].T
-    modes = null - rigid @ (rigid.T @ null)
-    u, _, _ = np.linalg.svd(modes, full_matrices=False)
-    t = u[:, 0]
+    c, _, modes = flexes(x, edges)
+    t = modes[:, 0]
     t = t if t @ direction.ravel() >= 0 else -t
     tv = t.reshape(x.shape)
     dt = tv[edges[:, 0]] - tv[edges[:, 1]]
