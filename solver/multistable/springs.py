@@ -22,11 +22,11 @@ The objective is the springs' stored energy at the conformations,
 Σ_m E(x_m) = Σ_s Σ_m (α_s ℓ_s,m − β_s)²/(2α_s) (convex: quadratic-over-linear terms, so the
 program is a second-order cone program): the least prestress, hence the least force the rods
 carry and the least the minima move when the rods give.  Measured on the tristable triangle of
-docs/multistable.md (benchmarks/bench_multistable.py, CPU time, load ≈ 9.8 on 2 cores): cvxpy +
-Clarabel solves it in 0.25 s, casadi + IPOPT on the same variables, constraints and objective in
-0.75 s (to the same stored energy, 2.816 against 2.807 k_max r², IPOPT stopping at its
-"acceptable" level); the springs' total force Σ_m Σ_s |α_s ℓ_s,m − β_s| as objective (a linear
-program) took 0.32 s and left twice the stored energy (5.58).
+docs/multistable.md (benchmarks/bench_multistable.py, CPU time, load 10–13 on 2 cores): cvxpy +
+Clarabel solves it in 0.25–0.31 s, casadi + IPOPT on the same variables, constraints and
+objective in 0.75–1.0 s (to the same stored energy within 0.3 %, IPOPT stopping at its
+"acceptable" level or on an error in a step); the springs' total force Σ_m Σ_s |α_s ℓ_s,m − β_s|
+as objective (a linear program) took 0.32 s and left twice the stored energy.
 The barriers are asked of the program with a relative margin BARRIER_MARGIN, which the solver's
 tolerance and the exact-minimum correction below can only eat into by far less.
 
