@@ -24,7 +24,7 @@ import time
 
 import numpy as np
 
-from zeromode.service.examples import example_request
+from zeromode.service.wire.examples import example_request
 from zeromode.solver.analysis.normalisation import Normalisation
 from zeromode.solver.multistable import springs as springs_module
 from zeromode.solver.multistable.design import design_multistable

@@ -12,7 +12,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import zeromode as zm
-from zeromode.service.examples import example_request
+from zeromode.service.wire.examples import example_request
 
 OUT = Path(__file__).resolve().parent / "img" / "multistable_energy.png"
 

@@ -11,7 +11,7 @@ from oracles.elastic import constrained_curvature, energy
 from oracles.motion import bar_lengths, fidelity
 
 import zeromode as zm
-from zeromode.service.examples import example_endpoint, example_request
+from zeromode.service.wire.examples import example_endpoint, example_request
 from zeromode.solver.errors import DomainError
 
 REQUEST = example_request("tristable_triangle_2d")
