@@ -100,3 +100,18 @@ def test_cli_designs_the_example(tmp_path):
                    check=True, timeout=300)
     answer = json.loads(out.read_text(encoding="utf-8"))
     assert len(answer["minima"]) == 3 and all(m["curvature"] > 0 for m in answer["minima"])
+
+
+def test_a_multistable_job_answers_as_the_endpoint(tmp_path, dask_scheduler):
+    from test_jobs import app_client, submit, wait, without_timings
+
+    with app_client(tmp_path, dask_scheduler) as client:
+        status = wait(client, submit(client, "/v1/design/multistable", REQUEST))
+        assert status["status"] == "done", status
+        direct = client.post("/v1/design/multistable", json=REQUEST)
+        assert without_timings(status["result"]) == without_timings(direct.json())
+        # Refused at submit with the endpoint's own code (the precheck), nothing queued.
+        a = REQUEST["conformations"][0]
+        rigid = {**REQUEST, "conformations": [a, REQUEST["conformations"][1], [[x + 1.0, y] for x, y in a]]}
+        r = client.post("/v1/jobs", json={"endpoint": "/v1/design/multistable", "request": rigid})
+        assert r.status_code == 422 and r.json()["detail"]["code"] == "rigid_target"
