@@ -41,7 +41,6 @@ from zeromode.solver.applications.lattice import (
     chain_modules,
     chain_specified,
     check_sheet_strain,
-    poisson_ratio,
     sheet_module_for,
 )
 from zeromode.solver.applications.sheet_module import sheet_edges, sheet_positions
@@ -55,6 +54,7 @@ from zeromode.solver.construction.coupling import merged_frame
 from zeromode.solver.construction.design import Design, design, design_targets
 from zeromode.solver.errors import InvalidInput
 from zeromode.solver.frame import Frame
+from zeromode.solver.motion.boundary_strain import poisson_ratio
 from zeromode.solver.motion.refine import Refinement, RefinementFailed, check_problem_size, refine
 from zeromode.solver.progress import progress_stage
 

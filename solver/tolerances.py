@@ -25,6 +25,12 @@ PLACEMENT_RTOL = 1e-7
 # zero length): far below any meaningful design, far above round-off of the positions.
 COINCIDENT_RTOL = 1e-12
 
+# Two nodes without a bar between them closer than this fraction of the shortest bar collide: a
+# motion's usable range ends there (applications/strain_range.py, motion/target.py), and a sheet
+# whose reference is already that close is refused (applications/lattice.py). Not round-off: a
+# physical choice, a tenth of a bar, far from touching for bars drawn as lines.
+PROXIMITY_FRACTION = 0.1
+
 # Points meant to be distinct (specified nodes, source and target sites, merged ports of two
 # modules) closer than this fraction of their set's size are the same point.
 DISTINCT_RTOL = 1e-9
@@ -71,3 +77,9 @@ REACHED_EPS = 1e-6
 # 1 for an angle in radians or a strain); Newton on the augmented system converges
 # quadratically, so it goes to round-off (≈ 1e-15) and this leaves five decades of margin.
 TARGET_RTOL = 1e-10
+
+# A motion that moves the boundary along x by at most this fraction of its move along y does
+# not stretch the frame along x, so ν = −ε_y/ε_x has no value (motion/boundary_strain.py): ε_x is
+# a difference of means of exact data, zero up to round-off (≈ 1e-16 relative) when the mode does
+# not pull along x.
+NO_STRETCH_RTOL = 1e-14

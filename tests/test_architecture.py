@@ -96,3 +96,63 @@ def test_viz_and_export_do_not_reach_up(path):
     banned = ABOVE[path.parent.name]
     bad = {name for name in imported_modules(path) if any(name == b or name.startswith(b + ".") for b in banned)}
     assert not bad, f"{path.parent.name}/{path.name} imports {sorted(bad)}"
+
+
+# The solver's stages in the paper's order (docs/architecture.md): a module imports only from its
+# own stage or from stages below it. The frame sits with analysis (it scales itself with
+# analysis/normalisation, and analysis reads frames); errors, budget, progress and tolerances
+# import no stage; the package's __init__ only re-exports.
+STAGES = ("errors budget progress tolerances", "frame analysis", "motion", "construction", "applications", "certificates", "pipeline __init__")
+STAGE_OF = {name: level for level, names in enumerate(STAGES) for name in names.split()}
+
+
+def solver_stage(module: str) -> int:
+    """The stage level of ``zeromode.solver.<part>...`` (its first part: a subpackage or a top module)."""
+    return STAGE_OF[module.split(".")[2]]
+
+
+def solver_imports(path: Path) -> set[str]:
+    """Every zeromode.solver module ``path`` imports, with ``from zeromode.solver import x`` read as x."""
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    names = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            names.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.module == "zeromode.solver":
+            names.update(f"zeromode.solver.{alias.name}" for alias in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.module:
+            names.add(node.module)
+    return {name for name in names if name.startswith("zeromode.solver.")}
+
+
+def stage_of(path: Path) -> str:
+    """The stage name of a file under solver/: its subpackage, or its module name at the top."""
+    return path.relative_to(ROOT / "solver").parts[0].removesuffix(".py")
+
+
+def stage_violations(path: Path, stage: str) -> list[str]:
+    """The zeromode.solver modules ``path`` imports from a later stage than ``stage``."""
+    return sorted(name for name in solver_imports(path) if solver_stage(name) > STAGE_OF[stage])
+
+
+def test_every_solver_module_has_a_stage():
+    assert {stage_of(path) for path in SOLVER} == set(STAGE_OF)
+
+
+@pytest.mark.parametrize("path", SOLVER, ids=lambda p: p.relative_to(ROOT / "solver").as_posix())
+def test_solver_imports_run_down_the_stages(path):
+    bad = stage_violations(path, stage_of(path))
+    assert not bad, f"{path.relative_to(ROOT).as_posix()} ({stage_of(path)}) imports {bad} from a later stage"
+
+
+def test_the_stage_check_sees_upward_imports(tmp_path):
+    # Both import forms, upward from motion; the same lines are allowed from certificates.
+    probe = tmp_path / "probe.py"
+    probe.write_text(
+        "import numpy\nfrom zeromode.solver import tolerances, pipeline\n"
+        "def f():\n    from zeromode.solver.applications.lattice import boundary_sets\n",
+        encoding="utf-8",
+    )
+    assert stage_violations(probe, "motion") == ["zeromode.solver.applications.lattice", "zeromode.solver.pipeline"]
+    assert stage_violations(probe, "certificates") == ["zeromode.solver.pipeline"]
+    assert stage_violations(probe, "pipeline") == []

@@ -395,7 +395,7 @@ def motion(frame: Frame | Result | Mapping, mode: int | Points | None = None, **
     """
     from zeromode.service.prechecks import motion_frame
     from zeromode.service.responses import motion_body
-    from zeromode.solver.applications.lattice import path_strains
+    from zeromode.solver.motion.boundary_strain import path_strains
     from zeromode.solver.motion.finite_motion import SingularPath, trace_motion
     from zeromode.solver.motion.periodic import trace_motion_through_cell
     from zeromode.solver.motion.target import MotionTarget, aim_motion

@@ -19,7 +19,7 @@ from zeromode.service.schemas.motion import (
     RefineRequest,
     RefineResponse,
 )
-from zeromode.solver.applications.lattice import path_strains
+from zeromode.solver.motion.boundary_strain import path_strains
 from zeromode.solver.motion.finite_motion import SingularPath, trace_motion
 from zeromode.solver.motion.periodic import trace_motion_through_cell
 from zeromode.solver.motion.refine import RefinementFailed, refine

@@ -46,7 +46,6 @@ from zeromode.solver.analysis.rigidity import analyze
 from zeromode.solver.applications.lattice import (
     MAX_SHEET_CELLS,
     Lattice,
-    boundary_strains,
     closest_unjoined,
     measured_lattice,
 )
@@ -60,7 +59,6 @@ from zeromode.solver.applications.sheet_module import (
     trammel_module,
 )
 from zeromode.solver.applications.strain_range import (
-    PROXIMITY_FRACTION,
     Patch,
     StrainRange,
     module_range,
@@ -69,8 +67,10 @@ from zeromode.solver.applications.strain_range import (
 from zeromode.solver.budget import check_budget, remaining
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame
+from zeromode.solver.motion.boundary_strain import boundary_strains
 from zeromode.solver.motion.refine import ipopt_solver
 from zeromode.solver.progress import progress_stage, report_steps
+from zeromode.solver.tolerances import PROXIMITY_FRACTION
 
 # The stretches s searched (geometric grid: the deviation falls like 1/s², the size grows like s).
 STRETCHES = np.geomspace(0.5, 20.0, 48)

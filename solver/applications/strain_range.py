@@ -59,9 +59,8 @@ from zeromode.solver.errors import DomainError
 from zeromode.solver.frame import Frame
 from zeromode.solver.motion.finite_motion import trace_motion
 from zeromode.solver.progress import report_detail
+from zeromode.solver.tolerances import PROXIMITY_FRACTION
 
-# Two nodes without a bar between them closer than this fraction of the shortest bar collide.
-PROXIMITY_FRACTION = 0.1
 # The scan examines strains up to this magnitude (a sheet stretched by 90 % or compressed to a
 # tenth of its length is far beyond any design here); beyond, the range is "search_limit".
 MAX_SCAN_STRAIN = 0.9

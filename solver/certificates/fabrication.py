@@ -35,7 +35,7 @@ Quantities (each relative; J its Jacobian with respect to the normalised δx):
                    divided by √Σ‖u_D‖²);
   poisson_ratio    a lattice's ν = −ε_y/ε_x = −(A_y u · A_x x)/(A_x u · A_y x), A_x, A_y the
                    boundary functionals (mean over right minus left of the x components, top
-                   minus bottom of the y components; lattice.boundary_strains), u the soft
+                   minus bottom of the y components; boundary_strain.boundary_strains), u the soft
                    subspace's part ⟂ the rigid motions R(x') = span G(x'); to first order
                    δ(P⊥u) = δu − G(GᵀG)⁻¹ H δx with H's rows 0 (translations) and −g_ab(u)ᵀ
                    (rotations g_ab(x)_i = E_ab x_i), and δν/ν = A_yδu/A_yu − A_xδu/A_xu
@@ -68,10 +68,10 @@ import numpy as np
 
 from zeromode.solver.analysis.normalisation import Normalisation
 from zeromode.solver.analysis.rigidity import compatibility_matrix, rigid_motions
-from zeromode.solver.applications.lattice import poisson_ratio
 from zeromode.solver.budget import check_budget
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame
+from zeromode.solver.motion.boundary_strain import poisson_ratio
 from zeromode.solver.progress import progress_stage, report_progress
 from zeromode.solver.tolerances import GIVEN_MODE_RTOL, RANK_RTOL, RIGID_RTOL
 
