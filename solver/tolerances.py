@@ -83,3 +83,49 @@ TARGET_RTOL = 1e-10
 # a difference of means of exact data, zero up to round-off (≈ 1e-16 relative) when the mode does
 # not pull along x.
 NO_STRETCH_RTOL = 1e-14
+
+# --- analysis: null spaces and eigenpairs of large frames -----------------------------------
+
+# δ in K + δI (analysis/eigen.py), relative to the mean diagonal of K: below the wanted
+# eigenvalues (down to ~1e-12 of the scale: the uniform margin of a chain of 64 blocks), so that
+# they stay apart in the inverse, and three decades above the round-off of a Cholesky
+# factorisation (~1e-16), so that K + δI is numerically positive definite; a factorisation that
+# fails retries eigen.SHIFT_RETRY times larger.
+EIGEN_SHIFT_RTOL = 1e-13
+
+# ARPACK's convergence tolerance (relative to the Ritz value of the inverse): machine level.
+ARPACK_TOL = 1e-14
+
+# δ = NULL_SHIFT_RTOL·σ_max² in CᵀC + δI, the shift of analysis/rigidity.py's sparse null space: 10³ times the round-off of forming CᵀC (≈ 1e-16 σ_max²), so
+# the factorisation sees a positive definite matrix (up to 10⁶ nodes, 2D and 3D lattices and
+# near-isostatic networks), and below σ² of the singular values of designed frames and lattice
+# patches (σ ≳ 1e-4 σ_max), so a shift-invert step damps such a direction by δ/(σ² + δ) relative
+# to the null space. Directions with σ² below δ (σ ≲ 3e-7 σ_max, yet above the rank threshold
+# RANK_RTOL·σ_max) are damped by less than half per step: the iteration cannot tell them from the
+# null space, and a block narrower than all of them converges to a mixture whose Ritz value
+# stalls above the threshold, a zero mode missed. So the block is widened until its largest
+# Ritz value is one the shift damps (θ² ≥ δ); Rayleigh–Ritz on C then separates the null space
+# from those singular values. Near-degenerate frames have such directions (disordered
+# near-isostatic networks of 10⁴ nodes reach σ_r ≈ 2e-7 – 6e-5 σ_max). A larger shift leaves
+# more of them undamped (δ = 1e-10 σ_max² with a second factorisation at 1e-13 when needed:
+# 1.5–1.8× slower counts on those networks at 10⁴ nodes; the same on lattices).
+NULL_SHIFT_RTOL = 1e-13
+# The null-space bases of analysis/rigidity.py's sparse route:
+# Bases are iterated until ‖C v‖ ≤ BASIS_ANGLE·σ_r for every basis vector v, which bounds
+# the angle between the returned and the exact null space by BASIS_ANGLE (round-off allowing).
+BASIS_ANGLE = 1e-10
+# … or until ‖C v‖ ≤ BASIS_ROUNDOFF_RTOL·σ_max, the level round-off in C·v (≈ 1e-16 σ_max per entry,
+# summed over a node's bars) keeps it above; or, where a singular value below the rank's
+# threshold lies above both (a near-degenerate frame), until ‖C v‖ is at most the largest Ritz
+# value counted as zero, which its singular vector cannot go below.
+BASIS_ROUNDOFF_RTOL = 1e-13
+
+# Rayleigh–Ritz's SVD of its small triangular factor by one-sided Jacobi (analysis/sparse_kernels.py):
+# A column pair counts as orthogonal once |r_jᵀ r_l| ≤ JACOBI_TOL ‖r_j‖ ‖r_l‖: a few units of
+# round-off, the accuracy the rotations themselves reach; Jacobi converges quadratically, and
+# past sparse_kernels.JACOBI_MAX_SWEEPS sweeps (never seen) the SVD falls back to LAPACK's.
+JACOBI_TOL = 1e-15
+# In analysis/sparse_kernels.py's null-space rounds, a vector that keeps at most this fraction of its
+# norm after its parts along the null vectors and the Ritz space are removed lies in that space
+# (round-off after two Gram–Schmidt passes).
+RITZ_SPACE_RTOL = 1e-12
