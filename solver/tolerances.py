@@ -58,7 +58,9 @@ GIVEN_MODE_RTOL = 1e-6
 # --- polynomial roots and quadric constraints -----------------------------------------------
 
 # A root of a solution-space polynomial is real when |Im| ≤ ROOT_IMAG_RTOL·(1 + |Re|); numpy's
-# companion-matrix roots of the low-degree polynomials used here are accurate to ~1e-12.
+# companion-matrix roots of the low-degree polynomials used here are accurate to ~1e-12. (The
+# quadratic in y of two conics' common points, construction/multimode.py, takes it as |Im| ≤
+# ROOT_IMAG_RTOL: y is a normalised coordinate, |y| ≲ 1.)
 ROOT_IMAG_RTOL = 1e-9
 
 # A sample (x_U, u_U) satisfies the bar constraints (x_Si − x_U)·(u_Si − u_U) = 0 of the
@@ -120,12 +122,46 @@ BASIS_ANGLE = 1e-10
 # value counted as zero, which its singular vector cannot go below.
 BASIS_ROUNDOFF_RTOL = 1e-13
 
-# Rayleigh–Ritz's SVD of its small triangular factor by one-sided Jacobi (analysis/sparse_kernels.py):
-# A column pair counts as orthogonal once |r_jᵀ r_l| ≤ JACOBI_TOL ‖r_j‖ ‖r_l‖: a few units of
+# Rayleigh–Ritz's SVD of its small triangular factor by one-sided Jacobi (analysis/
+# sparse_kernels.py): a column pair counts as orthogonal once |r_jᵀ r_l| ≤ JACOBI_TOL ‖r_j‖ ‖r_l‖: a few units of
 # round-off, the accuracy the rotations themselves reach; Jacobi converges quadratically, and
 # past sparse_kernels.JACOBI_MAX_SWEEPS sweeps (never seen) the SVD falls back to LAPACK's.
 JACOBI_TOL = 1e-15
-# In analysis/sparse_kernels.py's null-space rounds, a vector that keeps at most this fraction of its
-# norm after its parts along the null vectors and the Ritz space are removed lies in that space
-# (round-off after two Gram–Schmidt passes).
+# In analysis/sparse_kernels.py's null-space rounds, a vector that keeps at most this fraction of
+# its norm after its parts along the null vectors and the Ritz space are removed lies in that
+# space (round-off after two Gram–Schmidt passes).
 RITZ_SPACE_RTOL = 1e-12
+
+# --- construction ---------------------------------------------------------------------------
+
+# A design's report (construction/design.py) states σ_r of its frame (its conditioning):
+# converged to this relative bound, as a full SVD would give it (designs are small: the sparse
+# route's few extra solves cost microseconds), and reported with the bound reached when round-off
+# keeps it coarser.
+REPORT_GAP_RTOL = 1e-9
+
+# Gauss–Newton on a pair of helper nodes (construction/hierarchical_pairs.py) has solved it when
+# the residual of the pair's 2d ≤ 6 equations is below this (normalised units, O(1) entries):
+# round-off, so the placed pair meets its bars as exactly as a placement does.
+PAIR_NEWTON_ATOL = 1e-13
+# Not a threshold: the central-difference step of that Gauss–Newton's Jacobian (normalised units,
+# 2d ≤ 6 unknowns); an inexact Jacobian slows the iteration, not the residual it reaches.
+PAIR_JACOBIAN_STEP = 1e-7
+
+# Common points of the position sets (construction/multimode.py, normalised coordinates, O(1)).
+# Two conics meet where the resultant (degree 4 in x) vanishes; a tangency makes a double root,
+# which numpy's companion matrix splits into a complex pair with |Im| ~ √ε ≈ 1e-8, so a root
+# counts as real up to RESULTANT_ROOT_IMAG_RTOL·(1 + |Re|) (Gauss–Newton then polishes it, and a
+# false root fails COMMON_POSITION_ATOL) ...
+RESULTANT_ROOT_IMAG_RTOL = 1e-7
+# ... and y follows from the resultant's linear factor m₁(x) y = −m₀(x) unless |m₁(x)| is at most
+# this (a tangency or a shared vertical: then y is taken from the quadratic itself).
+RESULTANT_PIVOT_ATOL = 1e-12
+# Gauss–Newton from seeded starts stops once its step is at round-off ...
+QUADRIC_STEP_ATOL = 1e-14
+# ... and keeps the points on every quadric to this (four decades above the round-off of
+# evaluating [x;1]ᵀQ[x;1] with O(1) entries; a point off a quadric converges to nothing).
+COMMON_POSITION_ATOL = 1e-10
+# Starts that converge to the same common point agree to this: a point where quadrics meet
+# tangentially is reached only to about √ε ≈ 1e-8 (linear convergence), so 1e-6 keeps one copy.
+SAME_SOLUTION_ATOL = 1e-6
