@@ -165,3 +165,35 @@ COMMON_POSITION_ATOL = 1e-10
 # Starts that converge to the same common point agree to this: a point where quadrics meet
 # tangentially is reached only to about √ε ≈ 1e-8 (linear convergence), so 1e-6 keeps one copy.
 SAME_SOLUTION_ATOL = 1e-6
+
+# Continuation along a finite motion (motion/finite_motion.py, normalised units).
+# Newton's corrector stops when every bar is within this relative length error (the API promises ≤ 1e-9).
+NEWTON_RTOL = 1e-12
+# A direction (a requested mode, the previous tangent, a chord between samples) whose part along
+# the nontrivial zero modes is at most this fraction of its norm has none there (no tangent):
+# the modes' basis is orthonormal to round-off, and a direction meant along them keeps O(1).
+TANGENT_RTOL = 1e-8
+# Locating a singular point, Newton goes on while it contracts (finite_motion.TIGHT_CONTRACTION)
+# and stops once its step is at round-off (normalised coordinates are O(1)).
+TIGHT_STEP_ATOL = 1e-15
+# The continuation has reached its amplitude when the path parameter τ is within this fraction of
+# it: τ is a sum of step lengths, so round-off may leave it a few ulps short.
+AMPLITUDE_RTOL = 1e-12
+# A continuation step whose corrector fails or whose tangent turns too far is halved down to this
+# (path parameter, normalised units) before the continuation gives up ("stalled"): a step that
+# short makes no progress along any motion, yet stays far above round-off of the positions.
+CONTINUATION_MIN_STEP = 1e-9
+# Zero modes at a located singular point are counted with this relative threshold: a branch
+# point can be located only to about √(machine ε) ≈ 1e-8, and σ vanishes linearly there.
+SINGULAR_RTOL = 1e-6
+# A singular point counts as located once the vanishing singular value is this far below the
+# counting threshold (two decades of margin for the count at SINGULAR_RTOL).
+LOCATED_RTOL = 1e-2 * SINGULAR_RTOL
+# ... its σ measured only once the bracket on the step length is this narrow (relative).
+MEASURED_WIDTH = 1e-5
+# ... or the bracket on the step length is at round-off (relative to max(h, 1)).
+BRACKET_ROUNDOFF = 1e-15
+# The closest point of a path to a target between two samples (finite_motion.curve_minimum) is
+# located by Brent's bounded search to this much of the path parameter: round-off of a parameter
+# of size O(1), each evaluation a corrector to NEWTON_RTOL.
+CURVE_MINIMUM_XATOL = 1e-12
