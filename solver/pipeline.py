@@ -57,6 +57,7 @@ from zeromode.solver.frame import Frame
 from zeromode.solver.motion.boundary_strain import poisson_ratio
 from zeromode.solver.motion.refine import Refinement, RefinementFailed, check_problem_size, refine
 from zeromode.solver.progress import progress_stage
+from zeromode.solver.tolerances import IPOPT_TOL
 
 # Estimated cost of the stages in seconds, for progress: each stage that runs gets its share of
 # the whole (_shares).  Measured with the default options (Fig. 3c square, cube, 2 × 2 to 40 × 40
@@ -83,7 +84,7 @@ class RefineStage:
 
     amplitude: float = 0.1
     K: int = 8
-    tol: float = 1e-8
+    tol: float = IPOPT_TOL
     max_time_s: float = 5.0
 
 

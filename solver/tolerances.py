@@ -14,8 +14,8 @@ beside the algorithm that uses them.
 # and floating-point noise sits near 1e-15, so 1e-9 leaves several decades of margin each side.
 RANK_RTOL = 1e-9
 
-# Candidate placements (construction/placement.py) are ranked on small matrices of candidate rows; a gain
-# counts only above 1e-7 of the largest singular value, so a nearly dependent bar (which would
+# Candidate placements (construction/placement.py) are ranked on small matrices of candidate rows; a
+# gain counts only above 1e-7 of the largest singular value, so a nearly dependent bar (which would
 # make a frame with a tiny singular-value gap) is not mistaken for an independent one.
 PLACEMENT_RTOL = 1e-7
 
@@ -98,19 +98,19 @@ EIGEN_SHIFT_RTOL = 1e-13
 # ARPACK's convergence tolerance (relative to the Ritz value of the inverse): machine level.
 ARPACK_TOL = 1e-14
 
-# δ = NULL_SHIFT_RTOL·σ_max² in CᵀC + δI, the shift of analysis/rigidity.py's sparse null space: 10³ times the round-off of forming CᵀC (≈ 1e-16 σ_max²), so
-# the factorisation sees a positive definite matrix (up to 10⁶ nodes, 2D and 3D lattices and
-# near-isostatic networks), and below σ² of the singular values of designed frames and lattice
-# patches (σ ≳ 1e-4 σ_max), so a shift-invert step damps such a direction by δ/(σ² + δ) relative
-# to the null space. Directions with σ² below δ (σ ≲ 3e-7 σ_max, yet above the rank threshold
-# RANK_RTOL·σ_max) are damped by less than half per step: the iteration cannot tell them from the
-# null space, and a block narrower than all of them converges to a mixture whose Ritz value
-# stalls above the threshold, a zero mode missed. So the block is widened until its largest
-# Ritz value is one the shift damps (θ² ≥ δ); Rayleigh–Ritz on C then separates the null space
-# from those singular values. Near-degenerate frames have such directions (disordered
-# near-isostatic networks of 10⁴ nodes reach σ_r ≈ 2e-7 – 6e-5 σ_max). A larger shift leaves
-# more of them undamped (δ = 1e-10 σ_max² with a second factorisation at 1e-13 when needed:
-# 1.5–1.8× slower counts on those networks at 10⁴ nodes; the same on lattices).
+# δ = NULL_SHIFT_RTOL·σ_max² in CᵀC + δI, the shift of analysis/rigidity.py's sparse null space: 10³
+# times the round-off of forming CᵀC (≈ 1e-16 σ_max²), so the factorisation sees a positive definite
+# matrix (up to 10⁶ nodes, 2D and 3D lattices and near-isostatic networks), and below σ² of the
+# singular values of designed frames and lattice patches (σ ≳ 1e-4 σ_max), so a shift-invert step
+# damps such a direction by δ/(σ² + δ) relative to the null space. Directions with σ² below δ (σ ≲
+# 3e-7 σ_max, yet above the rank threshold RANK_RTOL·σ_max) are damped by less than half per step:
+# the iteration cannot tell them from the null space, and a block narrower than all of them
+# converges to a mixture whose Ritz value stalls above the threshold, a zero mode missed. So the
+# block is widened until its largest Ritz value is one the shift damps (θ² ≥ δ); Rayleigh–Ritz on C
+# then separates the null space from those singular values. Near-degenerate frames have such
+# directions (disordered near-isostatic networks of 10⁴ nodes reach σ_r ≈ 2e-7 – 6e-5 σ_max). A
+# larger shift leaves more of them undamped (δ = 1e-10 σ_max² with a second factorisation at 1e-13
+# when needed: 1.5–1.8× slower counts on those networks at 10⁴ nodes; the same on lattices).
 NULL_SHIFT_RTOL = 1e-13
 # The null-space bases of analysis/rigidity.py's sparse route:
 # Bases are iterated until ‖C v‖ ≤ BASIS_ANGLE·σ_r for every basis vector v, which bounds
@@ -123,9 +123,10 @@ BASIS_ANGLE = 1e-10
 BASIS_ROUNDOFF_RTOL = 1e-13
 
 # Rayleigh–Ritz's SVD of its small triangular factor by one-sided Jacobi (analysis/
-# sparse_kernels.py): a column pair counts as orthogonal once |r_jᵀ r_l| ≤ JACOBI_TOL ‖r_j‖ ‖r_l‖: a few units of
-# round-off, the accuracy the rotations themselves reach; Jacobi converges quadratically, and
-# past sparse_kernels.JACOBI_MAX_SWEEPS sweeps (never seen) the SVD falls back to LAPACK's.
+# sparse_kernels.py): a column pair counts as orthogonal once |r_jᵀ r_l| ≤ JACOBI_TOL ‖r_j‖ ‖r_l‖: a
+# few units of round-off, the accuracy the rotations themselves reach; Jacobi converges
+# quadratically, and past sparse_kernels.JACOBI_MAX_SWEEPS sweeps (never seen) the SVD falls back to
+# LAPACK's.
 JACOBI_TOL = 1e-15
 # In analysis/sparse_kernels.py's null-space rounds, a vector that keeps at most this fraction of
 # its norm after its parts along the null vectors and the Ritz space are removed lies in that
@@ -166,8 +167,8 @@ COMMON_POSITION_ATOL = 1e-10
 # tangentially is reached only to about √ε ≈ 1e-8 (linear convergence), so 1e-6 keeps one copy.
 SAME_SOLUTION_ATOL = 1e-6
 
-# Continuation along a finite motion (motion/finite_motion.py, normalised units).
-# Newton's corrector stops when every bar is within this relative length error (the API promises ≤ 1e-9).
+# Continuation along a finite motion (motion/finite_motion.py, normalised units). Newton's corrector
+# stops when every bar is within this relative length error (the API promises ≤ 1e-9).
 NEWTON_RTOL = 1e-12
 # A direction (a requested mode, the previous tangent, a chord between samples) whose part along
 # the nontrivial zero modes is at most this fraction of its norm has none there (no tangent):
@@ -197,3 +198,27 @@ BRACKET_ROUNDOFF = 1e-15
 # located by Brent's bounded search to this much of the path parameter: round-off of a parameter
 # of size O(1), each evaluation a corrector to NEWTON_RTOL.
 CURVE_MINIMUM_XATOL = 1e-12
+
+# Periodic frames (motion/periodic.py).
+# A tiled configuration whose bars are off by more than this (relative) is not a translate of
+# the cell's: the frame is not the tiling it was said to be.  Also the tolerance (relative to
+# the frame's size) within which find_tiling matches a translated node to a node.
+TILING_RTOL = 1e-9
+# find_tiling's periods are independent when the smallest singular value of their rows is above this
+# fraction of the largest.
+PERIOD_INDEPENDENT_RTOL = 1e-6
+
+# Aiming at a target (motion/target.py), Brent's method brackets the crossing on the curve to this
+# fraction of the samples' spacing before Newton on the augmented system finishes it (Newton's basin
+# is far wider).
+TARGET_BRACKET_RTOL = 1e-6
+
+# IPOPT's tol, its relative KKT error at convergence, for the refinement of a design
+# (motion/refine.py, the pipeline's RefineStage) and of a sheet's module (applications/
+# finite_strain.py): on squared bar lengths of normalised frames it gives ε of order 1e-7
+# (REACHED_EPS leaves a decade). The default of the API's refine.tol.
+IPOPT_TOL = 1e-8
+# Not a threshold: refinement's progress report divides the elapsed time by the solve's time
+# limit, which counts as at least this many seconds (a budget already spent reports "done"
+# instead of dividing by zero).
+REPORT_MIN_TIME_S = 1e-9

@@ -65,14 +65,16 @@ from zeromode.solver.motion.finite_motion import (
     trace_motion,
 )
 from zeromode.solver.motion.periodic import STOP_BISECTIONS, trace_motion_through_cell
-from zeromode.solver.tolerances import DISTINCT_RTOL, PROXIMITY_FRACTION, TARGET_RTOL
+from zeromode.solver.tolerances import (
+    DISTINCT_RTOL,
+    PROXIMITY_FRACTION,
+    TARGET_BRACKET_RTOL,
+    TARGET_RTOL,
+)
 
 # The search horizon: the largest path parameter (/v1/motion's largest amplitude) up to which a
 # target is looked for, and the end of the usable range when nothing ends it before.
 TARGET_HORIZON = 10.0
-# Brent's method brackets the crossing on the curve to this fraction of the samples' spacing
-# before Newton on the augmented system finishes it (Newton's basin is far wider).
-BRACKET_RTOL = 1e-6
 
 KINDS = ("distance", "angle", "strain", "fraction")
 REASONS = {
@@ -446,7 +448,7 @@ class _Lander:
         try:
             ends = miss(lo), miss(hi)
             if ends[0] * ends[1] < 0:
-                s = brentq(miss, lo, hi, xtol=BRACKET_RTOL * abs(hi - lo))
+                s = brentq(miss, lo, hi, xtol=TARGET_BRACKET_RTOL * abs(hi - lo))
             else:  # a sample within round-off of the goal: Newton starts from it
                 s = hi if abs(ends[1]) <= abs(ends[0]) else lo
             start = chart_at(self.cons, point, s)
