@@ -222,3 +222,73 @@ IPOPT_TOL = 1e-8
 # limit, which counts as at least this many seconds (a budget already spent reports "done"
 # instead of dividing by zero).
 REPORT_MIN_TIME_S = 1e-9
+
+# --- applications ---------------------------------------------------------------------------
+
+# Allosteric designs (applications/allostery.py; network_allostery.py holds its answers to the
+# same). An answer's target error ‖achieved − u_tgt‖/‖u_tgt‖ must not exceed this (the issue's
+# floor); an exact construction reaches ~1e-13, so this leaves four decades for the frame's
+# conditioning.
+TARGET_ERROR_MAX = 1e-9
+# The relative singular-value gap σ_min/σ_max of the unit compatibility matrix past the designed
+# zero modes must reach this: well-built chains have 1e-3 … 1e-2 (measured, benchmarks/
+# bench_allostery.py); below 1e-6 a second soft mode is six decades from being a zero mode and
+# the frame's own rank decisions (RANK_RTOL = 1e-9 of C) are no longer safely away from it.
+GAP_FLOOR = 1e-6
+# Not a threshold: the stated perturbation of the sensitivity figure: node displacements of
+# Euclidean norm SENSITIVITY_PERTURBATION × the site size (all nodes together, worst direction).
+SENSITIVITY_PERTURBATION = 1e-6
+
+# Two second moments of a set of nodes within this fraction of the largest leave their principal
+# axes undecided (certificates/stiffness.principal_axes, allostery's canonical axes across the
+# sites' axis): nodes symmetric by construction agree to round-off, distinct moments of a
+# generic design differ by O(1).
+AXES_RTOL = 1e-6
+
+# Allostery inside a given network (applications/network_allostery.py; its answers meet
+# TARGET_ERROR_MAX too).
+# A bar is left unstrained by the response when |(x_i − x_j)·(u_i − u_j)| ≤ this × |x_i − x_j|
+# × max|u|: exact data give zero or O(1); round-off of the products is ~1e-16.
+UNSTRAINED_RTOL = 1e-12
+# A node is loose when it moves by more than this fraction of the largest amplitude in a zero
+# mode of the frame without the strained bars (exact zeros elsewhere are ~1e-15).
+LOOSE_RTOL = 1e-8
+# A pair node swung about its kept ground neighbours strains the pair only when the swing has a
+# part along the pair's axis above this fraction of the axis (a swing across it is first-order
+# useless; the geometry is exact data, so its part is zero or O(1)).
+SWING_RTOL = 1e-6
+
+# Sheets held to a Poisson ratio over a strain range (applications/finite_strain.py).
+# The module search compares candidates' ranges: their events are located to this strain (the chosen
+# module's range is then scanned to round-off).
+COVER_XTOL = 1e-5
+# A bar of the verified sheet (the lattice's promise; its module is exact to ≈ 1e-13) may change its
+# length by at most this much (relative).
+SHEET_BAR_RTOL = 1e-9
+# Strain samples on a grid from 0 (arange's end, the reference's exclusion) are compared with
+# this much slack (in strain, or relative to the range): grid arithmetic leaves round-off.
+SAMPLE_ROUNDOFF = 1e-12
+# The box the unspecified nodes stay inside is shrunk by this (relative) below the reach that
+# would admit one more neighbour, so that floor() of the reach does not round up at the edge.
+BOX_SHRINK_RTOL = 1e-9
+# Not a threshold: the weight of the reference's departure from the warm start in the module's
+# IPOPT objective, ‖q₀ − q₀⁰‖²/‖q₀⁰‖² (refine_module): small beside the objective's other terms,
+# it keeps the refined reference near the warm start where they leave it free.
+MODULE_REFINE_REGULARISER = 1e-4
+
+# Symmetric sheet modules (applications/sheet_module.py).
+# Newton on g(q) = 0 stops when every bar orbit is within this relative error of its squared
+# length (the lattice promises ≤ 1e-9 on bar lengths; round-off is ~1e-15).
+MODULE_NEWTON_RTOL = 1e-13
+# A Cardan trammel's matrix M (M² = P Pᵀ of the corner and stretched-corner columns) is
+# degenerate when |det M| is at most this times tr(M²) = Σμ: its entries are O(1) exact data, so
+# a generic M has |det M| of that order, a degenerate one round-off.
+TRAMMEL_DEGENERATE_RTOL = 1e-12
+
+# A sheet's usable strain range (applications/strain_range.py): events are bracketed between the
+# scan's steps and located to this strain (round-off of a strain of O(0.1)) ...
+STRAIN_XTOL = 1e-13
+# ... but where Newton stops converging (a fold of the symmetric curve: the strain turns back), the
+# end is located by bisection on Newton's success; Newton's basin shrinks like √|ε − ε*| there, so
+# the fold is located to about this much.
+FOLD_XTOL = 1e-9
