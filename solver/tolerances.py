@@ -292,3 +292,40 @@ STRAIN_XTOL = 1e-13
 # end is located by bisection on Newton's success; Newton's basin shrinks like √|ε − ε*| there, so
 # the fold is located to about this much.
 FOLD_XTOL = 1e-9
+
+# --- certificates ---------------------------------------------------------------------------
+
+# Fabrication tolerance (certificates/fabrication.py): Gauss–Newton assembly of a frame with
+# perturbed lengths has converged when its last step is this small relative to √n (normalised
+# units).
+ASSEMBLY_TOL = 1e-12
+# A statistic's sensitivity below this per unit error does not change to first order (round-off is
+# ~1e-15).
+INSENSITIVE = 1e-12
+
+# Prestress stability (certificates/prestress.py).
+# t* ≤ PRESTRESS_TOL counts as zero. t* is dimensionless (unit stress, unit flexes); Clarabel
+# brackets it to ~1e-9, SCS to ~1e-6, stable frames of interest have t* ≳ 1e-4.
+PRESTRESS_TOL = 1e-6
+# A solved margin SDP must close its bracket to this relative gap (else the fallback runs).
+MARGIN_GAP_RTOL = 1e-4
+# SCS's eps_abs and eps_rel on the certificate SDPs: its default 1e-4 leaves the prestress
+# bracket straddling PRESTRESS_TOL, so it is asked for a decade below that.
+SCS_EPS = 1e-7
+
+# Optimal stiffness (certificates/stiffness.py). Symmetry reduction: a node maps onto a node when
+# their normalised positions agree to this (exact symmetry only: the sheets zeromode builds are
+# symmetric to round-off); a motion subspace is invariant when its image leaves it by at most this
+# fraction.
+SYMMETRY_ATOL = 1e-9
+SYMMETRY_INVARIANT_RTOL = 1e-7
+# Step lengths of the interior-point blocks larger than stiffness.DENSE_STEP come from a Lanczos
+# Ritz value to this relative accuracy (13 % faster on the 20 × 20 sheet than LAPACK's partial
+# eigen-solver): a step length is a fraction of the way to the cones' boundary, not a decision.
+LANCZOS_RTOL = 1e-4
+# An interior-point step whose primal and dual lengths multiply to less than this has stalled
+# (Ritz values and round-off keep the factors from being definite at any usable length).
+STEP_PRODUCT_MIN = 1e-12
+# The bundle method's subspaces are orthonormalised with this rank threshold: eigenvectors of k̂
+# and bundle columns already spanned (to about √ε after the projection off the span) drop out.
+BUNDLE_RANK_RTOL = 1e-8
