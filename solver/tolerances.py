@@ -1,11 +1,15 @@
 """Every numerical threshold the solver decides with, named once with its reason.
 
-All are *relative*: they compare a quantity with the natural size of its problem, on
-scale-normalised inputs (see analysis/normalisation.py), so no decision depends on units. Machine
-precision is ε ≈ 2.2e-16; the designed frames zeromode builds have σ_r/σ_max ≳ 1e-4.
+All compare a quantity with the natural size of its problem: an *_RTOL relative to a size it
+names, an *_ATOL or *_XTOL absolute on scale-normalised inputs (see analysis/normalisation.py),
+where that size is 1; so no decision depends on units. Machine precision is ε ≈ 2.2e-16; the
+designed frames zeromode builds have σ_r/σ_max ≳ 1e-4. Sections follow the solver's stages.
 
 Algorithm parameters that are not thresholds (step sizes, iteration caps, size limits) live
-beside the algorithm that uses them.
+beside the algorithm that uses them, except the few small ones (a finite-difference step, a
+regulariser, a stated perturbation, a time floor), which are here, marked "Not a threshold":
+tests/test_architecture.py fails on any float literal in [1e-16, 1e-4] in solver/ outside this
+file, so none is a bare magic number.
 """
 
 # --- rank and null spaces -------------------------------------------------------------------

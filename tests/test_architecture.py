@@ -156,3 +156,30 @@ def test_the_stage_check_sees_upward_imports(tmp_path):
     assert stage_violations(probe, "motion") == ["zeromode.solver.applications.lattice", "zeromode.solver.pipeline"]
     assert stage_violations(probe, "certificates") == ["zeromode.solver.pipeline"]
     assert stage_violations(probe, "pipeline") == []
+
+
+# Thresholds are named once, with their reason, in solver/tolerances.py: a float literal in this
+# range anywhere else in solver/ is a threshold (or a small step) without a name.
+SMALL_FLOATS = (1e-16, 1e-4)
+
+
+def small_float_literals(source: str) -> list[tuple[int, float]]:
+    """(line, value) of every float constant with SMALL_FLOATS[0] ≤ |value| ≤ SMALL_FLOATS[1]."""
+    return sorted(
+        (node.lineno, node.value)
+        for node in ast.walk(ast.parse(source))
+        if isinstance(node, ast.Constant)
+        and isinstance(node.value, float)
+        and SMALL_FLOATS[0] <= abs(node.value) <= SMALL_FLOATS[1]
+    )
+
+
+def test_the_literal_scan_sees_thresholds():
+    source = "A = 1e-9\ndef f(x, tol=1e-6):\n    return x < -1e-12 * 2 or x > 1e-3 or x < 1e-300 or x == 0.0 or x < 1 / 3\n"
+    assert small_float_literals(source) == [(1, 1e-9), (2, 1e-6), (3, 1e-12)]
+
+
+@pytest.mark.parametrize("path", [p for p in SOLVER if p != ROOT / "solver" / "tolerances.py"], ids=lambda p: p.relative_to(ROOT / "solver").as_posix())
+def test_no_threshold_outside_tolerances(path):
+    found = small_float_literals(path.read_text(encoding="utf-8"))
+    assert not found, f"{path.relative_to(ROOT).as_posix()}: float literals {found} belong in solver/tolerances.py, named with their reason"
