@@ -1,9 +1,10 @@
 """Every numerical threshold the solver decides with, named once with its reason.
 
-All compare a quantity with the natural size of its problem: an *_RTOL relative to a size it
-names, an *_ATOL or *_XTOL absolute on scale-normalised inputs (see analysis/normalisation.py),
-where that size is 1; so no decision depends on units. Machine precision is ε ≈ 2.2e-16; the
-designed frames zeromode builds have σ_r/σ_max ≳ 1e-4. Sections follow the solver's stages.
+Each compares a quantity with the natural size of its problem: relative to a size its comment
+names (the *_RTOL), or absolute on scale-normalised inputs (see analysis/normalisation.py),
+where that size is 1 (the *_ATOL, *_XTOL); so no decision depends on units. Machine precision is ε ≈ 2.2e-16; the
+designed frames zeromode builds have σ_r/σ_max ≳ 1e-4. The first sections hold thresholds
+several stages share; the rest follow the solver's stages, each name with the module it serves.
 
 Algorithm parameters that are not thresholds (step sizes, iteration caps, size limits) live
 beside the algorithm that uses them, except the few small ones (a finite-difference step, a
@@ -116,9 +117,9 @@ ARPACK_TOL = 1e-14
 # larger shift leaves more of them undamped (δ = 1e-10 σ_max² with a second factorisation at 1e-13
 # when needed: 1.5–1.8× slower counts on those networks at 10⁴ nodes; the same on lattices).
 NULL_SHIFT_RTOL = 1e-13
-# The null-space bases of analysis/rigidity.py's sparse route:
-# Bases are iterated until ‖C v‖ ≤ BASIS_ANGLE·σ_r for every basis vector v, which bounds
-# the angle between the returned and the exact null space by BASIS_ANGLE (round-off allowing).
+# The null-space bases of analysis/rigidity.py's sparse route are iterated until ‖C v‖ ≤
+# BASIS_ANGLE·σ_r for every basis vector v, which bounds the angle between the returned and the
+# exact null space by BASIS_ANGLE (round-off allowing).
 BASIS_ANGLE = 1e-10
 # … or until ‖C v‖ ≤ BASIS_ROUNDOFF_RTOL·σ_max, the level round-off in C·v (≈ 1e-16 σ_max per entry,
 # summed over a node's bars) keeps it above; or, where a singular value below the rank's
@@ -171,6 +172,8 @@ COMMON_POSITION_ATOL = 1e-10
 # tangentially is reached only to about √ε ≈ 1e-8 (linear convergence), so 1e-6 keeps one copy.
 SAME_SOLUTION_ATOL = 1e-6
 
+# --- motion: continuation, periodic frames, targets, refinement -----------------------------
+
 # Continuation along a finite motion (motion/finite_motion.py, normalised units). Newton's corrector
 # stops when every bar is within this relative length error (the API promises ≤ 1e-9).
 NEWTON_RTOL = 1e-12
@@ -196,7 +199,8 @@ SINGULAR_RTOL = 1e-6
 LOCATED_RTOL = 1e-2 * SINGULAR_RTOL
 # ... its σ measured only once the bracket on the step length is this narrow (relative).
 MEASURED_WIDTH = 1e-5
-# ... or the bracket on the step length is at round-off (relative to max(h, 1)).
+# The location stops there, or once the bracket on the step length is at round-off (relative to
+# max(h, 1)).
 BRACKET_ROUNDOFF = 1e-15
 # The closest point of a path to a target between two samples (finite_motion.curve_minimum) is
 # located by Brent's bounded search to this much of the path parameter: round-off of a parameter
