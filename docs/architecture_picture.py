@@ -5,7 +5,8 @@
 
 Boxes are the packages (clients, service, viz/export, solver and its stages in the paper's order),
 grey arrows the direction of imports (a box imports only what its arrows point to), the numbered
-orange arrows the path of one design request: request → route → pipeline → stages → body.
+orange arrows the path of one design request: request → route → operation → pipeline → stages →
+body.
 """
 
 from __future__ import annotations
@@ -60,19 +61,18 @@ def draw() -> plt.Figure:
     ax.set_ylim(0, 10.2)
     ax.axis("off")
 
-    # Callers: every door speaks the REST contract or calls the library's functions.
-    box(ax, 0.4, 8.75, 3.4, 1.15, "HTTP clients", "curl, zeromode_client (clients/python),\nthe viewer page", FILL["client"])
-    box(ax, 4.2, 8.75, 3.4, 1.15, "zeromode (library)", "import zeromode as zm: design,\nanalyze, motion, certify, sweep …", FILL["client"])
-    box(ax, 8.0, 8.75, 3.0, 1.15, "CLI", "zeromode serve | design |\nexample | plot | export | job", FILL["client"])
+    # Callers, and the doors they come in by.
+    box(ax, 0.4, 9.0, 4.0, 0.95, "HTTP clients", "curl, zeromode_client (clients/python), the viewer", FILL["client"], size=10.5)
+    box(ax, 4.7, 9.0, 3.0, 0.95, "service/cli.py", "zeromode serve | design | job …", FILL["client"], size=10.5)
+    box(ax, 0.4, 7.55, 4.0, 1.1, "service/rest/  REST door", "FastAPI app, routes: parse → call\none operation → serialise; no numpy", FILL["service"], size=10.5)
+    box(ax, 4.7, 7.55, 3.0, 1.1, "zeromode  library door", "import zeromode as zm:\ndesign, motion, certify …", FILL["service"], size=10.5)
+    box(ax, 8.0, 7.55, 3.0, 1.1, "service/jobs/  job engine", "Dask tasks, sweeps,\nrecords; no HTTP", FILL["service"], size=10.5)
+    box(ax, 0.4, 6.05, 6.6, 1.1, "zeromode/operations/", "one operation per endpoint: request → solver → (result, body);\nthe routes, the jobs, the CLI and the library call these", FILL["service"], size=10.5)
+    box(ax, 7.3, 6.05, 3.7, 1.1, "service/wire/  wire format", "settings, schemas, responses.py:\nthe one place results become bodies", FILL["service"], size=10.5)
 
-    # service/: the REST layer and the job engine.
-    box(ax, 0.4, 5.9, 10.6, 2.45, "service/  (zeromode.service)", fill=FILL["service"], size=12, title_y=8.2)
-    box(ax, 0.7, 6.1, 6.3, 1.7, "REST layer", "schemas (pydantic) → routes: parse → call → serialise\n→ responses.py: the one place results become bodies\nsettings, limits, API key, OpenAPI", FILL["stage"], size=10.5)
-    box(ax, 7.3, 6.1, 3.45, 1.7, "job engine", "long work as jobs, sweeps,\noffload; records, progress,\ncancellation", FILL["stage"], size=10.5)
-
-    # Drawing and files, beside the service.
-    box(ax, 11.6, 7.25, 3.0, 1.1, "export/", "files for other tools:\nVTK, STL, networkx, DXF, CSV", FILL["side"], size=10.5)
-    box(ax, 11.6, 5.9, 3.0, 1.1, "viz/", "pictures in the paper's\nvisual language: SVG, PNG, GIF", FILL["side"], size=10.5)
+    # Drawing and files, beside them.
+    box(ax, 11.6, 7.55, 3.0, 1.1, "export/", "files for other tools:\nVTK, STL, networkx, DXF, CSV", FILL["side"], size=10.5)
+    box(ax, 11.6, 6.05, 3.0, 1.1, "viz/", "pictures in the paper's\nvisual language: SVG, PNG, GIF", FILL["side"], size=10.5)
 
     # solver/: pipeline on top, the stages in the paper's order, the foundations below.
     box(ax, 0.4, 0.35, 14.2, 5.15, "", fill=FILL["solver"])
@@ -92,17 +92,18 @@ def draw() -> plt.Figure:
         fill=FILL["base"], size=9.5, weight="normal", title_y=1.0)
 
     # Imports (grey): downward and leftward only.
-    for x in (2.1, 5.9, 9.5):
-        arrow(ax, (x, 8.75), (x, 8.38))
-    arrow(ax, (3.8, 5.9), (3.8, 5.52))
-    arrow(ax, (9.0, 5.9), (9.0, 5.52))
-    arrow(ax, (11.6, 7.8), (11.05, 7.8))
-    arrow(ax, (13.1, 7.25), (13.1, 7.02))
-    arrow(ax, (13.1, 5.9), (13.1, 5.52))
+    arrow(ax, (6.2, 9.0), (6.2, 8.67))        # CLI → library door
+    arrow(ax, (7.7, 9.3), (9.5, 8.67), rad=-0.2)  # CLI → job engine
+    arrow(ax, (6.2, 7.55), (5.2, 7.17))       # library door → operations
+    arrow(ax, (8.6, 7.55), (6.6, 7.17))       # jobs → operations
+    arrow(ax, (7.0, 6.6), (7.3, 6.6))         # operations → wire
+    arrow(ax, (9.2, 6.05), (9.2, 5.52))       # wire → solver
+    arrow(ax, (1.0, 6.05), (1.0, 5.52))       # operations → solver
+    arrow(ax, (13.1, 7.55), (13.1, 7.17))     # export → viz
+    arrow(ax, (13.1, 6.05), (13.1, 5.52))     # viz → solver
     for c in centres:  # the pipeline imports every stage
         start = (min(max(c, 4.5), 10.5), 3.95)
         arrow(ax, start, (c, y0 + h), lw=1.0)
-    arrow(ax, (7.15, 8.75), (7.15, 4.92))  # the library calls the pipeline as the routes do
 
     # Legend.
     arrow(ax, (11.6, 9.6), (12.2, 9.6))
@@ -111,21 +112,18 @@ def draw() -> plt.Figure:
     ax.text(12.35, 9.0, "one design request's path", fontsize=8.6, va="center", color=INK)
 
     # The path of one request (orange, numbered).
-    arrow(ax, (0.9, 8.75), (1.4, 7.82), color=PATH, lw=2.6, rad=0.0, z=5)
-    step(ax, (0.95, 8.3), 1)
-    ax.text(1.15, 8.55, "request", color=PATH, fontsize=9, ha="left", va="center")
-    arrow(ax, (2.6, 6.1), (4.9, 4.92), color=PATH, lw=2.6, rad=0.15, z=5)
-    step(ax, (3.35, 5.7), 2)
-    ax.text(3.55, 5.7, "route calls the pipeline", color=PATH, fontsize=9, ha="left", va="center")
-    arrow(ax, (6.6, 3.95), (6.9, y0 + h), color=PATH, lw=2.6, z=5)
-    step(ax, (6.45, 3.55), 3)
+    def path(a, b, n, at, label, rad=0.0, ha="left"):
+        arrow(ax, a, b, color=PATH, lw=2.6, rad=rad, z=5)
+        step(ax, at, n)
+        ax.text(at[0] + (0.22 if ha == "left" else -0.22), at[1], label, color=PATH, fontsize=9, ha=ha, va="center")
+
+    path((1.0, 9.0), (1.0, 8.68), 1, (1.35, 8.84), "request")
+    path((2.0, 7.55), (2.0, 7.18), 2, (2.35, 7.37), "route calls its operation")
+    path((3.0, 6.05), (4.9, 4.92), 3, (3.35, 5.7), "operation runs the pipeline", rad=0.15)
+    path((6.6, 3.95), (6.9, y0 + h), 4, (6.45, 3.55), "", ha="right")
     ax.text(7.7, 3.58, "the stages: construct,\nverify, move, certify", color=PATH, fontsize=9, ha="left", va="center")
-    arrow(ax, (10.7, 4.45), (6.4, 6.08), color=PATH, lw=2.6, rad=0.25, z=5)
-    step(ax, (10.35, 5.05), 4)
-    ax.text(10.9, 4.75, "results (frozen dataclasses)\nto responses.py", color=PATH, fontsize=9, ha="left", va="top")
-    arrow(ax, (3.2, 7.82), (3.2, 8.73), color=PATH, lw=2.6, z=5)
-    step(ax, (3.45, 8.3), 5)
-    ax.text(3.65, 8.55, "body", color=PATH, fontsize=9, ha="left", va="center")
+    path((10.7, 4.45), (9.9, 6.03), 5, (10.95, 4.95), "results (frozen dataclasses) to\nresponses.py: the body the\noperation and the route return")
+    path((3.6, 8.65), (3.6, 8.98), 6, (3.95, 8.84), "body")
 
     fig.tight_layout(pad=0.3)
     return fig

@@ -1,4 +1,4 @@
-"""Regenerate the pictures of the README's "Taking a design away" section:
+"""Regenerate the pictures of the guide's how-to pages (docs/howto/pictures.md, paraview.md, cut.md):
 
     .venv/bin/python docs/takeaway_pictures.py
 
@@ -23,7 +23,7 @@ import httpx
 import uvicorn
 from PIL import Image
 
-from zeromode.service.app import create_app
+from zeromode.service.rest.app import create_app
 
 IMG = Path(__file__).resolve().parent / "img"
 CHROMIUM_ARGS = [

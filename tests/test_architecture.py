@@ -1,18 +1,21 @@
 """The layers stay apart (docs/architecture.md), read from the source with ast.
 
-solver/ is mathematics only: it imports nothing of the service, of drawing, of the wire format
+The import graph of every zeromode module (solver/, viz/, export/, service/, zeromode/; imports
+inside functions and under TYPE_CHECKING count) has no circle, and no module imports a layer
+above its own (LAYERS). solver/ is mathematics only: it imports nothing of the service, of drawing, of the wire format
 (JSON, pydantic) or of the web. Routes hold no numerical code: no numpy or scipy. The user's
 pipeline is chained in one place: only solver/pipeline.py calls both refinement and certificates.
 """
 
 import ast
+import graphlib
 from pathlib import Path
 
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 SOLVER = sorted((ROOT / "solver").rglob("*.py"))
-ROUTES = sorted((ROOT / "service" / "routes").glob("*.py"))
+ROUTES = sorted((ROOT / "service" / "rest" / "routes").glob("*.py"))
 
 NOT_IN_SOLVER = (
     "zeromode.service",
@@ -36,7 +39,6 @@ ABOVE = {"viz": ("zeromode.service", "zeromode.export", "zeromode_client"), "exp
 
 
 def imported_modules(path: Path) -> set[str]:
-    """Every dotted name ``path`` imports; ``from m import x`` gives m and m.x (x may be a module)."""
     tree = ast.parse(path.read_text(encoding="utf-8"))
     names = set()
     for node in ast.walk(tree):
@@ -44,7 +46,6 @@ def imported_modules(path: Path) -> set[str]:
             names.update(alias.name for alias in node.names)
         elif isinstance(node, ast.ImportFrom) and node.module:
             names.add(node.module)
-            names.update(f"{node.module}.{alias.name}" for alias in node.names)
     return names
 
 
@@ -100,56 +101,184 @@ def test_viz_and_export_do_not_reach_up(path):
     assert not bad, f"{path.parent.name}/{path.name} imports {sorted(bad)}"
 
 
-# The solver's stages in the paper's order (docs/architecture.md): a module imports only from its
-# own stage or from stages below it. The frame sits with analysis (it scales itself with
-# analysis/normalisation, and analysis reads frames); errors, budget, progress and tolerances
-# import no stage; the package's __init__ only re-exports.
-STAGES = ("errors budget progress tolerances", "frame analysis", "motion", "construction", "applications", "certificates", "pipeline __init__")
-STAGE_OF = {name: level for level, names in enumerate(STAGES) for name in names.split()}
+# Where each source tree is installed (pyproject.toml's package-dir).
+TREES = {"solver": "zeromode.solver", "viz": "zeromode.viz", "export": "zeromode.export",
+         "service": "zeromode.service", "zeromode": "zeromode"}
+# The layers, lowest first: a module may import its own layer and those of lower ranks. A
+# module belongs to the layer whose longest prefix names it. Layers of one rank (the doors)
+# import each other in neither direction.
+# solver/ is mathematics (numpy in and out), one layer per stage of the paper in the order the
+# stages build on each other (docs/architecture.md): its foundations (errors, budget, progress,
+# tolerances; any new top-level module until it is placed), then the frame with analysis (the
+# frame scales itself with analysis/normalisation, and analysis reads frames), motion,
+# construction, applications, certificates, and the pipeline that chains them.
+LAYERS: list[dict[str, tuple[str, ...]]] = [
+    {"solver": ("zeromode.solver",)},
+    {"analysis": ("zeromode.solver.frame", "zeromode.solver.analysis")},
+    {"motion": ("zeromode.solver.motion",)},
+    {"construction": ("zeromode.solver.construction",)},
+    {"applications": ("zeromode.solver.applications",)},
+    {"certificates": ("zeromode.solver.certificates",)},
+    {"pipeline": ("zeromode.solver.pipeline",)},
+    {"viz": ("zeromode.viz",)},                     # pictures of arrays
+    {"export": ("zeromode.export",)},               # files of a Takeaway (animations via viz)
+    {"wire": ("zeromode.service.wire",)},           # settings, schemas, error bodies, results → bodies
+    {"library": ("zeromode.operations", "zeromode._library", "zeromode._results", "zeromode.examples")},
+    {"jobs": ("zeromode.service.jobs",)},           # the job engine: records, Dask tasks, sweeps
+    {"rest": ("zeromode.service.rest",),            # the doors: REST, and `import zeromode`
+     "facade": ("zeromode.__init__",)},
+    {"cli": ("zeromode.service.cli",)},             # the command line, over all of them
+]
+# Packages whose __init__ holds no code of a layer (a version string, a docstring; zeromode.solver's
+# re-exports the frame and analysis for ``from zeromode.solver import Frame``).
+NEUTRAL = {"zeromode.service", "zeromode.solver"}
 
 
-def solver_stage(module: str) -> int:
-    """The stage level of ``zeromode.solver.<part>...`` (its first part: a subpackage or a top module)."""
-    return STAGE_OF[module.split(".")[2]]
+def module_files() -> dict[str, Path]:
+    """Every zeromode module and its file; a package as its name, except the facade
+    ``zeromode/__init__.py`` (``zeromode.__init__``, a layer of its own)."""
+    modules = {}
+    for tree, package in TREES.items():
+        for path in (ROOT / tree).rglob("*.py"):
+            parts = path.relative_to(ROOT / tree).with_suffix("").parts
+            if parts[-1] == "__init__" and not (tree == "zeromode" and len(parts) == 1):
+                parts = parts[:-1]
+            modules[".".join((package, *parts))] = path
+    return modules
 
 
-def solver_imports(path: Path) -> set[str]:
-    """The zeromode.solver modules (and names in them) ``path`` imports."""
-    return {name for name in imported_modules(path) if name.startswith("zeromode.solver.")}
+MODULES = module_files()
 
 
-def stage_of(path: Path) -> str:
-    """The stage name of a file under solver/: its subpackage, or its module name at the top."""
-    return path.relative_to(ROOT / "solver").parts[0].removesuffix(".py")
+def _target(name: str) -> str | None:
+    """The zeromode module an imported name lives in (a package's name for its __init__)."""
+    while name and name not in MODULES:
+        if name == "zeromode":
+            return "zeromode.__init__"
+        name = name.rpartition(".")[0]
+    return name or None
 
 
-def stage_violations(path: Path, stage: str) -> list[str]:
-    """The zeromode.solver modules ``path`` imports from a later stage than ``stage``."""
-    return sorted(name for name in solver_imports(path) if solver_stage(name) > STAGE_OF[stage])
+def import_graph(modules: dict[str, Path]) -> dict[str, set[str]]:
+    """module → the zeromode modules it imports, anywhere in its source (absolute and
+    relative imports; ``from package import name`` resolved to a submodule where there is one)."""
+    graph = {}
+    for module, path in modules.items():
+        package = module if path.name == "__init__.py" else module.rpartition(".")[0]
+        found = set()
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Import):
+                found.update(alias.name for alias in node.names)
+            elif isinstance(node, ast.ImportFrom):
+                base = node.module or ""
+                if node.level:
+                    parent = package.rsplit(".", node.level - 1)[0] if node.level > 1 else package
+                    base = f"{parent}.{base}" if base else parent
+                found.update(f"{base}.{alias.name}" for alias in node.names)
+        graph[module] = {t for name in found if name.startswith("zeromode")
+                         and (t := _target(name)) is not None and t != module}
+    return graph
 
 
-def test_every_solver_module_has_a_stage():
-    assert {stage_of(path) for path in SOLVER} == set(STAGE_OF)
+def layer_of(module: str) -> tuple[int, str]:
+    """(rank, layer) of a module: the longest LAYERS prefix naming it."""
+    found = [(len(prefix), rank, layer) for rank, layers in enumerate(LAYERS) for layer, prefixes in layers.items()
+             for prefix in prefixes if module == prefix or module.startswith(prefix + ".")]
+    assert found, f"{module} is in no layer of tests/test_architecture.py's LAYERS"
+    _, rank, layer = max(found)
+    return rank, layer
 
 
-@pytest.mark.parametrize("path", SOLVER, ids=lambda p: p.relative_to(ROOT / "solver").as_posix())
-def test_solver_imports_run_down_the_stages(path):
-    bad = stage_violations(path, stage_of(path))
-    assert not bad, f"{path.relative_to(ROOT).as_posix()} ({stage_of(path)}) imports {bad} from a later stage"
+def circle(graph: dict[str, set[str]]) -> list[str] | None:
+    """One import circle of ``graph``, or None."""
+    try:
+        graphlib.TopologicalSorter(graph).prepare()
+    except graphlib.CycleError as exc:
+        return exc.args[1]
+    return None
 
 
-def test_the_stage_check_sees_upward_imports(tmp_path):
-    # Both import forms, upward from motion; the same lines are allowed from certificates.
-    probe = tmp_path / "probe.py"
-    probe.write_text(
-        "import numpy\nfrom zeromode.solver import tolerances, pipeline\n"
-        "def f():\n    from zeromode.solver.applications.lattice import boundary_sets\n",
-        encoding="utf-8",
-    )
-    lattice = ["zeromode.solver.applications.lattice", "zeromode.solver.applications.lattice.boundary_sets"]
-    assert stage_violations(probe, "motion") == [*lattice, "zeromode.solver.pipeline"]
-    assert stage_violations(probe, "certificates") == ["zeromode.solver.pipeline"]
-    assert stage_violations(probe, "pipeline") == []
+def upward_imports(graph: dict[str, set[str]]) -> list[str]:
+    """Every import of a layer above the importer's own, or of another layer of its rank."""
+    bad = []
+    for module, targets in graph.items():
+        if module in NEUTRAL:
+            continue
+        rank, layer = layer_of(module)
+        for target in targets - NEUTRAL:
+            other_rank, other = layer_of(target)
+            if other_rank > rank or (other_rank == rank and other != layer):
+                bad.append(f"{module} ({layer}) imports {target} ({other})")
+    return sorted(bad)
+
+
+GRAPH = import_graph(MODULES)
+
+
+def test_the_graph_is_read(tmp_path):
+    # Guards the two tests below against a graph that lost its modules or edges (a test that
+    # could not fail): every tree is there, known edges are seen, relative imports resolved.
+    assert {m.split(".")[1] for m in MODULES if m.count(".")} >= {"solver", "viz", "export", "service", "operations"}
+    assert "zeromode.solver.frame" in GRAPH["zeromode.service.wire.convert"]
+    assert "zeromode.service.wire.settings" in GRAPH["zeromode.service.rest.app"]
+    source = tmp_path / "engine.py"
+    source.write_text("def f():\n    from .sweeps import run_sweep\n    from ..wire import settings\n")
+    assert import_graph({"zeromode.service.jobs.engine": source})["zeromode.service.jobs.engine"] == {
+        "zeromode.service.jobs.sweeps", "zeromode.service.wire.settings"}
+
+
+def test_the_checks_catch_a_circle_and_an_upward_import():
+    graph = {"zeromode.service.jobs.engine": {"zeromode.service.jobs.sweeps"},
+             "zeromode.service.jobs.sweeps": {"zeromode.service.jobs.engine"},
+             "zeromode.solver.frame": {"zeromode.viz.picture"}, "zeromode.viz.picture": set(),
+             # the solver's stages: motion/target once read the boundary sets from applications/lattice
+             "zeromode.solver.motion.target": {"zeromode.solver.applications.lattice", "zeromode.solver.analysis.rank"},
+             "zeromode.solver.tolerances": {"zeromode.solver.frame"}}
+    assert set(circle(graph)) == {"zeromode.service.jobs.engine", "zeromode.service.jobs.sweeps"}
+    assert upward_imports(graph) == [
+        "zeromode.solver.frame (analysis) imports zeromode.viz.picture (viz)",
+        "zeromode.solver.motion.target (motion) imports zeromode.solver.applications.lattice (applications)",
+        "zeromode.solver.tolerances (solver) imports zeromode.solver.frame (analysis)",
+    ]
+
+
+def test_no_import_circle():
+    found = circle(GRAPH)
+    assert found is None, "import circle: " + " → ".join(found)
+
+
+def test_no_layer_imports_upward():
+    assert upward_imports(GRAPH) == []
+
+
+def test_each_operation_has_one_route_that_only_calls_it():
+    # One pipeline, three doors: the route of every operation is parse → call → serialise, a
+    # single `return endpoints.<operation>(request).body` (FastAPI parses, the response model
+    # serialises); the job engine runs the same functions (tasks.RUNNABLE ⊂ OPERATIONS).
+    import importlib
+    import inspect
+    import textwrap
+
+    from fastapi.routing import APIRoute
+
+    from zeromode.operations.endpoints import OPERATIONS
+    from zeromode.service.jobs.tasks import RUNNABLE
+
+    served = {}
+    for path in ROUTES:
+        if path.stem == "__init__":
+            continue
+        module = importlib.import_module(f"zeromode.service.rest.routes.{path.stem}")
+        for route in module.router.routes:
+            if isinstance(route, APIRoute) and route.path in OPERATIONS and "POST" in route.methods:
+                served[route.path] = route.endpoint
+    assert served.keys() == OPERATIONS.keys()
+    for path, endpoint in served.items():
+        (function,) = ast.parse(textwrap.dedent(inspect.getsource(endpoint))).body
+        body = [s for s in function.body if not (isinstance(s, ast.Expr) and isinstance(s.value, ast.Constant))]
+        expected = f"return endpoints.{OPERATIONS[path].run.__name__}({function.args.args[0].arg}).body"
+        assert [ast.unparse(s) for s in body] == [expected], f"{path}: {endpoint.__name__} does more than call its operation"
+    assert RUNNABLE and all(RUNNABLE[p] is OPERATIONS[p] for p in RUNNABLE)
 
 
 # Thresholds are named once, with their reason, in solver/tolerances.py: a float literal in this

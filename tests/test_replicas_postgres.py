@@ -1,4 +1,4 @@
-"""Service replicas on one PostgreSQL database, as the README's deployment section tells users to
+"""Service replicas on one PostgreSQL database, as docs/howto/dask.md tells users to
 run them: the tests' own server on loopback (tests/postgres_server.py), real ``zeromode serve``
 processes with their own embedded Dask clusters, one of them killed with -9 mid-sweep.
 
@@ -27,9 +27,9 @@ from fastapi.testclient import TestClient
 from test_jobs import without_timings
 from test_sweeps import SLOW_POINTS, finish, get_from, wait_until_some_done
 
-from zeromode.service.app import ENGINE_RETRY_FIRST_S, create_app
-from zeromode.service.settings import Settings
-from zeromode.service.store import Store, jobs, metadata
+from zeromode.service.jobs.store import Store, jobs, metadata
+from zeromode.service.rest.app import ENGINE_RETRY_FIRST_S, create_app
+from zeromode.service.wire.settings import Settings
 
 # A replica silent this long is taken for dead (ZEROMODE_JOB_LEASE_S; 20 s by default): short,
 # so that the test waits seconds, not minutes, for the survivor to adopt.
