@@ -31,6 +31,7 @@ from zeromode.solver.multistable.design import design_multistable
 from zeromode.solver.multistable.linkage import design_linkage
 from zeromode.solver.multistable.springs import design_springs
 from zeromode.solver.multistable.verify import check_minima
+from zeromode.solver.tolerances import SPRING_DROP_RTOL
 
 TRIANGLE = example_request("tristable_triangle_2d")["conformations"]
 SQUARE = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
@@ -123,7 +124,7 @@ def main() -> None:
     h = 0.5 * springs_module._largest_barrier(samples) * (1 + springs_module.BARRIER_MARGIN)
     t_cvx, sol = cpu(lambda: springs_module._program(samples, h), args.repeats)
     alpha, beta, _ = sol
-    keep = alpha > springs_module.DROP_RTOL
+    keep = alpha > SPRING_DROP_RTOL
     stored = sum(np.sum((alpha[keep] * samples.ell[k, keep] - beta[keep]) ** 2 / alpha[keep]) / 2 for k in samples.at)
     t_ipopt, stored_ipopt, status = casadi_program(samples, h)
     print(f"spring program (normalised units): cvxpy + Clarabel {t_cvx:.3f} s CPU, stored energy {stored:.6g}; "

@@ -57,6 +57,7 @@ from zeromode.solver.motion.finite_motion import (
     trace_motion,
 )
 from zeromode.solver.tolerances import (
+    CONIC_ELIMINATION_RTOL,
     CONSTRAINT_ATOL,
     PLACEMENT_RTOL,
     REACHED_EPS,
@@ -411,7 +412,7 @@ def _conic_intersections(conics) -> list[np.ndarray]:
     points = []
     for t1 in np.unique(real):
         denominator = (a1 * b2 - a2 * b1)(t1)
-        if abs(denominator) > 1e-12 * (abs(a1(t1) * b2(t1)) + abs(a2(t1) * b1(t1)) + 1e-300):
+        if abs(denominator) > CONIC_ELIMINATION_RTOL * (abs(a1(t1) * b2(t1)) + abs(a2(t1) * b1(t1))):
             points.append(np.array([t1, -(a1 * c2 - a2 * c1)(t1) / denominator]))
             continue
         for a, b, c in coeffs:
@@ -519,10 +520,11 @@ def _mode_towards(frame: Frame, target: np.ndarray) -> np.ndarray:
 
 
 def _gap_along(path: MotionPath, edges: np.ndarray, until: float) -> float | None:
-    """Smallest σ_r/σ_max of C (normalised positions) over the path samples with
-    0 ≤ τ ≤ ``until``, or None when a sample has other than one nontrivial zero mode."""
+    """Smallest σ_r/σ_max of C (normalised positions) over the path samples from τ = 0 to the
+    one nearest ``until``, or None when a sample has other than one nontrivial zero mode."""
     gap = np.inf
-    for x in path.positions[(path.parameter >= 0) & (path.parameter <= until * (1 + 1e-9))]:
+    last = int(np.argmin(np.abs(path.parameter - until)))
+    for x in path.positions[path.reference_index : last + 1]:
         y = Normalisation.of(x).positions_in(x)
         s = np.linalg.svd(compatibility_matrix(y, edges, dense=True), compute_uv=False)
         r, _ = decide_rank(s)

@@ -53,6 +53,7 @@ from zeromode.solver.analysis.normalisation import Normalisation
 from zeromode.solver.errors import DomainError
 from zeromode.solver.motion.finite_motion import align_to
 from zeromode.solver.multistable.linkage import OUTER_MARGIN, Linkage, flexes
+from zeromode.solver.tolerances import SPRING_DROP_RTOL
 
 # Rest lengths allowed, as multiples of (shortest, longest) length of the spring along the
 # motion: a spring neither collapses to a point nor is much longer than anything it joins.
@@ -65,8 +66,6 @@ CURVATURE_FLOOR = 1e-3
 DEFAULT_BARRIER_FRACTION = 0.5
 # Relative margin on the barrier asked of the program (Clarabel meets constraints to ~1e-8).
 BARRIER_MARGIN = 1e-3
-# Springs whose stiffness the linear program leaves below this fraction of k_max are dropped.
-DROP_RTOL = 1e-7
 
 
 @dataclass(frozen=True, eq=False)
@@ -153,7 +152,7 @@ def design_springs(linkage: Linkage, barrier: float | None, max_stiffness: float
             f"below the {barrier:.4g} requested.",
         )
     alpha, beta, _ = solution
-    keep = alpha > DROP_RTOL
+    keep = alpha > SPRING_DROP_RTOL
     alpha, beta = _exact_minima(samples, alpha, beta, keep)
     springs = Springs(
         samples.pairs[keep], alpha[keep] * max_stiffness, (beta[keep] / alpha[keep]) * r,

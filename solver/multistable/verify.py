@@ -27,14 +27,13 @@ from zeromode.solver.analysis.rigidity import rigid_motions
 from zeromode.solver.budget import check_budget
 from zeromode.solver.motion.finite_motion import kabsch_distance
 from zeromode.solver.multistable.springs import Landscape, Springs
-from zeromode.solver.tolerances import MINIMUM_LANDING_RTOL
+from zeromode.solver.tolerances import MINIMUM_LANDING_RTOL, RELAXATION_GRADIENT_RTOL
 
 ROD_STIFFNESS_RATIO = 1e5
 RELAXATIONS = 3
 PERTURBATION = 0.02
-# Trust-region iterations and gradient tolerance (in units of k_max · RMS radius).
+# Trust-region iterations (its gradient tolerance is tolerances.RELAXATION_GRADIENT_RTOL).
 MAX_ITERATIONS = 500
-GRADIENT_RTOL = 1e-11
 # The trust region hands over to Newton once the gradient is within this factor of gtol (Newton
 # converges from there; from further, on the stiff rods, it may not).
 HANDOVER_GRADIENT = 1e5
@@ -118,7 +117,7 @@ def check_minima(frame, conformations: np.ndarray, springs: Springs, landscape: 
     energy = StiffRodEnergy(frame.edges, rest, springs, frame.dim, ROD_STIFFNESS_RATIO * max_stiffness)
     r = Normalisation.of(frame.positions).length
     unit = r * np.sqrt(frame.n_nodes)
-    relax = lambda x0: _relaxed(energy, x0, GRADIENT_RTOL * max_stiffness * r)
+    relax = lambda x0: _relaxed(energy, x0, RELAXATION_GRADIENT_RTOL * max_stiffness * r)
     relaxed = [relax(c) for c in conformations]
     rng = np.random.default_rng(seed)
     s, peaks = landscape.arclength, _peaks(landscape)
