@@ -347,12 +347,6 @@ BUNDLE_RANK_RTOL = 1e-8
 # 1e-6 tells "the same minimum" from any other by orders of magnitude either side.
 MINIMUM_LANDING_RTOL = 1e-6
 
-# Two conics' common points (multistable/linkage.py): τ₂ is eliminated from the pair where the
-# coefficient (α₁β₂ − α₂β₁)(τ₁) exceeds this fraction of the size of its terms; below, the pair is
-# degenerate there (terms of order 1 cancel to round-off, ~1e-16, four decades below) and τ₂ comes
-# from each quadratic instead.
-CONIC_ELIMINATION_RTOL = 1e-12
-
 # Springs the interior-point solver leaves with a stiffness below this fraction of k_max are
 # absent (Clarabel returns zeros as values of its tolerance, ~1e-8 and below); the least change
 # of the rest lengths then restores E′ = 0 exactly (multistable/springs.py).

@@ -45,6 +45,7 @@ from zeromode.solver.analysis.rank import decide_rank
 from zeromode.solver.analysis.rigidity import Analysis, analyze, compatibility_matrix, rigid_motions
 from zeromode.solver.budget import check_budget
 from zeromode.solver.construction.design import check_specified_distinct
+from zeromode.solver.construction.multimode import conic_intersections
 from zeromode.solver.construction.two_configuration import design_two_configurations
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame, check_extent, check_positions
@@ -57,12 +58,10 @@ from zeromode.solver.motion.finite_motion import (
     trace_motion,
 )
 from zeromode.solver.tolerances import (
-    CONIC_ELIMINATION_RTOL,
     CONSTRAINT_ATOL,
     PLACEMENT_RTOL,
     REACHED_EPS,
     RIGID_RTOL,
-    ROOT_IMAG_RTOL,
 )
 
 # Specified nodes a request may have: the construction adds 2k − 4 (2D) or 3k − 7 (3D) nodes and
@@ -320,7 +319,8 @@ def placements(anchor_positions: np.ndarray, rng: np.random.Generator) -> list[n
     """Real points (3, d) joined to every anchor (anchor_positions (3, m, d)) with equal bar
     lengths in the three conformations: the linear system and the two quadrics of the module
     docstring, the affine solution set cut to a plane (random when its dimension exceeds 2)
-    and the two conics intersected there, each point polished by Newton on the full system."""
+    and the two conics intersected there (multimode.conic_intersections: the quartic resultant),
+    each point polished by Newton on the full system."""
     d = anchor_positions.shape[2]
     a, b = _linear_system(anchor_positions)
     u, s, vt = np.linalg.svd(a)
@@ -335,11 +335,12 @@ def placements(anchor_positions: np.ndarray, rng: np.random.Generator) -> list[n
     out = []
     for _ in range(planes):
         if null.shape[1] == 2:
-            origin, basis = z0, null @ _random_rotation(rng)
+            origin, basis = z0, null
         else:
             origin = z0 + null @ rng.standard_normal(null.shape[1])
             basis = null @ np.linalg.qr(rng.standard_normal((null.shape[1], 2)))[0]
-        for tau in _conic_intersections([_restricted(q, origin, basis) for q in _quadrics(d)]):
+        conics = [_homogeneous(*_restricted(q, origin, basis)) for q in _quadrics(d)]
+        for tau in conic_intersections(*conics, rng):
             z = _polish(a, b, origin + basis @ tau, d)
             if z is not None:
                 out.append(z[: 3 * d].reshape(3, d))
@@ -373,53 +374,18 @@ def _quadrics(d: int) -> list[tuple[np.ndarray, np.ndarray]]:
     return out
 
 
+def _homogeneous(a: np.ndarray, g: np.ndarray, c: float) -> np.ndarray:
+    """The conic τᵀAτ + gᵀτ + c = 0 as the 3 × 3 matrix Q of [τ 1] Q [τ 1]ᵀ = 0."""
+    q = np.zeros((3, 3))
+    q[:2, :2], q[:2, 2], q[2, :2], q[2, 2] = a, g / 2, g / 2, c
+    return q
+
+
 def _restricted(quadric, origin: np.ndarray, basis: np.ndarray):
     """A quadric q(z) restricted to z = origin + basis·τ: (A (2×2), g (2,), c) with
     q = τᵀAτ + gᵀτ + c."""
     q, g = quadric
     return basis.T @ q @ basis, basis.T @ (2 * q @ origin + g), float(origin @ q @ origin + g @ origin)
-
-
-def _random_rotation(rng: np.random.Generator) -> np.ndarray:
-    """A random rotation of the plane: keeps the conic intersection away from degenerate
-    coordinate choices (a vanishing leading coefficient in τ₂)."""
-    angle = rng.uniform(0, 2 * np.pi)
-    return np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
-
-
-def _conic_intersections(conics) -> list[np.ndarray]:
-    """Real common points τ ∈ R² of two conics τᵀAτ + gᵀτ + c = 0.
-
-    Each is a quadratic in τ₂ with coefficients polynomial in τ₁: α τ₂² + β(τ₁) τ₂ + γ(τ₁);
-    their Sylvester resultant (α₁γ₂ − α₂γ₁)² − (α₁β₂ − α₂β₁)(β₁γ₂ − β₂γ₁) is a quartic in τ₁
-    whose real roots carry the common points; τ₂ follows from the common root of the two
-    quadratics (the pair's linear combination free of τ₂²), or from either quadratic when that
-    combination vanishes identically."""
-    P = np.polynomial.Polynomial
-    coeffs = []
-    for a, g, c in conics:
-        alpha = P([a[1, 1]])
-        beta = P([g[1], 2 * a[0, 1]])
-        gamma = P([c, g[0], a[0, 0]])
-        coeffs.append((alpha, beta, gamma))
-    (a1, b1, c1), (a2, b2, c2) = coeffs
-    resultant = (a1 * c2 - a2 * c1) ** 2 - (a1 * b2 - a2 * b1) * (b1 * c2 - b2 * c1)
-    resultant = resultant.trim(tol=0)
-    if resultant.degree() < 1:
-        return []
-    roots = resultant.roots()
-    real = roots[np.abs(roots.imag) <= ROOT_IMAG_RTOL * (1 + np.abs(roots.real))].real
-    points = []
-    for t1 in np.unique(real):
-        denominator = (a1 * b2 - a2 * b1)(t1)
-        if abs(denominator) > CONIC_ELIMINATION_RTOL * (abs(a1(t1) * b2(t1)) + abs(a2(t1) * b1(t1))):
-            points.append(np.array([t1, -(a1 * c2 - a2 * c1)(t1) / denominator]))
-            continue
-        for a, b, c in coeffs:
-            for t2 in np.roots([a(t1), b(t1), c(t1)]):
-                if abs(t2.imag) <= ROOT_IMAG_RTOL * (1 + abs(t2.real)):
-                    points.append(np.array([t1, t2.real]))
-    return points
 
 
 def _polish(a: np.ndarray, b: np.ndarray, z: np.ndarray, d: int) -> np.ndarray | None:
