@@ -30,7 +30,7 @@ Every answer carries its accuracy (target error, from the frame's own zero modes
 relative singular-value gap of the designed mode, the linear sensitivity of the response and
 the amplification of fabrication errors a builder feels (``ResponseFigures``). An answer with
 target error above TARGET_ERROR_MAX or gap below GAP_FLOOR is not returned: by default the
-chains of ROBUST_CHAINS are all designed, the best of them are rebuilt with the source site's
+chains of ROBUST_CHAINS are all designed, the best of them is rebuilt with the source site's
 first port at each of SOURCE_SIDES, and the acceptable one with the smallest amplification is
 kept; then (or with robustness="economy" first) other port sizes, growths, module lengths and
 seeds are tried (``ALTERNATIVES``) and, if none meets both, DomainError ``inaccurate_design``
@@ -165,15 +165,16 @@ ROBUST_CHAINS = (
 # distance: hundreds of nodes, each relay adding to the lever; 3D designs of 200 nodes took 20 s).
 ROBUST_MAX_MODULES = 16
 ROBUSTNESS = ("robust", "economy")
-# Then the ROBUST_REFINED acceptable chains of smallest A are rebuilt with the source site's first
+# Then the acceptable chain of smallest A is rebuilt with the source site's first
 # port at each of SOURCE_SIDES (ChainOptions.source_side) and the smallest A is kept. Measured
 # (docs/benchmarks/allostery.md, profile of ∂w_T/∂x by node): in 3D almost all of A (95–99 %) is
 # the target's rigid motion driven by node errors in the source site's module — the angle at which
 # the chain leaves the source, carried to the target by a lever of length D — and where that
 # module's port sits decides it: over these placements A of one chain spread from 37 to 620
 # (3D, D = 12) and from 350 to 70 000 (D = 48), while the best gap (the old choice) picked 151
-# and 583. In 2D a port has no twist; only the offsets differ.
-ROBUST_REFINED = 2
+# and 583. In 2D a port has no twist; only the offsets differ. Only the best chain: then the
+# chain an answer reports (port, growth, seed) designs that answer again, since among the chains
+# with its port and growth the same one is best (refining the best two did no better, measured).
 SOURCE_SIDES = tuple((turn, shift) for turn in (0.0, 1 / 6, 1 / 3, 1 / 2, 2 / 3, 5 / 6) for shift in (0.0, 0.25, -0.25))
 
 
@@ -789,8 +790,8 @@ def design_allosteric(
 
     relay_spacing: size of the first ports next to the sites, in the caller's units (default
     DEFAULT_PORT site sizes); relay_growth: g ≥ 1 (1: equal relays); robustness: "robust"
-    designs every chain of ROBUST_CHAINS, rebuilds the ROBUST_REFINED best with the source
-    site's first port at each of SOURCE_SIDES (``_refined``) and returns the acceptable one
+    designs every chain of ROBUST_CHAINS, rebuilds the best with the source site's first
+    port at each of SOURCE_SIDES (``_refined``) and returns the acceptable one
     with the smallest amplification A (ResponseFigures), "economy" the first acceptable of
     ALTERNATIVES (fewest nodes; its A grows faster with the distance); either falls back to
     ALTERNATIVES when no robust chain is acceptable. Raises InvalidInput for bad shapes or options; DomainError ``overlapping_sites``, ``degenerate_specified``,
@@ -857,24 +858,23 @@ def design_allosteric(
 
 
 def _refined(sim: Similarity, src, tgt, accepted: list[AllostericDesign], distance: float) -> AllostericDesign:
-    """The acceptable design of smallest amplification among ``accepted`` and the ROBUST_REFINED
-    best chains of them rebuilt with the source site's first port at each of SOURCE_SIDES (in
-    2D those without twist: a 2D port has none)."""
+    """The acceptable design of smallest amplification among ``accepted`` and the best chain of
+    them rebuilt with the source site's first port at each of SOURCE_SIDES (in 2D those without
+    twist: a 2D port has none)."""
     accepted = sorted(accepted, key=lambda r: r.figures.amplification)
     best = accepted[0]
-    chains = [r.options for r in accepted if r.modules > 1 and r.options.source_side is None][:ROBUST_REFINED]
+    chain = next((r.options for r in accepted if r.modules > 1), None)
     sides = SOURCE_SIDES if len(sim.rotation) == 3 else [s for s in SOURCE_SIDES if s[0] == 0.0]
-    for options in chains:
-        for side in sides:
-            check_budget()
-            try:
-                result = _attempt(sim, src, tgt, replace(options, source_side=side), distance)
-            except DomainError as exc:
-                if exc.code == "too_expensive":
-                    raise
-                continue
-            if result.figures.acceptable() and result.figures.amplification < best.figures.amplification:
-                best = result
+    for side in sides if chain is not None else ():
+        check_budget()
+        try:
+            result = _attempt(sim, src, tgt, replace(chain, source_side=side), distance)
+        except DomainError as exc:
+            if exc.code == "too_expensive":
+                raise
+            continue
+        if result.figures.acceptable() and result.figures.amplification < best.figures.amplification:
+            best = result
     return best
 
 
