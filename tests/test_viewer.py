@@ -51,7 +51,7 @@ def drawing(page) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return centres, ends, np.array(sorted(b[0] for b in bars))
 
 
-def test_design_play_and_download_in_a_real_browser(browser, live_url, tmp_path):
+def test_design_play_and_download_in_a_real_browser(browser, live_url, tmp_path):  # noqa: F811
     page = browser.new_page(viewport={"width": 1280, "height": 900}, accept_downloads=True)
     problems = console_problems(page)
     page.goto(live_url + "/")
