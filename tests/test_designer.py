@@ -18,15 +18,13 @@ import numpy as np
 import pytest
 from browser import browser, console_problems  # noqa: F401 (a fixture)
 
+from benchmarks.bench_designer import ARROW, CORNERS, draw_outward_square, goto_designer, screen
 from tests.client.conftest import served
 from zeromode.service.app import create_app
 from zeromode.service.settings import Settings
 
 # Waits for the page: a design, a job on the cluster, on a busy 2-core machine.
 TIMEOUT_MS = 180_000
-# The outward square of Fig. 3, drawn on the snapping grid: corners and outward arrows.
-CORNERS = [(1.0, 1.0), (-1.0, 1.0), (-1.0, -1.0), (1.0, -1.0)]
-ARROW = 0.5
 
 
 @pytest.fixture(scope="module")
@@ -39,34 +37,7 @@ def designer_url(dask_scheduler):
 def open_page(browser, url, width=1280):  # noqa: F811 (the fixture's value)
     page = browser.new_page(viewport={"width": width, "height": 900}, accept_downloads=True)
     problems = console_problems(page)
-    page.goto(url + "/")
-    page.wait_for_selector("#example option[value='example:outward_2d']", state="attached")
-    return page, problems
-
-
-def screen(page, world) -> tuple[float, float]:
-    """Where on the screen the page draws a world point (its own map, read back)."""
-    vx, vy = page.evaluate("p => designer.map.toPage(p)", list(world))
-    box = page.locator("[data-testid=canvas]").bounding_box()
-    return box["x"] + vx * box["width"] / 800, box["y"] + vy * box["height"] / 600
-
-
-def space_d(page) -> str | None:
-    el = page.query_selector("[data-testid=solution-space]")
-    return None if el is None else el.get_attribute("d")
-
-
-def drag_arrow(page, start, tip, steps=6) -> list[str | None]:
-    """Press at ``start`` (placing a node there if none), drag to ``tip``; the solution space's
-    path after every step."""
-    page.mouse.move(*screen(page, start))
-    page.mouse.down()
-    seen = []
-    for s in np.linspace(0, 1, steps + 1)[1:]:
-        page.mouse.move(*screen(page, np.add(start, s * np.subtract(tip, start))))
-        seen.append(space_d(page))
-    page.mouse.up()
-    return seen
+    return goto_designer(page, url), problems
 
 
 def motion_for(x: np.ndarray, u: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, float]:
@@ -95,11 +66,8 @@ def polyline_distance(line: np.ndarray, p: np.ndarray) -> float:
 def test_draw_design_play_refine_certify_and_download(browser, designer_url, tmp_path):  # noqa: F811
     page, problems = open_page(browser, designer_url)
     page.fill("[data-testid=name]", "outward_2d")
-    shapes = []
-    for i, corner in enumerate(CORNERS):
-        seen = drag_arrow(page, corner, np.multiply(corner, 1 + ARROW))
-        shapes.append(seen)
-        assert page.evaluate("designer.nodes.length") == i + 1
+    shapes = draw_outward_square(page)
+    assert page.evaluate("designer.nodes.length") == 4
     # Three specified nodes: a conic, redrawn as the third arrow moves (Fig. 2).
     assert all(d for d in shapes[2]) and len(set(shapes[2])) >= 4
     # Four nodes moving outward (a dilation): Ã loses a rank and the space is a conic again, the
@@ -264,4 +232,30 @@ def test_sheet_and_allostery_forms_legends_errors_and_layout(browser, designer_u
         assert widths[0] == widths[1]
     # The refused request is the browser's one logged network error; nothing else.
     assert problems == ["Failed to load resource: the server responded with a status of 422 (Unprocessable Entity)"]
+    page.close()
+
+
+def test_two_motions_cross_where_the_service_places_its_node(browser, designer_url):  # noqa: F811
+    """Fig. 4: the two-motion example's spaces, drawn by the page, cross where the service's
+    exact resultant puts the unspecified node; a node placed by hand at that crossing leaves
+    both motions (the service's analysis of the hand-built frame: two non-rigid zero modes)."""
+    page, problems = open_page(browser, designer_url)
+    page.select_option("[data-testid=example]", "example:two_mode_2d")
+    page.wait_for_function("designer.spaces.length === 2")
+    assert page.get_attribute("[data-testid=solution-space-2]", "data-kind") == "conic"
+    crossings = np.array(page.evaluate("designer.crossings"))
+    assert {"space-0", "space-1", "crossing"} <= legend(page)
+    page.check("[data-testid=place-unspecified]")
+    page.mouse.click(*screen(page, crossings[0]))
+    page.wait_for_function("document.getElementById('status').textContent.includes('by hand')", timeout=TIMEOUT_MS)
+    assert "2 non-rigid zero modes, 0 self-stresses" in page.inner_text("[data-testid=status]")
+    page.check("[data-testid=place-specified]")
+    page.click("[data-testid=design]")
+    page.wait_for_selector("[data-testid=play]:not([disabled])", timeout=TIMEOUT_MS)
+    design = page.evaluate("designer.response")
+    placed = np.array(design["frame"]["positions"][3:])
+    size = np.ptp(np.array(design["frame"]["positions"][:3]), axis=0).max()
+    # Each service node is one of the page's crossings, to the polyline's accuracy.
+    assert all(np.linalg.norm(crossings - p, axis=1).min() < 1e-3 * size for p in placed)
+    assert problems == []
     page.close()

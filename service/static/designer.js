@@ -10,6 +10,9 @@ const WIDTH = 800, HEIGHT = 600, PAD = 40;
 // (binary fractions: a snapped drawing is exact, so symmetric targets stay exactly symmetric).
 const WINDOW = { lo: [-3, -2.25], hi: [3, 2.25] };
 const SNAP_POSITION = 1 / 8, SNAP_MOTION = 1 / 16;
+// Crossings of two spaces closer than this fraction of the drawing's spread to a specified node
+// are that node (every space passes through the specified nodes), not a place for a new one.
+const CROSSING_GAP = 0.01;
 const COLOURS = {
   specified: ["#d7301f", "#8c1d12"], unspecified: ["#2c7fb8", "#1b4f72"], bar: "#a3a3a3",
   source: "#6a3d9a", target: "#ff7f00", crossing: "#000000",
@@ -157,10 +160,13 @@ function updateSpaces() {
   const spec = state.nodes.map((n, i) => [n, i]).filter(([n]) => n.role === "specified");
   if (state.kind !== "draw" || state.example || !spec.length) return;
   const x = spec.map(([n]) => n.x);
+  const spread = Math.max(...[0, 1].map((a) => Math.max(...x.map((p) => p[a])) - Math.min(...x.map((p) => p[a])))) || 1;
   state.spaces = state.motions.map((motion) => SolutionSpace.compute(x, spec.map(([, i]) => motion[i])));
   for (let a = 0; a < state.spaces.length; a++) {
     for (let b = a + 1; b < state.spaces.length; b++) {
-      state.crossings.push(...SolutionSpace.intersections(state.spaces[a].curves, state.spaces[b].curves));
+      // Every space passes through the specified nodes themselves: those crossings are no place for a node.
+      state.crossings.push(...SolutionSpace.intersections(state.spaces[a].curves, state.spaces[b].curves)
+        .filter((p) => x.every((q) => Math.hypot(p[0] - q[0], p[1] - q[1]) > CROSSING_GAP * spread)));
     }
   }
 }

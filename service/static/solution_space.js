@@ -17,7 +17,7 @@ const SolutionSpace = (() => {
   const QUADRIC_TOL = 1e-10;
   // Samples of a conic's pencil of lines, and the size (in normalised units) beyond which a curve
   // is cut: a hyperbola's branches pass through infinity there.
-  const PENCIL = 361, FAR = 40;
+  const PENCIL = 241, FAR = 40, MAX_CHORD = 0.02, NEAR = 6;
 
   const dot = (a, b) => a.reduce((s, v, i) => s + v * b[i], 0);
 
@@ -104,7 +104,7 @@ const SolutionSpace = (() => {
       return out;
     }
     if (m === 1) return onLine(out, Q, qnorm, sample);
-    if (m === 2 && d === 2) return onConic(out, Q, qnorm, sample, sx);
+    if (m === 2 && d === 2) return onConic(out, Q, qnorm, sample, (p) => p.map((v, a) => (v - cx[a]) / sx));
     out.kind = d === 2 ? "plane" : "surface";
     out.reason = d === 2 ? `with ${k} specified node${k === 1 ? "" : "s"} every position has a motion (a ${m - 1}-dimensional set); place a third.`
       : `a ${m - 1}-dimensional quadric in (x_U, u_U).`;
@@ -150,7 +150,7 @@ const SolutionSpace = (() => {
 
   // m = 2 in 2D: the conic α̃ᵀQα̃ = 0, α ∈ R², drawn through a pencil of lines from a point α₀ on
   // it: the line α₀ + s·e meets the conic again at s = −2eᵀ(Aα₀ + β)/(eᵀAe), A = Q[:2,:2], β = Q[:2,2].
-  function onConic(out, Q, qnorm, sample) {
+  function onConic(out, Q, qnorm, sample, normalised) {
     const A = [[Q[0][0], Q[0][1]], [Q[1][0], Q[1][1]]], beta = [Q[0][2], Q[1][2]], gamma = Q[2][2];
     const tiny = QUADRIC_TOL * qnorm;
     const f = (al) => al[0] * (A[0][0] * al[0] + 2 * A[0][1] * al[1]) + A[1][1] * al[1] * al[1] + 2 * dot(beta, al) + gamma;
@@ -195,24 +195,37 @@ const SolutionSpace = (() => {
       return out;
     }
     const g = [A[0][0] * base[0] + A[0][1] * base[1] + beta[0], A[1][0] * base[0] + A[1][1] * base[1] + beta[1]];
-    let curve = [], last = null;
-    out.curveAlpha = [];
-    for (let i = 0; i < PENCIL; i++) {
-      const phi = Math.PI * i / (PENCIL - 1), e = [Math.cos(phi), Math.sin(phi)];
+    // The conic's point on the line at angle φ through α₀ (null at infinity or beyond FAR).
+    const at = (phi) => {
+      const e = [Math.cos(phi), Math.sin(phi)];
       const eAe = e[0] * (A[0][0] * e[0] + 2 * A[0][1] * e[1]) + A[1][1] * e[1] * e[1];
       const s = Math.abs(eAe) > 1e-14 * qnorm ? -2 * dot(e, g) / eAe : Infinity;
       const al = [base[0] + s * e[0], base[1] + s * e[1]];
-      if (!Number.isFinite(s) || Math.hypot(...al) > FAR) {
-        if (curve.length > 1) out.curves.push(curve);
-        curve = []; last = null; continue;
-      }
-      const p = sample([...al, 1]).position;
-      if (last && Math.hypot(p[0] - last[0], p[1] - last[1]) > FAR / 4) { if (curve.length > 1) out.curves.push(curve); curve = []; }
-      curve.push(p); last = p;
+      return Number.isFinite(s) && Math.hypot(...al) <= FAR ? sample([...al, 1]).position : null;
+    };
+    // Uniform in φ, then halved where a chord is longer than MAX_CHORD (normalised units) within
+    // NEAR of the specified nodes: the pencil crowds its points where the conic is far from α₀
+    // and thins them near it.
+    const chord = (p, q) => { const [a, b] = [normalised(p), normalised(q)]; return Math.hypot(a[0] - b[0], a[1] - b[1]); };
+    const near = (p) => Math.hypot(...normalised(p)) <= NEAR;
+    const refine = (phi0, p0, phi1, p1, depth, into) => {
+      if (depth === 0 || chord(p0, p1) <= MAX_CHORD || !(near(p0) || near(p1))) return;
+      const mid = (phi0 + phi1) / 2, pm = at(mid);
+      if (!pm) return;
+      refine(phi0, p0, mid, pm, depth - 1, into);
+      into.push(pm);
+      refine(mid, pm, phi1, p1, depth - 1, into);
+    };
+    let curve = [], lastPhi = 0;
+    for (let i = 0; i < PENCIL; i++) {
+      const phi = Math.PI * i / (PENCIL - 1), p = at(phi);
+      if (!p) { if (curve.length > 1) out.curves.push(curve); curve = []; continue; }
+      const last = curve[curve.length - 1];
+      if (last && chord(p, last) > FAR / 4) { if (curve.length > 1) out.curves.push(curve); curve = []; }
+      else if (last) refine(lastPhi, last, phi, p, 12, curve);
+      curve.push(p); lastPhi = phi;
     }
     if (curve.length > 1) out.curves.push(curve);
-    // The pencil from α₀ closes an ellipse: join the last sample back to the first.
-    if (out.curves.length === 1 && l1 * l2 > 0) out.curves[0].push(out.curves[0][0]);
     return out;
   }
 
