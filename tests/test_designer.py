@@ -224,6 +224,8 @@ def test_sheet_and_allostery_forms_legends_errors_and_layout(browser, designer_u
         canvas = page.locator("[data-testid=canvas]").bounding_box()
         assert canvas["x"] >= 0 and canvas["x"] + canvas["width"] <= width and canvas["width"] > 300
         assert page.evaluate("document.documentElement.scrollWidth") <= width
+        player = page.locator("#player").bounding_box()  # the drawing spans the player's row
+        assert abs(player["x"] - canvas["x"]) < 1 and abs(player["width"] - canvas["width"]) < 1
         widths = []
         for key in ("Home", "End"):
             page.focus("[data-testid=slider]")

@@ -13,6 +13,8 @@ const SNAP_POSITION = 1 / 8, SNAP_MOTION = 1 / 16;
 // Crossings of two spaces closer than this fraction of the drawing's spread to a specified node
 // are that node (every space passes through the specified nodes), not a place for a new one.
 const CROSSING_GAP = 0.01;
+// ε(a) above this is worth a word: the finite path visibly leaves the drawn arrows.
+const DEPARTS = 0.05;
 const COLOURS = {
   specified: ["#d7301f", "#8c1d12"], unspecified: ["#2c7fb8", "#1b4f72"], bar: "#a3a3a3",
   source: "#6a3d9a", target: "#ff7f00", crossing: "#000000",
@@ -40,7 +42,7 @@ const state = {
   kind: "draw", nodes: [], motions: [[]], motion: 0, placed: [], spaces: [], crossings: [],
   example: null, response: null, frame: null, modes: [], mode: 0, sites: {}, motionPath: null,
   refined: null, refinedPath: null, certificate: null, timer: null, drag: null, view: VIEW_3D.slice(),
-  formats: null, timings: { live: [], design: [] }, progressLog: [], map: null, busy: false, fresh: true,
+  formats: null, jobs: 0, timings: { live: [], design: [] }, progressLog: [], map: null, fresh: true,
 };
 window.designer = state;  // for outside tests and the curious
 
@@ -69,6 +71,7 @@ const sleep = (ms) => new Promise((done) => setTimeout(done, ms));
 
 // A long request as a job (POST /v1/jobs), its progress on the bar until it is done.
 async function runJob(endpoint, request, label) {
+  const seq = ++state.jobs;
   const accepted = await post("/v1/jobs", { endpoint, request });
   showProgress(0, `${label}: queued`);
   try {
@@ -82,7 +85,7 @@ async function runJob(endpoint, request, label) {
       }
     }
   } finally {
-    setTimeout(() => { if (!state.busy) $("progress-box").hidden = true; }, 600);
+    setTimeout(() => { if (state.jobs === seq) $("progress-box").hidden = true; }, 600);
   }
 }
 
@@ -365,8 +368,8 @@ function drawFrame(svg, toPage, shown) {
   }
   if (state.motionPath) {
     const k = Number($("slider").value), m = state.motionPath;
-    const strain = m.strains ? `  ε_x = ${m.strains[k][0] >= 0 ? "+" : ""}${m.strains[k][0].toFixed(3)}` : "";
-    $("where").textContent = `t = ${m.parameter[k] >= 0 ? "+" : "−"}${Math.abs(m.parameter[k]).toFixed(3)}${strain}`;
+    const signed = (v) => `${v >= 0 ? "+" : "−"}${Math.abs(v).toFixed(3)}`;
+    $("where").textContent = `t ${signed(m.parameter[k])}${m.strains ? ` · ε_x ${signed(m.strains[k][0])}` : ""}`;
   }
 }
 
@@ -530,7 +533,6 @@ async function design(event) {
   try { [endpoint, request] = drawnRequest(); } catch (e) { clearDesign(); say(e.message, true); return; }
   clearDesign();
   state.placed = [];
-  state.busy = true;
   say(`designing (${endpoint}) …`);
   // A drawn 2D design answers in milliseconds; the rest may take seconds: a job with progress.
   const direct = endpoint === "/v1/design" && request.dim === 2;
@@ -561,8 +563,6 @@ async function design(event) {
   } catch (e) {
     clearDesign();
     say(e.message, true);
-  } finally {
-    state.busy = false;
   }
 }
 
@@ -593,7 +593,7 @@ async function traceMotion() {
     slider.value = motion.reference_index;
     slider.disabled = false;
     $("play").disabled = false;
-    say(`finite motion: ${motion.path.length} configurations (${motion.status}); press Play or drag the slider.`);
+    say(`finite motion: ${motion.path.length} configurations (${motion.status}); press Play or drag the slider.${departure()}`);
   } catch (e) {
     state.motionPath = null;
     $("slider").disabled = true;
@@ -603,6 +603,18 @@ async function traceMotion() {
   draw();
   report_();
   if (state.refined) await traceRefined();
+  else if (state.motionPath && fidelityApplies()) compare();
+}
+
+// ε(a) is defined for a 2D design with specified nodes and one motion (as POST /v1/refine).
+const fidelityApplies = () => state.frame.dim === 2 && state.frame.specified.length >= 2 && state.modes.length === 1;
+
+// One sentence when the finite path leaves the arrows (ε(a) at the amplitude above DEPARTS).
+function departure() {
+  if (!fidelityApplies()) return "";
+  const spec = state.frame.specified, a = Number($("amplitude").value);
+  const eps = epsilonCurve(state.motionPath.path, spec, spec.map((i) => state.frame.positions[i]), specifiedRows(state.modes[0]), [a])[0];
+  return eps > DEPARTS ? ` The finite path leaves the arrows (ε = ${fmt(eps, 2)} at a = ${a.toFixed(2)}: the design is exact only to first order); Refine moves the unspecified nodes so that it follows them.` : "";
 }
 
 function stop() {
@@ -628,28 +640,34 @@ function play() {
 
 const specifiedRows = (mode) => state.frame.specified.map((i) => mode[i]);
 
+// A job on the current design with its button disabled meanwhile; ``use`` takes the result
+// unless the design changed while it ran.
+async function designJob(button, label, endpoint, request, use) {
+  const frame = state.frame;
+  $(button).disabled = true;
+  try {
+    const result = await runJob(endpoint, request, label);
+    if (state.frame === frame) await use(result);
+  } catch (e) {
+    say(`${label}: ${e.message}`, true);
+  } finally {
+    $(button).disabled = !state.frame;
+    report_();
+  }
+}
+
 async function refine() {
   if (!state.frame) return;
-  const frame = state.frame;
-  $("refine").disabled = true;
-  state.busy = true;
+  const f = state.frame;
   const request = {
-    frame: { dim: frame.dim, positions: frame.positions, edges: frame.edges, specified: frame.specified },
+    frame: { dim: f.dim, positions: f.positions, edges: f.edges, specified: f.specified },
     motion: specifiedRows(state.modes[0]), amplitude: Number($("amplitude").value), options: { max_time_s: 10 },
   };
-  try {
-    const result = await runJob("/v1/refine", request, "refining");
-    if (state.frame !== frame) return;
+  await designJob("refine", "refining", "/v1/refine", request, async (result) => {
     state.refined = result;
     say(`refined: ε ${fmt(result.epsilon_before)} → ${fmt(result.epsilon_after)} (IPOPT ${result.ipopt_status}, ${result.iterations} iterations).`);
     await traceRefined();
-  } catch (e) {
-    say("refinement: " + e.message, true);
-  } finally {
-    state.busy = false;
-    $("refine").disabled = !state.frame;
-    report_();
-  }
+  });
 }
 
 async function traceRefined() {
@@ -666,22 +684,13 @@ async function traceRefined() {
 
 async function certify() {
   if (!state.frame) return;
-  const frame = state.frame;
-  $("certify").disabled = true;
-  state.busy = true;
-  try {
-    const result = await runJob("/v1/certify", { frame: { dim: frame.dim, positions: frame.positions, edges: frame.edges }, modes: state.modes }, "certifying");
-    if (state.frame !== frame) return;
+  const f = state.frame;
+  const request = { frame: { dim: f.dim, positions: f.positions, edges: f.edges }, modes: state.modes };
+  await designJob("certify", "certifying", "/v1/certify", request, (result) => {
     state.certificate = result;
     const p = result.prestress;
     say(`certified: ${p.prestress_stable ? "prestress stable" : "not prestress stable"} (${p.decided_by}).`);
-  } catch (e) {
-    say("certificate: " + e.message, true);
-  } finally {
-    state.busy = false;
-    $("certify").disabled = !state.frame;
-    report_();
-  }
+  });
 }
 
 // ε(a) of a traced path for the target x_S + a·(r_S/ρ_u)·u_S (as POST /v1/refine): the closest
@@ -708,7 +717,10 @@ function epsilonCurve(path, spec, x, u, amplitudes) {
 
 function miniFrame(svg, frame, path) {
   svg.replaceChildren();
-  if (!frame) return;
+  if (!frame) {
+    el("text", { x: 150, y: 125, "text-anchor": "middle", fill: "#999", "font-size": 13 }, svg).textContent = "press Refine";
+    return;
+  }
   const configs = path ? path.path : [frame.positions], project = projector(frame.dim);
   let lo = [Infinity, Infinity], hi = [-Infinity, -Infinity];
   for (const c of configs) for (const p of c) { const s = project(p); lo = [Math.min(lo[0], s[0]), Math.min(lo[1], s[1])]; hi = [Math.max(hi[0], s[0]), Math.max(hi[1], s[1])]; }
@@ -731,7 +743,7 @@ function compare() {
   miniFrame($("path-refined"), state.refined && state.refined.frame, state.refinedPath);
   const chart = $("epsilon");
   chart.replaceChildren();
-  if (state.frame.dim !== 2 || !state.motionPath) return;
+  if (!state.motionPath || !fidelityApplies()) return;
   const spec = state.frame.specified, x = spec.map((i) => state.frame.positions[i]), u = specifiedRows(state.modes[0]);
   const top = Number($("amplitude").value), amplitudes = Array.from({ length: 20 }, (_, i) => top * (i + 1) / 20);
   const curves = [[state.motionPath, COLOURS.spaces[0], "linear"]];
