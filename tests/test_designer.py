@@ -115,7 +115,7 @@ def test_draw_design_play_refine_certify_and_download(browser, designer_url, tmp
     assert progress[-1] == 1 and len(set(progress)) >= 2 and progress == sorted(progress)
     refined = page.evaluate("designer.refined")
     assert refined["epsilon_after"] < refined["epsilon_before"]
-    # The page's ε(a) (closest path sample, 2D Kabsch in closed form) near the service's ε
+    # The page's ε(a) (traced samples joined straight, 2D Kabsch in closed form) near the service's ε
     # (polished on the constraint manifold) for the linear design.
     page_eps = page.evaluate("""() => {
         const f = designer.frame, spec = f.specified, u = spec.map((i) => designer.modes[0][i]);
@@ -192,14 +192,22 @@ def test_the_page_solution_space_satisfies_the_definition(browser, designer_url)
 
 def test_sheet_and_allostery_forms_legends_errors_and_layout(browser, designer_url):  # noqa: F811
     page, problems = open_page(browser, designer_url, width=800)
+    # Example names fit their list (descriptions go below it and in the tooltip).
+    assert page.evaluate("""() => {
+        const sel = document.getElementById('example'), ctx = document.createElement('canvas').getContext('2d');
+        ctx.font = getComputedStyle(sel).font;
+        return Math.max(...[...sel.options].map((o) => ctx.measureText(o.text).width)) < sel.clientWidth - 24;
+    }""")
     # An auxetic sheet: no specified nodes, so no such legend entry; ν in the report.
     page.click("[data-testid=tab-auxetic]")
     page.fill("#cells-x", "2")
     page.fill("#cells-y", "2")
+    page.check("[data-testid=tolerance]")
     page.click("[data-testid=design]")
     page.wait_for_selector("[data-testid=play]:not([disabled])", timeout=TIMEOUT_MS)
     assert "specified" not in legend(page) and "unspecified" in legend(page)
-    assert "Poisson ratio" in page.inner_text("[data-testid=report]")
+    report = page.inner_text("[data-testid=report]")
+    assert "Poisson ratio" in report and "tolerance, bar lengths" in report
     assert page.query_selector("[data-testid=download-vtk]")
     # A refused request clears the design, its report and its downloads.
     page.fill("#nu", "7")

@@ -508,9 +508,11 @@ function drawnRequest() {
       if (ends.length !== 2 || ends.some((v) => !Number.isFinite(v))) throw new Error("finite strain: give two numbers, e.g. -0.05, 0.05.");
       request.finite_strain = { strain_range: ends };
     }
+    if ($("tolerance").checked) request.tolerance = {};
     return ["/v1/design/auxetic", request];
   }
-  if (state.example) return ["/v1/design", state.example];
+  const options = $("tolerance").checked ? { tolerance: {} } : {};
+  if (state.example) return ["/v1/design", { ...state.example, options: { ...state.example.options, ...options } }];
   if (state.kind === "allostery") {
     const site = (role) => {
       const idx = state.nodes.map((n, i) => [n, i]).filter(([n]) => n.role === role);
@@ -518,13 +520,13 @@ function drawnRequest() {
     };
     const source = site("source"), target = site("target");
     if (!source.positions.length || !target.positions.length) throw new Error("place at least one source and one target node.");
-    return ["/v1/design/allosteric", { dim: 2, source, target }];
+    return ["/v1/design/allosteric", { dim: 2, source, target, options }];
   }
   const spec = state.nodes.map((n, i) => [n, i]).filter(([n]) => n.role === "specified");
   if (spec.length < 2) throw new Error("place at least two specified nodes and drag their motions.");
   const motions = state.motions.map((m) => spec.map(([, i]) => m[i])).filter((m) => m.some((u) => u[0] || u[1]));
   if (!motions.length) throw new Error("drag from a node to give it a motion.");
-  return ["/v1/design", { dim: 2, positions: spec.map(([n]) => n.x), motions, options: { seed: 0 } }];
+  return ["/v1/design", { dim: 2, positions: spec.map(([n]) => n.x), motions, options: { seed: 0, ...options } }];
 }
 
 async function design(event) {
@@ -693,14 +695,25 @@ async function certify() {
   });
 }
 
+const SUBSTEPS = 8;
+
 // ε(a) of a traced path for the target x_S + a·(r_S/ρ_u)·u_S (as POST /v1/refine): the closest
-// path sample after the best rotation and translation (2D Kabsch in closed form), over ‖Δ_S‖.
+// point of the path after the best rotation and translation (2D Kabsch in closed form), over ‖Δ_S‖.
 function epsilonCurve(path, spec, x, u, amplitudes) {
   const k = spec.length;
   const centred = (pts) => { const c = [0, 1].map((a) => pts.reduce((s, p) => s + p[a], 0) / k); return pts.map((p) => [p[0] - c[0], p[1] - c[1]]); };
   const rS = Math.sqrt(centred(x).reduce((s, p) => s + p[0] ** 2 + p[1] ** 2, 0) / k);
   const rhoU = Math.sqrt(u.reduce((s, p) => s + p[0] ** 2 + p[1] ** 2, 0) / k);
-  const samples = path.map((X) => centred(spec.map((i) => X[i])));
+  // Between traced samples the path is taken straight (SUBSTEPS per step): at small a the
+  // target lies between the first samples, and ε is then a ratio of two small lengths.
+  const samples = [];
+  path.forEach((X, j) => {
+    const P = spec.map((i) => X[i]), next = j + 1 < path.length ? spec.map((i) => path[j + 1][i]) : null;
+    for (let s = 0; s < (next ? SUBSTEPS : 1); s++) {
+      const f = s / SUBSTEPS;
+      samples.push(centred(next ? P.map((p, i) => [p[0] + f * (next[i][0] - p[0]), p[1] + f * (next[i][1] - p[1])]) : P));
+    }
+  });
   return amplitudes.map((a) => {
     const delta = u.map((p) => [a * rS / rhoU * p[0], a * rS / rhoU * p[1]]);
     const q = centred(x.map((p, i) => [p[0] + delta[i][0], p[1] + delta[i][1]]));
@@ -750,18 +763,18 @@ function compare() {
   if (state.refinedPath) curves.push([state.refinedPath, COLOURS.spaces[1], "refined"]);
   const values = curves.map(([path]) => epsilonCurve(path.path, spec, x, u, amplitudes));
   const ymax = Math.max(1e-3, ...values.flat().filter(Number.isFinite)) * 1.1;
-  const X = (a) => 40 + 245 * a / top, Y = (e) => 215 - 195 * e / ymax;
+  const X = (a) => 40 + 245 * a / top, Y = (e) => 215 - 170 * e / ymax;  // labels above y = 40
   el("line", { x1: 40, y1: 215, x2: 290, y2: 215, stroke: "#888" }, chart);
-  el("line", { x1: 40, y1: 15, x2: 40, y2: 215, stroke: "#888" }, chart);
+  el("line", { x1: 40, y1: 45, x2: 40, y2: 215, stroke: "#888" }, chart);
   const label = (x, y, text, anchor = "middle") => { el("text", { x, y, "font-size": 11, "text-anchor": anchor, fill: "#444" }, chart).textContent = text; };
   label(165, 236, "amplitude a");
-  label(36, 20, fmt(ymax, 2), "end");
+  label(36, 49, fmt(ymax, 2), "end");
   label(36, 218, "0", "end");
   label(290, 228, fmt(top, 2), "end");
   curves.forEach(([, colour, name], c) => {
     const pts = amplitudes.map((a, i) => `${X(a).toFixed(1)},${Y(values[c][i]).toFixed(1)}`).join(" ");
     el("polyline", { class: `epsilon ${name}`, points: pts, fill: "none", stroke: colour, "stroke-width": 2 }, chart);
-    label(285, 30 + 14 * c, `${name}: ε(${fmt(top, 2)}) = ${fmt(values[c][values[c].length - 1])}`, "end");
+    label(285, 14 + 14 * c, `${name}: ε(${fmt(top, 2)}) = ${fmt(values[c][values[c].length - 1])}`, "end");
   });
 }
 
@@ -790,8 +803,11 @@ function reportRows() {
   }
   if (rep.finite_strain) add("ν deviation over strain", rep.finite_strain.max_deviation, "", "max |ν_secant − ν| over the finite-strain range, measured on the whole sheet.");
   add("target error", rep.target_error, "relative", "How far the achieved target motion is from the one prescribed.");
-  if (rep.tolerance && rep.tolerance.estimates) {
-    for (const e of rep.tolerance.estimates) add(`tolerance: ${e.quantity}, ${e.error}`, e.tolerance, "relative", "Fabrication error that keeps the change within the budget (linearised, checked by Monte Carlo).");
+  const tol = rep.tolerance;
+  if (tol) {
+    const budget = `keeping every designed quantity within ${fmt(100 * tol.budget)} % (linearised, checked by a Monte Carlo of ${tol.samples} frames). ${tol.summary}`;
+    add("tolerance, bar lengths", tol.bar_lengths, "fraction", `How far each bar may be off its length, ${budget}`);
+    add("tolerance, pins", tol.pin_positions, "× mean bar", `How far each pin may be off, as a fraction of the mean bar length (${fmt(tol.mean_bar_length)}), ${budget}`);
   }
   if (rep.timings_ms && rep.timings_ms.total !== undefined) add("design time", rep.timings_ms.total, "ms", "Time the service spent designing.");
   const m = state.motionPath;
