@@ -5,7 +5,8 @@ Starts `zeromode serve` on loopback, drives Debian's chromium with Playwright as
 - designer_draw.png: the outward square being drawn — the third arrow dragged, the conic live;
 - designer.png: the square designed by judicious placement, refined and certified, with the
   linear and refined paths and ε(a) side by side and the report;
-- designer_two_motions.png: the two-motion example (Fig. 4): both conics and where they cross.
+- designer_two_motions.png: the two-motion example (Fig. 4): both conics and where they cross;
+- designer_3d.png: the 3D tab's five nodes designed, with the planar curve of their space.
 
     python -m docs.designer_pictures
 """
@@ -72,6 +73,12 @@ def shoot(url: str) -> None:
         page.click("[data-testid=design]")
         page.wait_for_selector("[data-testid=play]:not([disabled])", timeout=TIMEOUT_MS)
         page.locator("[data-testid=canvas]").screenshot(path=OUT / "designer_two_motions.png")
+
+        page.click("[data-testid=tab-3d]")
+        page.wait_for_function("designer.spaces.length === 1")
+        page.click("[data-testid=design]")
+        page.wait_for_selector("[data-testid=play]:not([disabled])", timeout=TIMEOUT_MS)
+        page.locator("#view").screenshot(path=OUT / "designer_3d.png")
         browser.close()
 
 

@@ -18,7 +18,14 @@ import numpy as np
 import pytest
 from browser import browser, console_problems  # noqa: F401 (a fixture)
 
-from benchmarks.bench_designer import ARROW, CORNERS, draw_outward_square, goto_designer, screen
+from benchmarks.bench_designer import (
+    ARROW,
+    CORNERS,
+    draw_outward_square,
+    goto_designer,
+    screen,
+    space_d,
+)
 from tests.client.conftest import served
 from zeromode.service.app import create_app
 from zeromode.service.settings import Settings
@@ -267,5 +274,40 @@ def test_two_motions_cross_where_the_service_places_its_node(browser, designer_u
     size = np.ptp(np.array(design["frame"]["positions"][:3]), axis=0).max()
     # Each service node is one of the page's crossings, to the polyline's accuracy.
     assert all(np.linalg.norm(crossings - p, axis=1).min() < 1e-3 * size for p in placed)
+    assert problems == []
+    page.close()
+
+
+def test_a_3d_target_from_the_table(browser, designer_url):  # noqa: F811
+    """The 3D tab: five specified nodes in a table; the space of a node joined to all five is a
+    curve (m = 2), each of its points with a motion meeting the five conditions (numpy, from the
+    definition) and all in one plane (the supplement's planar curve); an edit redraws it; the
+    design is a 3D frame with one non-rigid zero mode; dragging turns the view."""
+    page, problems = open_page(browser, designer_url)
+    page.click("[data-testid=tab-3d]")
+    page.wait_for_function("designer.nodes.length === 5")
+    assert page.get_attribute("[data-testid=solution-space]", "data-kind") == "conic"
+    x = np.array(page.evaluate("designer.nodes.map((n) => n.x)"))
+    u = np.array(page.evaluate("designer.motions[0]"))
+    curve = np.concatenate([np.array(c) for c in page.evaluate("designer.spaces[0].curves")])
+    assert max(motion_for(x, u, p)[1] for p in curve) < 1e-7
+    centred = curve - curve.mean(axis=0)
+    assert np.linalg.svd(centred, compute_uv=False)[2] < 1e-8 * np.abs(centred).max()
+    before = space_d(page)
+    page.locator("#table3d tbody tr").nth(4).locator("input").nth(5).fill("0.5")  # u_z of node 5
+    page.wait_for_function(f"document.querySelector('[data-testid=solution-space]').getAttribute('d') !== {before!r}")
+    page.locator("#table3d tbody tr").nth(4).locator("input").nth(5).fill("0")
+    page.click("[data-testid=design]")
+    page.wait_for_selector("[data-testid=play]:not([disabled])", timeout=TIMEOUT_MS)
+    design = page.evaluate("designer.response")
+    assert design["frame"]["dim"] == 3 and design["report"]["analysis"]["nontrivial_zero_modes"] == 1
+    assert np.allclose(design["frame"]["positions"][:5], x)
+    turned = page.eval_on_selector_all("#canvas circle.node", "cs => cs.map(c => +c.getAttribute('cx'))")
+    box = page.locator("[data-testid=canvas]").bounding_box()
+    page.mouse.move(box["x"] + 100, box["y"] + 100)
+    page.mouse.down()
+    page.mouse.move(box["x"] + 160, box["y"] + 120, steps=4)
+    page.mouse.up()
+    assert page.eval_on_selector_all("#canvas circle.node", "cs => cs.map(c => +c.getAttribute('cx'))") != turned
     assert problems == []
     page.close()

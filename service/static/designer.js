@@ -31,6 +31,12 @@ const PRESETS = {
     target: { positions: [[1.5, 0], [2, 0], [1.5, 0.5]], motion: [[0, -0.25], [0.25, 0.25], [-0.25, 0]] },
   },
 };
+// The 3D tab's first target: five specified nodes, one motion (the example five_node_3d): the
+// space of a node joined to all five is a curve in a plane.
+const DEFAULT_3D = {
+  positions: [[2, 0, 1], [1, 0, 2], [3, 0, 3], [3.5, -1, 2.5], [3.5, 1, 2.5]],
+  motion: [[-0.8, 0, 0.8], [0.8, 0, -0.8], [-0.8, 0, 0], [0, -0.8, 0], [0, 0.8, 0]],
+};
 // Human names of the export formats (GET /v1/export/formats); the service's description is the tooltip.
 const FORMAT_LABELS = {
   vtk: "ParaView (.vtu)", node_link_json: "Graph, JSON", kit_csv: "Build kit, CSV", cut_svg: "Cutting plan, SVG",
@@ -124,14 +130,17 @@ function projector(dim) {
 // One map from world to page for everything drawn: the drawing's window, grown (never shrunk)
 // to hold the frame along its whole motion, so a design drawn in the window stays in place.
 function makeMap() {
-  const dim = state.frame ? state.frame.dim : 2, project = projector(dim);
+  const dim = state.frame ? state.frame.dim : sketchDim(), project = projector(dim);
   let lo = dim === 2 ? WINDOW.lo.slice() : [Infinity, Infinity], hi = dim === 2 ? WINDOW.hi.slice() : [-Infinity, -Infinity];
-  const configs = state.frame ? (state.motionPath ? state.motionPath.path : [state.frame.positions]) : [];
+  const tips = state.nodes.map((n, i) => n.x.map((v, a) => v + (state.motions[0][i] || [0, 0, 0])[a]));
+  const configs = state.frame ? (state.motionPath ? state.motionPath.path : [state.frame.positions])
+    : dim === 3 ? [state.nodes.map((n) => n.x), tips] : [];
   for (const points of configs) for (const p of points) {
     const s = project(p);
     lo = [Math.min(lo[0], s[0]), Math.min(lo[1], s[1])];
     hi = [Math.max(hi[0], s[0]), Math.max(hi[1], s[1])];
   }
+  if (!Number.isFinite(lo[0])) { lo = WINDOW.lo.slice(); hi = WINDOW.hi.slice(); }
   const inWindow = dim === 2 && lo[0] >= WINDOW.lo[0] && hi[0] <= WINDOW.hi[0] && lo[1] >= WINDOW.lo[1] && hi[1] <= WINDOW.hi[1];
   const pad = inWindow ? 0 : PAD;
   const scale = Math.min((WIDTH - 2 * pad) / ((hi[0] - lo[0]) || 1), (HEIGHT - 2 * pad) / ((hi[1] - lo[1]) || 1));
@@ -155,17 +164,20 @@ const fmt = (v, digits = 3) => (v === null || v === undefined ? "—" : typeof v
 // ----------------------------------------------------------------------------- the drawing
 
 const specifiedNodes = () => state.nodes.filter((n) => n.role === "specified");
+// The drawing (or the 3D table) is the target, and its solution space is shown.
+const sketching = () => (state.kind === "draw" || state.kind === "space3d") && !state.example;
+const sketchDim = () => (state.kind === "space3d" ? 3 : 2);
 
 // Solution spaces of the drawn motions (one per motion) and where they cross (Fig. 4).
 function updateSpaces() {
   state.spaces = [];
   state.crossings = [];
   const spec = state.nodes.map((n, i) => [n, i]).filter(([n]) => n.role === "specified");
-  if (state.kind !== "draw" || state.example || !spec.length) return;
+  if (!sketching() || !spec.length) return;
   const x = spec.map(([n]) => n.x);
   const spread = Math.max(...[0, 1].map((a) => Math.max(...x.map((p) => p[a])) - Math.min(...x.map((p) => p[a])))) || 1;
   state.spaces = state.motions.map((motion) => SolutionSpace.compute(x, spec.map(([, i]) => motion[i])));
-  for (let a = 0; a < state.spaces.length; a++) {
+  for (let a = 0; a < state.spaces.length && x[0].length === 2; a++) {
     for (let b = a + 1; b < state.spaces.length; b++) {
       // Every space passes through the specified nodes themselves: those crossings are no place for a node.
       state.crossings.push(...SolutionSpace.intersections(state.spaces[a].curves, state.spaces[b].curves)
@@ -177,12 +189,13 @@ function updateSpaces() {
 function describeSpaces() {
   const box = $("space-text");
   box.className = "space";
-  if (state.kind !== "draw" || state.example) { box.textContent = ""; return; }
+  if (!sketching()) { box.textContent = ""; return; }
   if (!state.spaces.length) { box.textContent = "The solution space of an unspecified node appears once you place specified nodes."; return; }
   const words = state.spaces.map((s, m) => {
     const tag = state.spaces.length > 1 ? `motion ${m + 1}: ` : "";
     if (s.kind === "none") return `${tag}no real solution — ${s.reason}`;
     if (s.kind === "points") return `${tag}${s.points.length} point${s.points.length === 1 ? "" : "s"} (m = ${s.nullity}); click one to place an unspecified node.`;
+    if (s.kind === "conic" && s.dim === 3) return `${tag}a curve (m = ${s.nullity}), a conic in a plane of space (Fig. 2e).`;
     if (s.kind === "conic") return `${tag}a ${s.degenerate ? "degenerate " : ""}conic (m = ${s.nullity}); click on it to place an unspecified node.`;
     if (s.kind === "line") return `${tag}a line of positions (m = ${s.nullity}).`;
     return `${tag}${s.reason}`;
@@ -278,7 +291,7 @@ function drawSketch(svg, toPage, shown) {
     state.nodes.forEach((n, i) => {
       const u = motion[i];
       if (!u || Math.hypot(...u) === 0) return;
-      const [a, b] = [toPage(n.x), toPage([n.x[0] + u[0], n.x[1] + u[1]])];
+      const [a, b] = [toPage(n.x), toPage(n.x.map((v, c) => v + u[c]))];
       el("line", { class: "arrow drawn", "data-node": i, "data-motion": m, x1: a[0], y1: a[1], x2: b[0], y2: b[1],
                    stroke: COLOURS.motions[m % 4], "stroke-width": 2.5, opacity: m === state.motion ? 1 : 0.45,
                    "marker-end": `url(#head-${m % 4})` }, arrows);
@@ -409,7 +422,7 @@ function pointerWorld(event) {
 }
 
 function onPointerDown(event) {
-  if (state.frame && state.frame.dim === 3) {
+  if ((state.frame && state.frame.dim === 3) || (!state.frame && sketchDim() === 3) || (state.example && state.example.dim === 3)) {
     state.drag = { rotate: true, x: event.clientX, y: event.clientY };
     $("canvas").setPointerCapture(event.pointerId);
     return;
@@ -458,7 +471,7 @@ function onPointerUp() { state.drag = null; }
 // A drawing changed: the old design no longer belongs to it.
 function edited() {
   if (state.response) clearDesign();
-  state.placed = state.placed.filter(() => false);
+  state.placed = [];
   updateSpaces();
   describeSpaces();
   draw();
@@ -523,6 +536,9 @@ function drawnRequest() {
     return ["/v1/design/allosteric", { dim: 2, source, target, options }];
   }
   const spec = state.nodes.map((n, i) => [n, i]).filter(([n]) => n.role === "specified");
+  if (state.kind === "space3d") {
+    return ["/v1/design", { dim: 3, positions: spec.map(([n]) => n.x), motions: [spec.map(([, i]) => state.motions[0][i])], options: { seed: 0, ...options } }];
+  }
   if (spec.length < 2) throw new Error("place at least two specified nodes and drag their motions.");
   const motions = state.motions.map((m) => spec.map(([, i]) => m[i])).filter((m) => m.some((u) => u[0] || u[1]));
   if (!motions.length) throw new Error("drag from a node to give it a motion.");
@@ -912,6 +928,31 @@ function setKind(kind) {
   state.example = null;
   if (kind === "auxetic" && $("name").value === "my_design") $("name").value = "auxetic_sheet";
   clearSketch();
+  if (kind === "space3d") fillTable(DEFAULT_3D.positions, DEFAULT_3D.motion);
+}
+
+// The 3D target as a table: one row per specified node, positions then motion; every edit
+// recomputes the solution space.
+function fillTable(positions, motion) {
+  state.nodes = positions.map((x) => ({ x: x.slice(), role: "specified" }));
+  state.motions = [motion.map((u) => u.slice())];
+  renderTable();
+  edited();
+}
+
+function renderTable() {
+  const body = $("table3d").tBodies[0];
+  body.replaceChildren();
+  state.nodes.forEach((n, i) => {
+    const tr = el("tr", {}, body, true);
+    for (const [vector, a] of [0, 1, 2].map((a) => [n.x, a]).concat([0, 1, 2].map((a) => [state.motions[0][i], a]))) {
+      const input = el("input", { type: "number", step: "0.1", value: vector[a], "aria-label": `node ${i + 1}` }, el("td", {}, tr, true), true);
+      input.addEventListener("input", () => { if (Number.isFinite(input.valueAsNumber)) { vector[a] = input.valueAsNumber; edited(); } });
+    }
+    const remove = el("button", { type: "button", title: "remove this node" }, el("td", {}, tr, true), true);
+    remove.textContent = "×";
+    remove.addEventListener("click", () => { state.nodes.splice(i, 1); state.motions[0].splice(i, 1); renderTable(); edited(); });
+  });
 }
 
 function clearSketch() {
@@ -973,9 +1014,13 @@ async function pickExample() {
       request.positions.forEach((x) => state.nodes.push({ x, role: "specified" }));
       const select = $("motion-index");
       request.motions.slice(1).forEach((_, m) => { el("option", { value: m + 1 }, select, true).textContent = String(m + 2); });
+    } else if (request.motions.length === 1) {
+      setKind("space3d");
+      $("example-text").textContent = state.examples[name];
+      fillTable(request.positions, request.motions[0]);
     } else {
-      state.example = request;  // 3D: designed as given, the view turns by dragging
-      $("space-text").textContent = "A 3D example: press Design, then drag the drawing to turn it.";
+      state.example = request;  // several 3D motions: designed as given, the view turns by dragging
+      $("space-text").textContent = "A 3D example with several motions: press Design, then drag the drawing to turn it.";
     }
   }
   $("name").value = name;
@@ -1000,6 +1045,13 @@ $("play").addEventListener("click", play);
 $("undo").addEventListener("click", undo);
 $("clear").addEventListener("click", clearSketch);
 $("add-motion").addEventListener("click", addMotion);
+$("add-row").addEventListener("click", () => {
+  const last = state.nodes.length ? state.nodes[state.nodes.length - 1].x : [0, 0, 0];
+  state.nodes.push({ x: [last[0] + 1, last[1], last[2]], role: "specified" });
+  state.motions[0].push([0, 0, 0]);
+  renderTable();
+  edited();
+});
 $("mode-select").addEventListener("change", () => { stop(); state.mode = Number($("mode-select").value); traceMotion(); });
 $("motion-index").addEventListener("change", () => { state.motion = Number($("motion-index").value); draw(); });
 $("raw-toggle").addEventListener("change", () => { $("raw").hidden = !$("raw-toggle").checked; });

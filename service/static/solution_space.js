@@ -104,10 +104,10 @@ const SolutionSpace = (() => {
       return out;
     }
     if (m === 1) return onLine(out, Q, qnorm, sample);
-    if (m === 2 && d === 2) return onConic(out, Q, qnorm, sample, (p) => p.map((v, a) => (v - cx[a]) / sx));
+    if (m === 2) return onConic(out, Q, qnorm, sample, (p) => p.map((v, a) => (v - cx[a]) / sx));
     out.kind = d === 2 ? "plane" : "surface";
     out.reason = d === 2 ? `with ${k} specified node${k === 1 ? "" : "s"} every position has a motion (a ${m - 1}-dimensional set); place a third.`
-      : `a ${m - 1}-dimensional quadric in (x_U, u_U).`;
+      : `a ${m - 1}-dimensional quadric in (x_U, u_U), not drawn; five specified nodes in general position give a curve.`;
     return out;
   }
 
@@ -148,7 +148,7 @@ const SolutionSpace = (() => {
     return [[mean + rad, [Math.cos(theta), Math.sin(theta)]], [mean - rad, [-Math.sin(theta), Math.cos(theta)]]];
   }
 
-  // m = 2 in 2D: the conic α̃ᵀQα̃ = 0, α ∈ R², drawn through a pencil of lines from a point α₀ on
+  // m = 2: the conic α̃ᵀQα̃ = 0, α ∈ R² (in 3D its image is a curve in a plane, Fig. 2e), drawn through a pencil of lines from a point α₀ on
   // it: the line α₀ + s·e meets the conic again at s = −2eᵀ(Aα₀ + β)/(eᵀAe), A = Q[:2,:2], β = Q[:2,2].
   function onConic(out, Q, qnorm, sample, normalised) {
     const A = [[Q[0][0], Q[0][1]], [Q[1][0], Q[1][1]]], beta = [Q[0][2], Q[1][2]], gamma = Q[2][2];
@@ -206,7 +206,7 @@ const SolutionSpace = (() => {
     // Uniform in φ, then halved where a chord is longer than MAX_CHORD (normalised units) within
     // NEAR of the specified nodes: the pencil crowds its points where the conic is far from α₀
     // and thins them near it.
-    const chord = (p, q) => { const [a, b] = [normalised(p), normalised(q)]; return Math.hypot(a[0] - b[0], a[1] - b[1]); };
+    const chord = (p, q) => { const [a, b] = [normalised(p), normalised(q)]; return Math.hypot(...a.map((v, i) => v - b[i])); };
     const near = (p) => Math.hypot(...normalised(p)) <= NEAR;
     const refine = (phi0, p0, phi1, p1, depth, into) => {
       if (depth === 0 || chord(p0, p1) <= MAX_CHORD || !(near(p0) || near(p1))) return;
