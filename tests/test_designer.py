@@ -21,6 +21,7 @@ from browser import browser, console_problems  # noqa: F401 (a fixture)
 from benchmarks.bench_designer import (
     ARROW,
     CORNERS,
+    drag_arrow,
     draw_outward_square,
     goto_designer,
     screen,
@@ -309,5 +310,40 @@ def test_a_3d_target_from_the_table(browser, designer_url):  # noqa: F811
     page.mouse.move(box["x"] + 160, box["y"] + 120, steps=4)
     page.mouse.up()
     assert page.eval_on_selector_all("#canvas circle.node", "cs => cs.map(c => +c.getAttribute('cx'))") != turned
+    assert problems == []
+    page.close()
+
+
+def test_allosteric_sites_picked_on_a_network(browser, designer_url):  # noqa: F811
+    """Allostery inside a given network: the drawn triangulated sheet, two source and two target
+    nodes picked on it with their motions dragged; the modified frame's mode moves every bar
+    rigidly to first order (C·u = 0, C built here from the definition) and carries the drawn
+    motions at the sites, up to scale, within the reported target error."""
+    page, problems = open_page(browser, designer_url)
+    page.click("[data-testid=tab-allostery]")
+    page.click("[data-testid=network-sheet]")
+    positions = np.array(page.evaluate("designer.network.positions"))
+    order = np.lexsort((positions[:, 0], positions[:, 1]))
+    bottom, top = order[3:5], order[-5:-3]  # two neighbours on the bottom row, two on the top
+    pulls = {"source": np.array([[-0.25, 0], [0.25, 0]]), "target": np.array([[-0.25, 0.0], [0.25, 0.0]])}
+    for role, nodes in (("source", bottom), ("target", top)):
+        page.check(f"input[name=role][value={role}]")
+        for node, pull in zip(nodes, pulls[role], strict=True):
+            drag_arrow(page, positions[node], positions[node] + pull, steps=3)
+    assert page.evaluate("designer.nodes.map((n) => [n.role, n.index])") == [
+        ["source", int(bottom[0])], ["source", int(bottom[1])], ["target", int(top[0])], ["target", int(top[1])]]
+    page.click("[data-testid=design]")
+    page.wait_for_selector("[data-testid=play]:not([disabled])", timeout=TIMEOUT_MS)
+    design = page.evaluate("designer.response")
+    x, edges = np.array(design["frame"]["positions"]), np.array(design["frame"]["edges"])
+    u = np.array(design["modes"][0])
+    d = x[edges[:, 0]] - x[edges[:, 1]]
+    stretch = np.einsum("ij,ij->i", d, u[edges[:, 0]] - u[edges[:, 1]])
+    assert np.abs(stretch).max() < 1e-9 * np.abs(d).max() * np.abs(u).max()
+    source_rows = u[bottom]
+    scale = np.sum(source_rows * pulls["source"]) / np.sum(pulls["source"] ** 2)
+    assert np.allclose(source_rows, scale * pulls["source"], atol=1e-9 * np.abs(u).max())
+    assert design["report"]["target_error"] <= 1e-9
+    assert {"source", "target"} <= legend(page)
     assert problems == []
     page.close()

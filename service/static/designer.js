@@ -37,6 +37,8 @@ const DEFAULT_3D = {
   positions: [[2, 0, 1], [1, 0, 2], [3, 0, 3], [3.5, -1, 2.5], [3.5, 1, 2.5]],
   motion: [[-0.8, 0, 0.8], [0.8, 0, -0.8], [-0.8, 0, 0], [0, -0.8, 0], [0, 0.8, 0]],
 };
+// The drawn network of the Allostery tab: a triangulated sheet, NETWORK columns × rows, rigid.
+const NETWORK = [9, 7], NETWORK_SPACING = 0.5;
 // Human names of the export formats (GET /v1/export/formats); the service's description is the tooltip.
 const FORMAT_LABELS = {
   vtk: "ParaView (.vtu)", node_link_json: "Graph, JSON", kit_csv: "Build kit, CSV", cut_svg: "Cutting plan, SVG",
@@ -45,7 +47,7 @@ const FORMAT_LABELS = {
 
 const $ = (id) => document.getElementById(id);
 const state = {
-  kind: "draw", nodes: [], motions: [[]], motion: 0, placed: [], spaces: [], crossings: [],
+  kind: "draw", network: null, nodes: [], motions: [[]], motion: 0, placed: [], spaces: [], crossings: [],
   example: null, response: null, frame: null, modes: [], mode: 0, sites: {}, motionPath: null,
   refined: null, refinedPath: null, certificate: null, timer: null, drag: null, view: VIEW_3D.slice(),
   formats: null, jobs: 0, timings: { live: [], design: [] }, progressLog: [], map: null, fresh: true,
@@ -134,7 +136,7 @@ function makeMap() {
   let lo = dim === 2 ? WINDOW.lo.slice() : [Infinity, Infinity], hi = dim === 2 ? WINDOW.hi.slice() : [-Infinity, -Infinity];
   const tips = state.nodes.map((n, i) => n.x.map((v, a) => v + (state.motions[0][i] || [0, 0, 0])[a]));
   const configs = state.frame ? (state.motionPath ? state.motionPath.path : [state.frame.positions])
-    : dim === 3 ? [state.nodes.map((n) => n.x), tips] : [];
+    : dim === 3 ? [state.nodes.map((n) => n.x), tips] : state.network ? [state.network.positions] : [];
   for (const points of configs) for (const p of points) {
     const s = project(p);
     lo = [Math.min(lo[0], s[0]), Math.min(lo[1], s[1])];
@@ -279,6 +281,15 @@ function drawSpaces(svg, toPage, shown) {
 function drawSketch(svg, toPage, shown) {
   const spec = state.nodes.map((n, i) => [n, i]).filter(([n]) => n.role === "specified");
   const bars = el("g", { class: "bars" }, svg);
+  if (state.network) {
+    const p = state.network.positions.map(toPage);
+    for (const [i, j] of state.network.edges) {
+      el("line", { class: "bar network", x1: p[i][0], y1: p[i][1], x2: p[j][0], y2: p[j][1], stroke: COLOURS.bar, "stroke-width": 1.5 }, bars);
+    }
+    p.forEach(([x, y], i) => el("circle", { class: "network-node", "data-network": i, cx: x, cy: y, r: 6,
+                                            fill: COLOURS.unspecified[0], stroke: COLOURS.unspecified[1] }, bars));
+    shown.add("bar"); shown.add("unspecified");
+  }
   for (const node of state.placed) {
     for (const [n] of spec) {
       const [a, b] = [toPage(node.x), toPage(n.x)];
@@ -435,7 +446,13 @@ function onPointerDown(event) {
   }
   let i;
   if (target.dataset.drawn !== undefined) i = Number(target.dataset.drawn);
-  else {
+  else if (state.network) {
+    if (target.dataset.network === undefined) return;  // sites sit on the network's nodes
+    const index = Number(target.dataset.network), x = state.network.positions[index];
+    state.nodes.push({ x, role: document.querySelector("input[name=role]:checked").value, index });
+    state.motions.forEach((m) => m.push([0, 0]));
+    i = state.nodes.length - 1;
+  } else {
     if (state.frame && !state.fromDrawing) return;
     const x = [snap(w[0], SNAP_POSITION), snap(w[1], SNAP_POSITION)];
     if (state.nodes.some((n) => Math.hypot(n.x[0] - x[0], n.x[1] - x[1]) < 1e-9)) return;
@@ -533,6 +550,13 @@ function drawnRequest() {
     };
     const source = site("source"), target = site("target");
     if (!source.positions.length || !target.positions.length) throw new Error("place at least one source and one target node.");
+    if (state.network) {
+      const indices = (role) => state.nodes.filter((n) => n.role === role).map((n) => n.index);
+      return ["/v1/design/allosteric/network", {
+        frame: state.network, source: indices("source"), target: indices("target"),
+        source_motion: source.motion, target_motion: target.motion,
+      }];
+    }
     return ["/v1/design/allosteric", { dim: 2, source, target, options }];
   }
   const spec = state.nodes.map((n, i) => [n, i]).filter(([n]) => n.role === "specified");
@@ -553,7 +577,8 @@ async function design(event) {
   state.placed = [];
   say(`designing (${endpoint}) …`);
   // A drawn 2D design answers in milliseconds; the rest may take seconds: a job with progress.
-  const direct = endpoint === "/v1/design" && request.dim === 2;
+  // (Allostery in a given network has no job endpoint: it is asked directly too.)
+  const direct = (endpoint === "/v1/design" && request.dim === 2) || endpoint === "/v1/design/allosteric/network";
   try {
     const response = direct ? await post(endpoint, request) : await runJob(endpoint, request, "designing");
     state.response = response;
@@ -566,7 +591,7 @@ async function design(event) {
     modeSelect.replaceChildren();
     state.modes.forEach((_, m) => { el("option", { value: m }, modeSelect, true).textContent = `mode ${m + 1}`; });
     modeSelect.hidden = state.modes.length < 2;
-    state.fromDrawing = direct && !state.example;
+    state.fromDrawing = direct && !state.example && !state.network;
     const report = response.report || {};
     state.sites = { source: report.source || [], target: report.target || [] };
     state.fresh = true;
@@ -819,6 +844,7 @@ function reportRows() {
   }
   if (rep.finite_strain) add("ν deviation over strain", rep.finite_strain.max_deviation, "", "max |ν_secant − ν| over the finite-strain range, measured on the whole sheet.");
   add("target error", rep.target_error, "relative", "How far the achieved target motion is from the one prescribed.");
+  add("bonds changed", rep.bonds_changed, "", "Bars removed from the given network plus bars added to it.");
   const tol = rep.tolerance;
   if (tol) {
     const budget = `keeping every designed quantity within ${fmt(100 * tol.budget)} % (linearised, checked by a Monte Carlo of ${tol.samples} frames). ${tol.summary}`;
@@ -956,11 +982,39 @@ function renderTable() {
 }
 
 function clearSketch() {
-  Object.assign(state, { nodes: [], motions: [[]], motion: 0, placed: [] });
+  Object.assign(state, { network: null, nodes: [], motions: [[]], motion: 0, placed: [] });
   const select = $("motion-index");
   select.replaceChildren();
   el("option", { value: 0 }, select, true).textContent = "1";
   clearDesign();
+  edited();
+}
+
+// A rigid triangulated sheet (rows shifted by half a spacing, each node joined to its six
+// neighbours), centred in the window.
+function triangulatedSheet([nx, ny], h) {
+  const positions = [], edges = [], at = (i, j) => j * nx + i;
+  for (let j = 0; j < ny; j++) for (let i = 0; i < nx; i++) {
+    positions.push([(i - (nx - 1) / 2 + (j % 2 ? 0.25 : -0.25)) * h, (j - (ny - 1) / 2) * h * Math.sqrt(3) / 2]);
+  }
+  for (let j = 0; j < ny; j++) for (let i = 0; i < nx; i++) {
+    if (i + 1 < nx) edges.push([at(i, j), at(i + 1, j)]);
+    if (j + 1 < ny) {
+      edges.push([at(i, j), at(i, j + 1)]);
+      const k = j % 2 ? i + 1 : i - 1;
+      if (k >= 0 && k < nx) edges.push([at(i, j), at(k, j + 1)]);
+    }
+  }
+  return { dim: 2, positions, edges };
+}
+
+function useNetwork(frame) {
+  if (!frame || frame.dim !== 2 || !Array.isArray(frame.positions) || !Array.isArray(frame.edges)) {
+    throw new Error("a network is a 2D frame: {\"dim\": 2, \"positions\": [...], \"edges\": [...]}.");
+  }
+  clearSketch();
+  state.network = { dim: 2, positions: frame.positions, edges: frame.edges };
+  $("hint").textContent = "Click nodes of the network to make them source or target sites (choose below); drag from a site to set its motion.";
   edited();
 }
 
@@ -1045,6 +1099,18 @@ $("play").addEventListener("click", play);
 $("undo").addEventListener("click", undo);
 $("clear").addEventListener("click", clearSketch);
 $("add-motion").addEventListener("click", addMotion);
+$("network-sheet").addEventListener("click", () => useNetwork(triangulatedSheet(NETWORK, NETWORK_SPACING)));
+$("network-file").addEventListener("change", async () => {
+  const file = $("network-file").files[0];
+  if (!file) return;
+  try {
+    const doc = JSON.parse(await file.text());
+    useNetwork(doc.frame || doc);
+  } catch (e) {
+    say(`${file.name}: ${e.message}`, true);
+  }
+  $("network-file").value = "";
+});
 $("add-row").addEventListener("click", () => {
   const last = state.nodes.length ? state.nodes[state.nodes.length - 1].x : [0, 0, 0];
   state.nodes.push({ x: [last[0] + 1, last[1], last[2]], role: "specified" });
