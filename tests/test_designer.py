@@ -11,6 +11,7 @@ are recorded by benchmarks/bench_designer.py, not asserted here (no test races t
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import meshio
@@ -314,13 +315,21 @@ def test_a_3d_target_from_the_table(browser, designer_url):  # noqa: F811
     page.close()
 
 
-def test_allosteric_sites_picked_on_a_network(browser, designer_url):  # noqa: F811
+def test_allosteric_sites_picked_on_a_network(browser, designer_url, tmp_path):  # noqa: F811
     """Allostery inside a given network: the drawn triangulated sheet, two source and two target
     nodes picked on it with their motions dragged; the modified frame's mode moves every bar
     rigidly to first order (C·u = 0, C built here from the definition) and carries the drawn
     motions at the sites, up to scale, within the reported target error."""
     page, problems = open_page(browser, designer_url)
     page.click("[data-testid=tab-allostery]")
+    # An uploaded network (a design response holding its frame) is drawn for picking.
+    upload = tmp_path / "triangle.json"
+    triangle = {"dim": 2, "positions": [[0, 0], [1, 0], [0, 1]], "edges": [[0, 1], [1, 2], [0, 2]]}
+    upload.write_text(json.dumps({"frame": triangle}))
+    page.set_input_files("[data-testid=network-file]", str(upload))
+    page.wait_for_function("designer.network && designer.network.positions.length === 3")
+    assert len(page.query_selector_all("#canvas circle.network-node")) == 3
+    assert len(page.query_selector_all("#canvas line.bar.network")) == 3
     page.click("[data-testid=network-sheet]")
     positions = np.array(page.evaluate("designer.network.positions"))
     order = np.lexsort((positions[:, 0], positions[:, 1]))
