@@ -82,6 +82,7 @@ def test_draw_design_play_refine_certify_and_download(browser, designer_url, tmp
     # Four nodes moving outward (a dilation): Ã loses a rank and the space is a conic again, the
     # circle through the corners (Fig. 3a) — the closed form, not the page's own arithmetic.
     assert page.get_attribute("[data-testid=solution-space]", "data-kind") == "conic"
+    assert page.is_visible("[data-testid=solution-space]")
     assert len(page.query_selector_all("#canvas line.arrow.drawn")) == 4
     x = np.array(CORNERS)
     u = ARROW * x
