@@ -2,7 +2,7 @@
 Dask cluster behind the jobs API): a design drawn by hand, as the issue's Done-when asks.
 
 Checked through independent routes: the solution space the page computes in JavaScript
-(service/static/solution_space.js) against the definition — a point p of it has a motion v with
+(service/rest/static/solution_space.js) against the definition — a point p of it has a motion v with
 (x_i − p)·(u_i − v) = 0 for every specified node i, found here by numpy's least squares; the
 outward square's space is the circle through its corners (closed form); the page's ε(a) against
 the service's ε before refinement; the downloaded file read back with meshio. Latency figures
@@ -29,8 +29,8 @@ from benchmarks.bench_designer import (
     space_d,
 )
 from tests.client.conftest import served
-from zeromode.service.app import create_app
-from zeromode.service.settings import Settings
+from zeromode.service.rest.app import create_app
+from zeromode.service.wire.settings import Settings
 
 # Waits for the page: a design, a job on the cluster, on a busy 2-core machine.
 TIMEOUT_MS = 180_000

@@ -21,7 +21,7 @@ import pytest
 from browser import browser, console_problems  # noqa: F401 (a fixture)
 
 from tests.client.conftest import served
-from zeromode.service.app import create_app
+from zeromode.service.rest.app import create_app
 
 # Waits for the page: a design plus its finite motion on a busy 2-core machine.
 DESIGN_TIMEOUT_MS = 120_000
