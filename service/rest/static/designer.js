@@ -582,8 +582,6 @@ async function design(event) {
   try {
     const response = direct ? await post(endpoint, request) : await runJob(endpoint, request, "designing");
     state.response = response;
-    state.request = request;
-    state.endpoint = endpoint;
     state.frame = response.frame;
     state.modes = response.modes || [];
     state.mode = 0;
@@ -611,7 +609,7 @@ async function design(event) {
 
 function clearDesign() {
   stop();
-  Object.assign(state, { response: null, request: null, frame: null, modes: [], sites: {}, motionPath: null,
+  Object.assign(state, { response: null, frame: null, modes: [], sites: {}, motionPath: null,
                          refined: null, refinedPath: null, certificate: null, fromDrawing: false });
   for (const id of ["slider", "play", "refine", "certify"]) $(id).disabled = true;
   $("where").textContent = "";

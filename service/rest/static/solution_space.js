@@ -56,7 +56,7 @@ const SolutionSpace = (() => {
 
   // The space for positions x_S (k×d) and motions u_S (k×d). Returns
   // {dim, k, nullity, rank, kind, reason, points: [{position, motion}], curves: [[p, …], …],
-  //  sample(α̃) → {position, motion}, basis, quadric}; kind is "points", "conic", "line",
+  //  basis W̃ and quadric Q of the normalised problem}; kind is "points", "conic", "line",
   // "plane" (k ≤ 2 in 2D: every position), "surface" (3D, m ≥ 3) or "none" with a reason.
   function compute(positions, motions) {
     const k = positions.length, d = positions[0].length, n = 2 * d + 1;
@@ -91,7 +91,7 @@ const SolutionSpace = (() => {
       for (let a = 0; a < d; a++) q += (basis[a][i] * basis[d + a][j] + basis[a][j] * basis[d + a][i]) / 2;
       return q - ((j === m ? basis[2 * d][i] : 0) + (i === m ? basis[2 * d][j] : 0)) / 2;
     }));
-    const out = { dim: d, k, nullity: m, rank: n - m, basis, quadric: Q, points: [], curves: [], sample, kind: "none", reason: "" };
+    const out = { dim: d, k, nullity: m, rank: n - m, basis, quadric: Q, points: [], curves: [], kind: "none", reason: "" };
     if (residual > 1e-8 * (1 + Math.hypot(...b))) {
       out.reason = `the ${k} bar conditions contradict each other: b is not in the range of Ã (rank ${n - m}), so no position and motion satisfy them all.`;
       return out;
@@ -248,5 +248,5 @@ const SolutionSpace = (() => {
     return hits;
   }
 
-  return { compute, intersections, svd };
+  return { compute, intersections };
 })();
