@@ -71,3 +71,11 @@ REACHED_EPS = 1e-6
 # 1 for an angle in radians or a strain); Newton on the augmented system converges
 # quadratically, so it goes to round-off (≈ 1e-15) and this leaves five decades of margin.
 TARGET_RTOL = 1e-10
+
+# --- modules as maps ------------------------------------------------------------------------
+
+# A module's map meets a requested feature (d_out = f(d_in) relative to the requested distance,
+# f′ relative to max(1, |f′|)) and a chain's conformation its iterates (d_{k+1} = f(d_k),
+# relative to d_k) within this: the promise of /v1/design/sequential (arXiv 1906.08400's
+# designs, verified by continuation). Exact evaluation by Newton reaches ≈ 1e-13.
+MAP_RTOL = 1e-8
