@@ -29,7 +29,7 @@ RUN pip install --no-cache-dir --no-deps --no-build-isolation . \
 # read and extend (28-40 s of CPU; each worker then loads them in 0.3-0.4 s, in the background).
 ENV NUMBA_CACHE_DIR=/var/cache/zeromode/numba
 RUN mkdir -p "$NUMBA_CACHE_DIR" \
-    && python -c "from zeromode.solver.rigidity import warm_up; warm_up()" \
+    && python -c "from zeromode.solver.analysis.rigidity import warm_up; warm_up()" \
     && chown -R 10001:10001 /var/cache/zeromode
 
 # Job and sweep records (SQLite): a directory the service's user owns; mount a volume here to

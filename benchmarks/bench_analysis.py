@@ -50,8 +50,8 @@ from cvxopt import amd, cholmod
 from benchmarks.lattices import LATTICES
 from benchmarks.networks import NETWORKS
 from zeromode.solver import Frame, analyze
-from zeromode.solver.factorisation import cholesky
-from zeromode.solver.rigidity import (
+from zeromode.solver.analysis.factorisation import cholesky
+from zeromode.solver.analysis.rigidity import (
     BASIS_MAX_NUMBERS,
     DENSE_MAX_ENTRIES_BASES,
     DENSE_MAX_ENTRIES_COUNTS,

@@ -21,10 +21,10 @@ from pathlib import Path
 
 import numpy as np
 
-from zeromode.solver.design import design
+from zeromode.solver.analysis.rigidity import warm_up
+from zeromode.solver.construction.design import design
+from zeromode.solver.construction.solution_space import solution_space
 from zeromode.solver.errors import DomainError
-from zeromode.solver.rigidity import warm_up
-from zeromode.solver.solution_space import solution_space
 
 
 def random_target(d: int, k: int, modes: int, seed: int) -> tuple[np.ndarray, np.ndarray]:

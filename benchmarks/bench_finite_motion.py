@@ -71,10 +71,10 @@ import numpy as np
 from zeromode.service.examples import example_request
 from zeromode.service.responses import json_safe
 from zeromode.solver.budget import time_budget
-from zeromode.solver.design import design
+from zeromode.solver.construction.design import design
 from zeromode.solver.errors import DomainError
-from zeromode.solver.finite_motion import motion_fidelity
-from zeromode.solver.refine import RefinementFailed, refine, target_displacement
+from zeromode.solver.motion.finite_motion import motion_fidelity
+from zeromode.solver.motion.refine import RefinementFailed, refine, target_displacement
 
 KS = (2, 4, 8, 16)
 TOLS = (1e-4, 1e-6, 1e-8)
@@ -671,9 +671,9 @@ def path_row(name: str, frame, seconds: float, path, note: str, strain=None) -> 
 
 def motion_at_scale() -> dict:
     """Part 3 (module docstring)."""
-    from zeromode.solver import lattice as lattices
-    from zeromode.solver.finite_motion import trace_motion
-    from zeromode.solver.periodic import PeriodicCell, tiled_motion, trace_periodic_motion
+    from zeromode.solver.applications import lattice as lattices
+    from zeromode.solver.motion.finite_motion import trace_motion
+    from zeromode.solver.motion.periodic import PeriodicCell, tiled_motion, trace_periodic_motion
 
     rows, load = [], {"before": loadavg()}
     general = parallelogram_of_patches(2500)

@@ -41,11 +41,16 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from zeromode.solver.certificates import certify
-from zeromode.solver.finite_motion import bar_lengths
-from zeromode.solver.finite_strain import finite_strain_sheet
-from zeromode.solver.lattice import auxetic_chain_3d, auxetic_sheet, boundary_strains, path_strains
-from zeromode.solver.periodic import trace_motion_through_cell
+from zeromode.solver.applications.finite_strain import finite_strain_sheet
+from zeromode.solver.applications.lattice import (
+    auxetic_chain_3d,
+    auxetic_sheet,
+    boundary_strains,
+    path_strains,
+)
+from zeromode.solver.certificates.prestress import certify
+from zeromode.solver.motion.finite_motion import bar_lengths
+from zeromode.solver.motion.periodic import trace_motion_through_cell
 
 NU = -0.5
 

@@ -51,7 +51,7 @@ from zeromode.solver import (
     compatibility_matrix,
     rigid_motions,
 )
-from zeromode.solver.factorisation import cholesky
+from zeromode.solver.analysis.factorisation import cholesky
 
 # A removal is refused when 1 − k_b G_bb falls to this: the new softest mode would be softer
 # than 1e-8 of the removed bond's own stiffness (singular value ≳ 1e-4 of the bond's), which
@@ -145,7 +145,7 @@ class SpringNetwork:
         stiffness = (qa.T @ sp.diags(self.k[self.alive]) @ qa).tocsc()
         try:
             # K is symmetric positive definite on the free dofs: a supernodal Cholesky factor
-            # (CHOLMOD, solver/factorisation.py) is several times faster than a sparse LU here.
+            # (CHOLMOD, solver/analysis/factorisation.py) is several times faster than a sparse LU here.
             self._factor = cholesky(stiffness[self._free][:, self._free].tocsc())
         except ArithmeticError as exc:  # not positive definite: a zero mode
             raise DomainError("floppy_network", "the spring network has a zero mode.") from exc

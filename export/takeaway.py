@@ -15,8 +15,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from zeromode.solver.errors import InvalidInput
-from zeromode.solver.finite_motion import align_to
 from zeromode.solver.frame import Frame
+from zeromode.solver.motion.finite_motion import align_to
 from zeromode.viz.picture import stacked
 
 # Sites of a node, as exported (point data "site" in VTK, attribute "site" in graphs).

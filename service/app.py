@@ -39,8 +39,8 @@ from zeromode.service.routes import (
     viewer,
 )
 from zeromode.service.settings import Settings, settings_scope
+from zeromode.solver.analysis.rigidity import warm_up
 from zeromode.solver.budget import time_budget
-from zeromode.solver.rigidity import warm_up
 
 log = logging.getLogger("zeromode")
 # A caller's request id is kept only if it is this kind of token (no control characters in logs).
@@ -125,7 +125,7 @@ async def lifespan(app: FastAPI) -> AsyncIterator[None]:
     """At startup, in the background (the service answers at once): the rigidity analysis's
     compiled kernels are loaded, or compiled in a fresh environment (``/health`` says which:
     ``kernels``; a request that needs one first waits for it, not charged to its time budget,
-    solver/compiled.py), and the job engine starts when heavy requests are offloaded to it, the
+    solver/analysis/compiled.py), and the job engine starts when heavy requests are offloaded to it, the
     store holds unfinished work to adopt or is a database server that replicas share, tried
     again until it starts; at shutdown the engine gives its lease up and closes its cluster."""
     threading.Thread(target=_warm_up, args=(app,), name="zeromode-warm-up", daemon=True).start()

@@ -16,7 +16,8 @@ from zeromode.service.schemas.allostery import AllostericRequest
 from zeromode.service.schemas.common import FrameModel, Points
 from zeromode.service.schemas.design import DesignRequest
 from zeromode.service.schemas.lattice import AuxeticRequest, LatticeState
-from zeromode.solver.allostery import AllostericDesign, design_allosteric
+from zeromode.solver.applications.allostery import AllostericDesign, design_allosteric
+from zeromode.solver.certificates.fabrication import ToleranceReport, tolerance_report
 from zeromode.solver.errors import InvalidInput
 from zeromode.solver.pipeline import (
     AuxeticResult,
@@ -26,7 +27,6 @@ from zeromode.solver.pipeline import (
     design_pipeline,
 )
 from zeromode.solver.progress import progress_stage
-from zeromode.solver.tolerance import ToleranceReport, tolerance_report
 
 # What a document is, by its fields (``kind``).
 DESIGN, AUXETIC, ALLOSTERIC, REFINEMENT, MOTION, FRAME = (

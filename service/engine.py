@@ -99,7 +99,7 @@ def _prepare_plugin(niceness: int):
 
 def _prepare_worker() -> None:
     import zeromode.service.tasks  # noqa: F401 — the import is half the point
-    from zeromode.solver.rigidity import warm_up
+    from zeromode.solver.analysis.rigidity import warm_up
 
     warm_up()
 

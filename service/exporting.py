@@ -25,9 +25,9 @@ from zeromode.service.documents import (
 )
 from zeromode.service.responses import json_safe, tolerance_body
 from zeromode.service.schemas.export import ExportRequest
+from zeromode.solver.certificates.fabrication import tolerance_report
 from zeromode.solver.errors import InvalidInput
-from zeromode.solver.finite_motion import trace_motion
-from zeromode.solver.tolerance import tolerance_report
+from zeromode.solver.motion.finite_motion import trace_motion
 
 
 def export_file(request: ExportRequest) -> tuple[bytes, str, str]:

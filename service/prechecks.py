@@ -53,14 +53,14 @@ from zeromode.service.schemas.certify import CertifyRequest
 from zeromode.service.schemas.design import DesignRequest
 from zeromode.service.schemas.lattice import AuxeticRequest
 from zeromode.service.schemas.motion import MotionRequest, RefineRequest
-from zeromode.solver.allostery import allosteric_inputs
-from zeromode.solver.certificates import check_certify_request
-from zeromode.solver.finite_motion import check_trace_arguments, given_mode
+from zeromode.solver.analysis.rigidity import check_dense_size
+from zeromode.solver.applications.allostery import allosteric_inputs
+from zeromode.solver.applications.lattice import boundary_sets
+from zeromode.solver.certificates.prestress import check_certify_request
 from zeromode.solver.frame import Frame, check_extent
-from zeromode.solver.lattice import boundary_sets
+from zeromode.solver.motion.finite_motion import check_trace_arguments, given_mode
+from zeromode.solver.motion.refine import refinement_target
 from zeromode.solver.pipeline import check_auxetic_request, check_design_request
-from zeromode.solver.refine import refinement_target
-from zeromode.solver.rigidity import check_dense_size
 
 
 def motion_frame(request: MotionRequest) -> Frame:

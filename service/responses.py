@@ -15,17 +15,17 @@ from datetime import UTC, datetime
 
 import numpy as np
 
-from zeromode.solver.certificates import (
+from zeromode.solver.analysis.rank import RankGap
+from zeromode.solver.analysis.rigidity import Analysis
+from zeromode.solver.certificates.fabrication import ToleranceEstimate, ToleranceReport
+from zeromode.solver.certificates.prestress import (
     Certificate,
     LmiSolution,
     SelfStressCertificate,
 )
-from zeromode.solver.finite_motion import MotionPath
 from zeromode.solver.frame import Frame
-from zeromode.solver.motion_target import AimedMotion
-from zeromode.solver.rank import RankGap
-from zeromode.solver.rigidity import Analysis
-from zeromode.solver.tolerance import ToleranceEstimate, ToleranceReport
+from zeromode.solver.motion.finite_motion import MotionPath
+from zeromode.solver.motion.target import AimedMotion
 
 # The integer fields of /v1/analyze, in the contract's order (docs/API.md).
 COUNT_FIELDS = (

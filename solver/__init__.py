@@ -6,9 +6,9 @@ mechanical networks": specified / unspecified nodes, compatibility matrix C,
 self-stress, solution space, quadric.
 """
 
+from zeromode.solver.analysis.rigidity import Analysis, analyze, compatibility_matrix, rigid_motions
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame
-from zeromode.solver.rigidity import Analysis, analyze, compatibility_matrix, rigid_motions
 
 __all__ = [
     "Analysis",

@@ -4,7 +4,7 @@ The caller opens ``time_budget(seconds)``; long loops call ``check_budget()`` on
 iteration, which raises DomainError ``too_expensive`` (with the limit in the message) once the
 deadline has passed.  The deadline lives in a context variable, so concurrent requests (threads
 or tasks) each see their own.  Time spent waiting rather than computing (numba compiling a kernel,
-solver/compiled.py) is not charged: ``not_charged`` moves the deadline later by it.
+solver/analysis/compiled.py) is not charged: ``not_charged`` moves the deadline later by it.
 """
 
 from __future__ import annotations

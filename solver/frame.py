@@ -12,8 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from zeromode.solver.analysis.normalisation import normalised, rms_radius, unit_scaled
 from zeromode.solver.errors import InvalidInput
-from zeromode.solver.normalisation import normalised, rms_radius, unit_scaled
 from zeromode.solver.tolerances import COINCIDENT_RTOL
 
 

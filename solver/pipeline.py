@@ -28,17 +28,12 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from zeromode.solver.certificates import SDP_MAX_DIM, Certificate, certify, check_size
-from zeromode.solver.coupling import merged_frame
-from zeromode.solver.design import Design, design, design_targets
-from zeromode.solver.errors import InvalidInput
-from zeromode.solver.finite_strain import (
+from zeromode.solver.applications.finite_strain import (
     FiniteStrainSheet,
     check_finite_strain_request,
     finite_strain_sheet,
 )
-from zeromode.solver.frame import Frame
-from zeromode.solver.lattice import (
+from zeromode.solver.applications.lattice import (
     Lattice,
     auxetic_chain_3d,
     auxetic_sheet,
@@ -49,10 +44,19 @@ from zeromode.solver.lattice import (
     poisson_ratio,
     sheet_module_for,
 )
+from zeromode.solver.applications.sheet_module import sheet_edges, sheet_positions
+from zeromode.solver.certificates.fabrication import (
+    ToleranceReport,
+    check_tolerance_request,
+    tolerance_report,
+)
+from zeromode.solver.certificates.prestress import SDP_MAX_DIM, Certificate, certify, check_size
+from zeromode.solver.construction.coupling import merged_frame
+from zeromode.solver.construction.design import Design, design, design_targets
+from zeromode.solver.errors import InvalidInput
+from zeromode.solver.frame import Frame
+from zeromode.solver.motion.refine import Refinement, RefinementFailed, check_problem_size, refine
 from zeromode.solver.progress import progress_stage
-from zeromode.solver.refine import Refinement, RefinementFailed, check_problem_size, refine
-from zeromode.solver.sheet_module import sheet_edges, sheet_positions
-from zeromode.solver.tolerance import ToleranceReport, check_tolerance_request, tolerance_report
 
 # Estimated cost of the stages in seconds, for progress: each stage that runs gets its share of
 # the whole (_shares).  Measured with the default options (Fig. 3c square, cube, 2 × 2 to 40 × 40
@@ -112,7 +116,7 @@ class PipelineResult:
 
 def stiffness_sdp_fits(frame: Frame, zero_modes: int) -> bool:
     """True when the stiffness-allocation LMI (p × p, p = dN − d(d+1)/2 − M, ``zero_modes`` =
-    d(d+1)/2 + M) is within SDP_MAX_DIM.  The large-LMI routes (stiffness.py) reach
+    d(d+1)/2 + M) is within SDP_MAX_DIM.  The large-LMI routes (certificates/stiffness.py) reach
     p = OPTIMAL_MAX_DIM but take 26–40 s at p = 2478 (20 × 20 sheet, interior point) and 41 s
     for the 64-block chain (spectral bundle)
     (docs/benchmarks/certificates.md): past a pipeline stage's budget, so the pipeline keeps the

@@ -1,7 +1,7 @@
 """Every numerical threshold the solver decides with, named once with its reason.
 
 All are *relative*: they compare a quantity with the natural size of its problem, on
-scale-normalised inputs (see normalisation.py), so no decision depends on units. Machine
+scale-normalised inputs (see analysis/normalisation.py), so no decision depends on units. Machine
 precision is ε ≈ 2.2e-16; the designed frames zeromode builds have σ_r/σ_max ≳ 1e-4.
 
 Algorithm parameters that are not thresholds (step sizes, iteration caps, size limits) live
@@ -14,7 +14,7 @@ beside the algorithm that uses them.
 # and floating-point noise sits near 1e-15, so 1e-9 leaves several decades of margin each side.
 RANK_RTOL = 1e-9
 
-# Candidate placements (placement.py) are ranked on small matrices of candidate rows; a gain
+# Candidate placements (construction/placement.py) are ranked on small matrices of candidate rows; a gain
 # counts only above 1e-7 of the largest singular value, so a nearly dependent bar (which would
 # make a frame with a tiny singular-value gap) is not mistaken for an independent one.
 PLACEMENT_RTOL = 1e-7
@@ -66,7 +66,7 @@ CONSTRAINT_ATOL = 1e-9
 # reached: IPOPT's tolerance 1e-8 on squared lengths gives ε of order 1e-7 at best.
 REACHED_EPS = 1e-6
 
-# A motion aimed at a target value of a quantity (motion_target.py) ends where the quantity is
+# A motion aimed at a target value of a quantity (motion/target.py) ends where the quantity is
 # within TARGET_RTOL of it (relative to the quantity's scale: the target distance for a distance,
 # 1 for an angle in radians or a strain); Newton on the augmented system converges
 # quadratically, so it goes to round-off (≈ 1e-15) and this leaves five decades of margin.

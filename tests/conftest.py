@@ -37,7 +37,7 @@ def pytest_sessionstart(session: pytest.Session) -> None:
     """Load the analysis's compiled kernels once, before any test, or compile them in a fresh
     environment (half a minute of CPU, .ci/run's cold cache): no test's client timeout has to
     absorb that, and the services the tests start load them from the same cache."""
-    from zeromode.solver.rigidity import warm_up
+    from zeromode.solver.analysis.rigidity import warm_up
 
     warm_up()
 

@@ -28,7 +28,12 @@ from oracles.rigidity import (
 )
 
 from zeromode.service.app import create_app
-from zeromode.solver.allostery import GAP_FLOOR, MAX_MODULES, TARGET_ERROR_MAX, design_allosteric
+from zeromode.solver.applications.allostery import (
+    GAP_FLOOR,
+    MAX_MODULES,
+    TARGET_ERROR_MAX,
+    design_allosteric,
+)
 from zeromode.solver.errors import DomainError, InvalidInput
 
 

@@ -1,4 +1,4 @@
-"""Allostery inside a given network (solver/network_allostery.py), checked from scratch.
+"""Allostery inside a given network (solver/applications/network_allostery.py), checked from scratch.
 
 For each answer, through routes that share nothing with the solver: the modified frame keeps
 every given node where it was and every given bar except the ones reported removed; its zero
@@ -21,7 +21,7 @@ from test_pruning import dense_ratio
 
 from benchmarks.allostery_tasks import make_task
 from zeromode.solver import DomainError, Frame, InvalidInput
-from zeromode.solver.network_allostery import tune_network
+from zeromode.solver.applications.network_allostery import tune_network
 
 
 def pair_strain(x, u) -> float:

@@ -28,7 +28,8 @@ from oracles.rigidity import (
 from scipy.sparse.linalg import svds
 
 from zeromode.service.responses import counts_body
-from zeromode.solver import Frame, analyze, rigidity
+from zeromode.solver import Frame, analyze
+from zeromode.solver.analysis import rigidity
 from zeromode.solver.errors import DomainError
 
 TOL = 1e-10
@@ -351,8 +352,8 @@ def test_sigma_max_estimate_is_a_close_lower_bound(name):
     # (and on CCᵀ, through Cᵀ): a Rayleigh quotient, so never above numpy's σ_max, and within
     # 8 % of it (over 400 random starts on these frames, at most 6.2 % below, median 2–3 %).
     from benchmarks.lattices import LATTICES
-    from zeromode.solver.rigidity import LANCZOS_STEPS
-    from zeromode.solver.sparse_kernels import largest_singular_value, uniform_block
+    from zeromode.solver.analysis.rigidity import LANCZOS_STEPS
+    from zeromode.solver.analysis.sparse_kernels import largest_singular_value, uniform_block
 
     frame = LATTICES[name](300, jitter=0.1, seed=3)
     c = compatibility_matrix(normalised(np.asarray(frame.positions)), frame.edges)

@@ -25,7 +25,7 @@ from oracles.rigidity import (
 )
 
 from zeromode.solver import Frame, analyze
-from zeromode.solver.rank import RTOL
+from zeromode.solver.analysis.rank import RTOL
 
 PROPERTY_SETTINGS = settings(
     max_examples=120, deadline=None, suppress_health_check=[HealthCheck.too_slow]

@@ -222,7 +222,7 @@ def test_auxetic_strain_at_the_schema_floor_is_served(client):
 
 def test_auxetic_3d_chain_within_the_documented_limit(client):
     """The documented limit (lattice.MAX_CHAIN_BLOCKS) is served; one more block is refused."""
-    from zeromode.solver.lattice import MAX_CHAIN_BLOCKS
+    from zeromode.solver.applications.lattice import MAX_CHAIN_BLOCKS
 
     response = client.post("/v1/design/auxetic", json={"dim": 3, "cells": [MAX_CHAIN_BLOCKS]})
     assert response.status_code == 200, response.text

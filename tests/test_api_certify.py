@@ -25,9 +25,9 @@ from oracles.wire import frame_body
 
 from zeromode.service.app import create_app
 from zeromode.service.settings import Settings
-from zeromode.solver.certificates import OPTIMAL_MAX_DIM
+from zeromode.solver.applications.lattice import auxetic_sheet
+from zeromode.solver.certificates.prestress import OPTIMAL_MAX_DIM
 from zeromode.solver.frame import Frame
-from zeromode.solver.lattice import auxetic_sheet
 
 # A triangle whose three sides each carry a taut midpoint joint: 3 flexes, 3 stresses.
 _TAUT_X, _TAUT_E = triangle_with_taut_sides(3)

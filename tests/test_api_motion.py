@@ -8,7 +8,7 @@ from oracles.motion import fidelity, relative_bar_error, rigid_distance
 from oracles.wire import frame_body
 
 from zeromode.service.app import create_app
-from zeromode.solver.finite_motion import MAX_DOF
+from zeromode.solver.motion.finite_motion import MAX_DOF
 
 
 @pytest.fixture(scope="module")

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-SOLVER = sorted((ROOT / "solver").glob("*.py"))
+SOLVER = sorted((ROOT / "solver").rglob("*.py"))
 ROUTES = sorted((ROOT / "service" / "routes").glob("*.py"))
 
 NOT_IN_SOLVER = (

@@ -1,4 +1,4 @@
-"""SDP certificates (zeromode.solver.certificates) against independent routes.
+"""SDP certificates (zeromode.solver.certificates.prestress) against independent routes.
 
 Oracles: PyRigi's is_prestress_stable wherever it decides (one flex, or one stress — where its
 2×2-minor test is exact or the answer is positive definite), the literature (Connelly's
@@ -30,7 +30,7 @@ from oracles.rigidity import (
 )
 
 from zeromode.solver import Frame
-from zeromode.solver.certificates import (
+from zeromode.solver.certificates.prestress import (
     MAX_DOF,
     OPTIMAL_MAX_DIM,
     SDP_MAX_DIM,
@@ -38,8 +38,8 @@ from zeromode.solver.certificates import (
     solve_lmi,
     stiffness_program,
 )
+from zeromode.solver.certificates.stiffness import optimal_stiffness
 from zeromode.solver.errors import DomainError, InvalidInput
-from zeromode.solver.stiffness import optimal_stiffness
 
 # ----------------------------------------------------------------------------- frames
 
@@ -344,7 +344,7 @@ def test_bipartite_designs_have_positive_margin(k, d, n_unspecified, seed):
 
 @pytest.mark.parametrize("d, k, m", [(2, 3, 1), (2, 4, 2), (3, 4, 1)])
 def test_designs_from_the_designer_have_positive_margin(d, k, m):
-    from zeromode.solver.design import design
+    from zeromode.solver.construction.design import design
 
     rng = np.random.default_rng(10 * d + k)
     result = design(rng.standard_normal((k, d)), rng.standard_normal((m, k, d)), seed=0)
@@ -448,7 +448,7 @@ def test_prestress_without_a_stress_basis_matches_the_full_basis(name):
     """A frame too large to keep its bases is certified through the projections onto N(Cᵀ)
     (bordered solves); the reduced SDP must give the full-basis answer and a stress checked
     from scratch."""
-    from zeromode.solver.rigidity import analyze
+    from zeromode.solver.analysis.rigidity import analyze
 
     (x, e), expected = GENERAL_CASE[name]
     frame = Frame.build(x, e)
@@ -493,7 +493,7 @@ def test_an_allocation_the_conic_solvers_cannot_verify_is_certified_by_the_inter
     """The 2 × 2 finite-strain sheet (trammel modules, 25 nodes, a 46 × 46 LMI): Clarabel's and
     SCS's answers do not verify; the interior-point route of stiffness.py answers with a verified
     bracket, checked from scratch like every other margin, the failed attempts on record."""
-    from zeromode.solver.finite_strain import finite_strain_sheet
+    from zeromode.solver.applications.finite_strain import finite_strain_sheet
 
     lat = finite_strain_sheet(2, 2, poisson=-0.5, strain_range=(-0.1, 0.1), tolerance=0.02).lattice
     got = check_margin(lat.frame, [lat.mode])

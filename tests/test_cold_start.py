@@ -1,6 +1,6 @@
 """A fresh environment: the kernels compile off the requests' budgets, once, and once per cache.
 
-solver/compiled.py: the time a thread spends in numba's compiler lock is not charged to its time
+solver/analysis/compiled.py: the time a thread spends in numba's compiler lock is not charged to its time
 budget (checked against numba's own timer of that lock, its event API); the kernels are compiled
 for one set of argument types (a Frame's read-only arrays add no specialisation after
 rigidity.warm_up); processes sharing a cache warm up in turn (a second one waits on the first's
@@ -18,12 +18,12 @@ import numpy as np
 from numba import njit, types
 from numba.core import event
 
-from zeromode.solver import sparse_kernels
+from zeromode.solver.analysis import sparse_kernels
+from zeromode.solver.analysis.compiled import compiling_alone
+from zeromode.solver.analysis.normalisation import _normalised
+from zeromode.solver.analysis.rigidity import analyze, warm_up
 from zeromode.solver.budget import _DEADLINE, time_budget
-from zeromode.solver.compiled import compiling_alone
 from zeromode.solver.frame import Frame
-from zeromode.solver.normalisation import _normalised
-from zeromode.solver.rigidity import analyze, warm_up
 
 
 def test_compilation_is_not_charged_to_the_budget():
@@ -81,7 +81,7 @@ def test_a_second_process_warms_up_after_the_first_lets_go():
     once released, it finishes."""
     script = (
         "import sys\n"
-        "from zeromode.solver.rigidity import warm_up\n"
+        "from zeromode.solver.analysis.rigidity import warm_up\n"
         "print('ready', flush=True)\n"
         "warm_up()\n"
         "print('done', flush=True)\n"

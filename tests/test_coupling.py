@@ -18,8 +18,8 @@ from oracles.designs import check_frame_modes
 from oracles.frames import SQUARE_CORNERS, random_rotation
 from oracles.rigidity import outside_fraction, reference_counts, rigid_generators
 
-from zeromode.solver.coupling import Module, couple, moves_rigidly
-from zeromode.solver.design import design
+from zeromode.solver.construction.coupling import Module, couple, moves_rigidly
+from zeromode.solver.construction.design import design
 from zeromode.solver.errors import DomainError
 from zeromode.solver.frame import Frame
 

@@ -19,7 +19,7 @@ from oracles.frames import CUBE_CORNERS, SQUARE_CORNERS
 from oracles.rigidity import kernel, numerical_rank
 from oracles.solution_space import a_tilde, paper_quadric
 
-from zeromode.solver.design import design
+from zeromode.solver.construction.design import design
 from zeromode.solver.errors import DomainError
 
 SQUARE = np.array(SQUARE_CORNERS)

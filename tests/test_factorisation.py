@@ -12,8 +12,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from zeromode.solver.factorisation import cholesky, minimum_degree, nested_dissection
-from zeromode.solver.rigidity import compatibility_matrix
+from zeromode.solver.analysis.factorisation import cholesky, minimum_degree, nested_dissection
+from zeromode.solver.analysis.rigidity import compatibility_matrix
 
 
 def lattice(make, n: int):
@@ -78,7 +78,7 @@ def test_analysis_orders_the_gram_matrix_by_whichever_fills_less(make, n):
     network (mean degree ≈ 2d), where dissection fills 1.8× as much as minimum degree (42 860
     against 23 384), it is no node order at all but CHOLMOD's own minimum degree of CᵀC."""
     from benchmarks.bench_analysis import FRAMES
-    from zeromode.solver.rigidity import _elimination_order
+    from zeromode.solver.analysis.rigidity import _elimination_order
 
     frame = FRAMES[make](n)
     x, pairs, d = frame.normalised_positions(), np.asarray(frame.edges), frame.dim
@@ -156,7 +156,7 @@ def test_block_solves_are_numpys_on_either_kernel(supernodal, width):
 def test_block_solves_on_a_factor_past_the_two_column_order(width):
     """A factor of order ≥ BLOCK_SOLVE_TWO_COLUMNS_MIN_ORDER (2·13 225 unknowns), where two
     columns also go through the sparse solve: (A + δI)x = b checked by SciPy's product."""
-    from zeromode.solver.factorisation import BLOCK_SOLVE_TWO_COLUMNS_MIN_ORDER
+    from zeromode.solver.analysis.factorisation import BLOCK_SOLVE_TWO_COLUMNS_MIN_ORDER
 
     frame, x = lattice("triangulated", 13_225)
     c = compatibility_matrix(x, frame.edges)
@@ -182,7 +182,7 @@ def test_benchmark_clock_sees_a_counts_cholmod_calls_and_gives_the_binding_back(
 
     from benchmarks.bench_analysis import FRAMES, CholmodClock
     from zeromode.solver import analyze
-    from zeromode.solver.rigidity import OVERSAMPLE
+    from zeromode.solver.analysis.rigidity import OVERSAMPLE
 
     names = [(amd, "order"), (cholmod, "symbolic"), (cholmod, "numeric"), (cholmod, "solve"), (cholmod, "spsolve")]
     originals = [getattr(module, name) for module, name in names]

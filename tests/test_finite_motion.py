@@ -28,7 +28,7 @@ from oracles.rigidity import (
 )
 
 from zeromode.solver import DomainError, Frame
-from zeromode.solver.finite_motion import (
+from zeromode.solver.motion.finite_motion import (
     MotionPath,
     fidelity,
     kabsch_distance,
@@ -312,8 +312,8 @@ def sheet_tiling(nx: int, ny: int) -> np.ndarray:
 
 
 def test_periodic_cell_motion_tiled_on_a_sheet_matches_the_sheet_continuation():
-    from zeromode.solver.lattice import auxetic_sheet
-    from zeromode.solver.periodic import PeriodicCell, tiled_motion, trace_periodic_motion
+    from zeromode.solver.applications.lattice import auxetic_sheet
+    from zeromode.solver.motion.periodic import PeriodicCell, tiled_motion, trace_periodic_motion
 
     # 4 × 4: three columns of node pairs collide at once, an odd number of vanishing singular
     # values, which the determinant test sees (an even number would cancel in its sign).
@@ -361,7 +361,7 @@ def test_stop_ends_each_direction_at_the_first_configuration_it_accepts():
 
 def test_progress_of_a_motion_rises_to_one_through_a_located_singular_point():
     """Reports never go back, also while a singular point is located, and end at 1."""
-    from zeromode.solver.lattice import auxetic_sheet
+    from zeromode.solver.applications.lattice import auxetic_sheet
     from zeromode.solver.progress import progress_scope
 
     sheet = auxetic_sheet(4, 4, poisson=-0.5)

@@ -14,9 +14,9 @@ import pytest
 from oracles.motion import boundary_strains, relative_bar_error
 from oracles.rigidity import zero_modes_and_stresses
 
+from zeromode.solver.applications.finite_strain import FiniteStrainUnreachable, finite_strain_sheet
 from zeromode.solver.errors import InvalidInput
-from zeromode.solver.finite_motion import trace_motion
-from zeromode.solver.finite_strain import FiniteStrainUnreachable, finite_strain_sheet
+from zeromode.solver.motion.finite_motion import trace_motion
 from zeromode.solver.pipeline import auxetic_pipeline
 
 

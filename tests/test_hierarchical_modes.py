@@ -1,4 +1,4 @@
-"""Several motions beyond the bipartite construction (solver/hierarchical_modes.py): M = 3, 4 in
+"""Several motions beyond the bipartite construction (solver/construction/hierarchical_pairs.py): M = 3, 4 in
 2D and M = 4 in 3D, where no single unspecified node can be joined by d + 1 bars to nodes with
 fixed motions ((d + 1)·M > d·(M + 1) equations).
 
@@ -17,7 +17,7 @@ from oracles.designs import check_frame_modes
 from oracles.rigidity import compatibility_matrix, normalised, rigid_generators
 from oracles.wire import assert_error
 
-from zeromode.solver.design import design
+from zeromode.solver.construction.design import design
 from zeromode.solver.errors import DomainError, InvalidInput
 
 CASES = [(2, 3, 4), (2, 4, 4), (2, 3, 5), (3, 4, 5)]

@@ -34,8 +34,8 @@ from oracles.rigidity import (
     zero_modes_and_stresses,
 )
 
+from zeromode.solver.applications.lattice import auxetic_chain_3d, auxetic_sheet
 from zeromode.solver.errors import DomainError, InvalidInput
-from zeromode.solver.lattice import auxetic_chain_3d, auxetic_sheet
 
 SIZES = [(nx, ny) for nx in range(1, 7) for ny in range(1, 7)]
 

@@ -1,4 +1,4 @@
-"""Motions aimed at a target (solver.motion_target), checked through independent routes: the
+"""Motions aimed at a target (solver.motion.target), checked through independent routes: the
 four-bar's closed-form position analysis, distances, angles and bar lengths recomputed with
 numpy, a lattice's strain from its boundary sets (oracles.motion), finite differences for the
 gradients, and hypothesis over random reachable targets."""
@@ -17,11 +17,11 @@ from oracles.mechanisms import (
 )
 from oracles.motion import boundary_strains, relative_bar_error
 
+from zeromode.solver.applications.lattice import auxetic_sheet
 from zeromode.solver.errors import InvalidInput
-from zeromode.solver.finite_motion import trace_motion
 from zeromode.solver.frame import Frame
-from zeromode.solver.lattice import auxetic_sheet
-from zeromode.solver.motion_target import (
+from zeromode.solver.motion.finite_motion import trace_motion
+from zeromode.solver.motion.target import (
     BoundaryStrain,
     MotionTarget,
     NodeAngle,

@@ -28,10 +28,14 @@ import sympy as sp
 from oracles.designs import check_design
 from oracles.frames import FIG4_TETRAHEDRON, FIG4_TRIANGLE
 
-from zeromode.solver.design import design
+from zeromode.solver.construction.design import design
+from zeromode.solver.construction.multimode import (
+    common_positions,
+    conic_intersections,
+    spatial_quadric,
+)
+from zeromode.solver.construction.solution_space import solution_space
 from zeromode.solver.errors import DomainError
-from zeromode.solver.multimode import common_positions, conic_intersections, spatial_quadric
-from zeromode.solver.solution_space import solution_space
 
 
 # --------------------------------------------------------------------------- independent oracles

@@ -16,11 +16,11 @@ import pytest
 from oracles.motion import boundary_strains, relative_bar_error
 from oracles.sheet_range import SheetEvents, first_event
 
+from zeromode.solver.applications.finite_strain import finite_strain_sheet
+from zeromode.solver.applications.lattice import auxetic_sheet, sheet_module_for
+from zeromode.solver.applications.sheet_module import sheet_edges, sheet_positions, trammel_module
+from zeromode.solver.applications.strain_range import Patch
 from zeromode.solver.errors import DomainError
-from zeromode.solver.finite_strain import finite_strain_sheet
-from zeromode.solver.lattice import auxetic_sheet, sheet_module_for
-from zeromode.solver.sheet_module import sheet_edges, sheet_positions, trammel_module
-from zeromode.solver.strain_range import Patch
 
 # Events located by the scan to STRAIN_XTOL and by the oracle's bisection: they agree to
 # round-off (measured ≤ 3e-14); a singular end is located by bisection on Newton's success

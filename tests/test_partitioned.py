@@ -22,7 +22,7 @@ import pytest
 import sympy as sp
 from oracles.designs import check_design
 
-from zeromode.solver.design import design
+from zeromode.solver.construction.design import design
 
 # The greedy placement is not optimal; it must stay within this factor of the counting bound.
 MINIMALITY_FACTOR = 2.0

@@ -1,4 +1,4 @@
-"""Motion of a tiled frame through one cell (solver/periodic.py) against the frame's own route.
+"""Motion of a tiled frame through one cell (solver/motion/periodic.py) against the frame's own route.
 
 Checks go through independent routes: bar lengths and boundary strains recomputed from the
 returned positions (oracles.motion), rigid alignment by oracles.motion.rigid_distance, the
@@ -16,9 +16,9 @@ from oracles.wire import frame_body
 
 from zeromode.service.app import create_app
 from zeromode.solver import DomainError, Frame
-from zeromode.solver.finite_motion import trace_motion
-from zeromode.solver.lattice import auxetic_sheet
-from zeromode.solver.periodic import (
+from zeromode.solver.applications.lattice import auxetic_sheet
+from zeromode.solver.motion.finite_motion import trace_motion
+from zeromode.solver.motion.periodic import (
     PeriodicCell,
     find_tiling,
     tiled_motion,

@@ -11,11 +11,11 @@ from oracles.frames import SQUARE_CORNERS
 from oracles.motion import relative_bar_error
 from oracles.rigidity import COUNT_FIELDS, compatibility_matrix, mode_residual, reference_counts
 
-import zeromode.solver.certificates as certificates_module
-import zeromode.solver.design as design_module
-import zeromode.solver.refine as refine_module
+import zeromode.solver.certificates.prestress as certificates_module
+import zeromode.solver.construction.design as design_module
+import zeromode.solver.motion.refine as refine_module
+from zeromode.solver.analysis.rigidity import analyze as real_analyze
 from zeromode.solver.pipeline import RefineStage, design_pipeline
-from zeromode.solver.rigidity import analyze as real_analyze
 
 SQUARE = SQUARE_CORNERS
 OUTWARD = SQUARE_CORNERS  # u_S = x_S: the corners move outward (paper, Fig. 3b)

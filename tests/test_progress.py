@@ -25,9 +25,10 @@ from benchmarks.allostery_tasks import make_task
 from benchmarks.lattices import LATTICES
 from zeromode.service.settings import Settings
 from zeromode.service.tasks import execute
-from zeromode.solver.certificates import certify
-from zeromode.solver.lattice import auxetic_sheet
-from zeromode.solver.network_allostery import tune_network
+from zeromode.solver.applications.lattice import auxetic_sheet
+from zeromode.solver.applications.network_allostery import tune_network
+from zeromode.solver.certificates.prestress import certify
+from zeromode.solver.construction.two_configuration import design_two_configurations
 from zeromode.solver.pipeline import RefineStage, ToleranceStage, auxetic_pipeline, design_pipeline
 from zeromode.solver.progress import (
     progress_heartbeat,
@@ -36,7 +37,6 @@ from zeromode.solver.progress import (
     report_detail,
     report_progress,
 )
-from zeromode.solver.two_configuration import design_two_configurations
 
 # The promise (seconds, fraction) and the time side as asserted under shared-CPU load.
 PROMISED_GAP_S = 1.0

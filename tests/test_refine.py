@@ -20,7 +20,7 @@ from oracles.mechanisms import bipartite_design, outward_square, random_targets
 from oracles.motion import fidelity, relative_bar_error, rigid_distance
 
 from zeromode.solver import DomainError, Frame
-from zeromode.solver.refine import RefinementFailed, refine
+from zeromode.solver.motion.refine import RefinementFailed, refine
 
 # ε of the same curve by two continuations agrees to round-off (~1e-14 relative measured); the
 # margin covers the polishing of either minimum. Below ROUND_OFF_EPSILON a target is met to the
@@ -201,7 +201,7 @@ def test_overdetermined_refinement_is_refused_in_design_terms():
     """A 3 × 3 auxetic sheet with its corner grid specified: K·N_B bar equations outnumber the
     (K − 1)·N·d + 2·N_U·d coordinates (counted here), so IPOPT could not even start; the
     refusal names the counts, with a code, before any NLP."""
-    from zeromode.solver.lattice import auxetic_sheet
+    from zeromode.solver.applications.lattice import auxetic_sheet
 
     lat = auxetic_sheet(3, 3, poisson=-0.5)
     corners = list(range(16))

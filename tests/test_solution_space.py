@@ -32,8 +32,8 @@ from oracles.solution_space import (
     nullity as expected_nullity,
 )
 
+from zeromode.solver.construction.solution_space import solution_space
 from zeromode.solver.errors import DomainError
-from zeromode.solver.solution_space import solution_space
 
 # Derandomised: a property failure reproduces on every machine and every run.
 PROPERTY = settings(max_examples=50, deadline=None, derandomize=True)

@@ -1,4 +1,4 @@
-"""The numba kernels of the sparse route (solver/sparse_kernels.py), against SciPy and numpy.
+"""The numba kernels of the sparse route (solver/analysis/sparse_kernels.py), against SciPy and numpy.
 
 Every kernel is checked through a route that shares none of its code: C is built densely from
 the paper's definition (row e holds x_i − x_j in node i's d columns, the negative in node j's);
@@ -20,8 +20,8 @@ import scipy.sparse as sp
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from zeromode.solver.normalisation import normalised
-from zeromode.solver.sparse_kernels import (
+from zeromode.solver.analysis.normalisation import normalised
+from zeromode.solver.analysis.sparse_kernels import (
     DONE,
     ORTHONORMALISE,
     ROUND,
@@ -849,7 +849,7 @@ def test_kernels_compile_where_no_cache_directory_is_writable(tmp_path):
     (tmp_path / "nowhere.py").write_text(NOWHERE)
     script = (
         "from zeromode.solver import Frame, analyze\n"
-        "from zeromode.solver.sparse_kernels import times\n"
+        "from zeromode.solver.analysis.sparse_kernels import times\n"
         "square = Frame.build([[0, 0], [1, 0], [1, 1], [0, 1]], [[0, 1], [1, 2], [2, 3], [3, 0]])\n"
         "a = analyze(square, method='sparse')\n"
         "print(type(times._cache).__name__, a.rank, a.nontrivial_zero_modes)\n"

@@ -1,4 +1,4 @@
-"""The optimal-stiffness margin at scale (zeromode.solver.stiffness) against independent routes.
+"""The optimal-stiffness margin at scale (zeromode.solver.certificates.stiffness) against independent routes.
 
 Oracles: stiffness matrices, complements and eigenvalues built from scratch with numpy
 (tests/oracles/rigidity.py), the SDP route (cvxpy + Clarabel) where both run, random
@@ -14,9 +14,14 @@ import scipy.sparse as sp
 from oracles.rigidity import compatibility_matrix, kernel, normalised, rigid_generators, span
 
 from zeromode.solver import Frame
-from zeromode.solver.certificates import SDP_MAX_DIM, certify, solve_lmi, stiffness_program
-from zeromode.solver.lattice import auxetic_sheet
-from zeromode.solver.stiffness import (
+from zeromode.solver.applications.lattice import auxetic_sheet
+from zeromode.solver.certificates.prestress import (
+    SDP_MAX_DIM,
+    certify,
+    solve_lmi,
+    stiffness_program,
+)
+from zeromode.solver.certificates.stiffness import (
     GAP_RTOL,
     optimal_stiffness,
     reduce_lmi,

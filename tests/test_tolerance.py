@@ -1,4 +1,4 @@
-"""Fabrication tolerances (solver/tolerance.py, options.tolerance of /v1/design).
+"""Fabrication tolerances (solver/certificates/fabrication.py, options.tolerance of /v1/design).
 
 Two checks. The report's own: on a module (Fig. 3b), a sheet (Fig. 5c, with self-stresses) and an
 allosteric design (Fig. 5e), every linear estimate agrees with the report's seeded Monte Carlo
@@ -16,11 +16,11 @@ from oracles.motion import poisson_ratio
 from oracles.rigidity import compatibility_matrix, kernel, normalised, rigid_generators, span
 
 from zeromode.service.examples import example_request
-from zeromode.solver.allostery import design_allosteric
-from zeromode.solver.design import design
+from zeromode.solver.applications.allostery import design_allosteric
+from zeromode.solver.applications.lattice import auxetic_sheet
+from zeromode.solver.certificates.fabrication import AGREEMENT_FACTOR, tolerance_report
+from zeromode.solver.construction.design import design
 from zeromode.solver.errors import DomainError, InvalidInput
-from zeromode.solver.lattice import auxetic_sheet
-from zeromode.solver.tolerance import AGREEMENT_FACTOR, tolerance_report
 
 BUDGET = 0.01
 SOURCE = ([[0, 0], [1, 0], [0, 1]], [[-1, 0], [1, 0], [0, 1]])

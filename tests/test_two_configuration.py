@@ -11,8 +11,8 @@ from oracles.frames import SQUARE_CORNERS
 from oracles.motion import bar_lengths, fidelity
 from oracles.rigidity import reference_counts
 
+from zeromode.solver.construction.two_configuration import design_two_configurations
 from zeromode.solver.errors import DomainError
-from zeromode.solver.two_configuration import design_two_configurations
 
 SQUARE = np.array(SQUARE_CORNERS)
 # ε by two continuations agrees to round-off; below ROUND_OFF_EPSILON both are "zero".

@@ -24,8 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-from zeromode.solver.finite_motion import align_to
 from zeromode.solver.frame import Frame
+from zeromode.solver.motion.finite_motion import align_to
 from zeromode.viz.geometry import project, typical_gap, view_basis
 from zeromode.viz.layout import bar_shapes, marker_shapes, node_shapes
 from zeromode.viz.scene import Circle, Group, Line, Polygon, Polyline, Scene, Text

@@ -2,7 +2,7 @@
 positions x_U, traced inside a window.
 
 An unspecified node joined to every specified node may sit at x_U exactly when some u_U
-satisfies all k bar constraints (x_Si − x_U)·(u_Si − u_U) = 0. zeromode.solver.solution_space
+satisfies all k bar constraints (x_Si − x_U)·(u_Si − u_U) = 0. zeromode.solver.construction.solution_space
 gives these (x_U, u_U) as α ↦ W̃[α; 1] on the quadric α̃ᵀQα̃ = 0; here they are traced densely
 enough to draw: a conic (m = dim N(Ã) = 2) as ordered polylines, a quadric surface in 3D
 (m = 3) as a wireframe of such conics, a region (m = 3 in 2D, m ≥ 4) as a point cloud, and
@@ -15,7 +15,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from zeromode.solver.solution_space import SolutionSpace, real_roots_on_lines, solution_space
+from zeromode.solver.construction.solution_space import (
+    SolutionSpace,
+    real_roots_on_lines,
+    solution_space,
+)
 from zeromode.solver.tolerances import CONSTRAINT_ATOL
 from zeromode.viz.geometry import Window
 

@@ -10,9 +10,9 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
+from zeromode.solver.analysis.rigidity import non_rigid_part
+from zeromode.solver.applications.lattice import boundary_strains
 from zeromode.solver.frame import Frame
-from zeromode.solver.lattice import boundary_strains
-from zeromode.solver.rigidity import non_rigid_part
 from zeromode.viz.picture import Picture
 from zeromode.viz.style import MAX_ARROW_NODES
 

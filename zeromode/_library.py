@@ -133,8 +133,8 @@ def analyze(frame: Frame | Result | Mapping, **options: Any) -> AnalysisResult:
     from zeromode.service.convert import frame_from_model
     from zeromode.service.responses import analyze_body
     from zeromode.service.settings import current_settings
+    from zeromode.solver.analysis.rigidity import analyze as analyze_frame
     from zeromode.solver.progress import progress_stage
-    from zeromode.solver.rigidity import analyze as analyze_frame
 
     request = _request("analyze.AnalyzeRequest", {"frame": _frame_body(frame), "options": options})
     t0 = time.perf_counter()
@@ -281,8 +281,8 @@ def allosteric(source: Any, target: Any, *, frame: Frame | Result | Mapping | No
     from zeromode.service.responses import allosteric_body, network_allosteric_body
 
     if frame is not None:
+        from zeromode.solver.applications.network_allostery import tune_network
         from zeromode.solver.frame import Frame as SolverFrame
-        from zeromode.solver.network_allostery import tune_network
 
         request = _request("allostery.NetworkAllostericRequest", {
             "frame": _frame_body(frame), "source": source, "target": target, "source_motion": source_motion,
@@ -343,7 +343,7 @@ def two_configuration(initial: Points, final: Points, *, dim: int | None = None,
     True
     """
     from zeromode.service.responses import two_configuration_body
-    from zeromode.solver.two_configuration import design_two_configurations
+    from zeromode.solver.construction.two_configuration import design_two_configurations
 
     request = _request("design.TwoConfigurationRequest", {
         "dim": _dim(initial, dim), "initial": initial, "final": final, "options": {"seed": seed},
@@ -395,10 +395,10 @@ def motion(frame: Frame | Result | Mapping, mode: int | Points | None = None, **
     """
     from zeromode.service.prechecks import motion_frame
     from zeromode.service.responses import motion_body
-    from zeromode.solver.finite_motion import SingularPath, trace_motion
-    from zeromode.solver.lattice import path_strains
-    from zeromode.solver.motion_target import MotionTarget, aim_motion
-    from zeromode.solver.periodic import trace_motion_through_cell
+    from zeromode.solver.applications.lattice import path_strains
+    from zeromode.solver.motion.finite_motion import SingularPath, trace_motion
+    from zeromode.solver.motion.periodic import trace_motion_through_cell
+    from zeromode.solver.motion.target import MotionTarget, aim_motion
 
     if isinstance(mode, int):  # the number of one of the result's modes, or of the frame's
         mode = (frame if isinstance(frame, Result) else analyze(frame)).modes[mode]
@@ -463,7 +463,7 @@ def refine(frame: Frame | Result | Mapping, motion: Points | None = None, **fiel
     """
     from zeromode.service.convert import frame_from_model
     from zeromode.service.responses import refinement_body
-    from zeromode.solver.refine import refine as refine_frame
+    from zeromode.solver.motion.refine import refine as refine_frame
 
     request = _request("motion.RefineRequest", {"frame": _frame_body(frame), "motion": motion, **fields})
     result = refine_frame(
@@ -505,7 +505,7 @@ def certify(frame: Frame | Result | Mapping, modes: Sequence[Points] = (), **opt
     """
     from zeromode.service.convert import frame_from_model
     from zeromode.service.responses import certificate_body
-    from zeromode.solver.certificates import certify as certify_frame
+    from zeromode.solver.certificates.prestress import certify as certify_frame
 
     request = _request("certify.CertifyRequest", {"frame": _frame_body(frame), "modes": modes, "options": options})
     o = request.options

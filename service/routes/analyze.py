@@ -11,8 +11,8 @@ from zeromode.service.responses import analyze_body
 from zeromode.service.schemas.analyze import AnalyzeRequest, AnalyzeResponse
 from zeromode.service.schemas.common import ERROR_RESPONSES
 from zeromode.service.settings import current_settings
+from zeromode.solver.analysis.rigidity import analyze
 from zeromode.solver.progress import progress_stage
-from zeromode.solver.rigidity import analyze
 
 router = APIRouter(prefix="/v1", tags=["analysis"])
 

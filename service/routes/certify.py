@@ -8,7 +8,7 @@ from zeromode.service.convert import frame_from_model
 from zeromode.service.responses import certificate_body
 from zeromode.service.schemas.certify import CertifyRequest, CertifyResponse
 from zeromode.service.schemas.common import ERROR_RESPONSES
-from zeromode.solver.certificates import certify
+from zeromode.solver.certificates.prestress import certify
 
 router = APIRouter(prefix="/v1", tags=["certificates"])
 

@@ -18,9 +18,9 @@ from zeromode.service.schemas.design import (
     TwoConfigurationRequest,
     TwoConfigurationResponse,
 )
+from zeromode.solver.construction.solution_space import seeded_samples, solution_space
+from zeromode.solver.construction.two_configuration import design_two_configurations
 from zeromode.solver.pipeline import design_pipeline
-from zeromode.solver.solution_space import seeded_samples, solution_space
-from zeromode.solver.two_configuration import design_two_configurations
 
 router = APIRouter(prefix="/v1", tags=["design"])
 

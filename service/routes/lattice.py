@@ -23,10 +23,10 @@ from zeromode.service.schemas.allostery import (
 )
 from zeromode.service.schemas.common import ERROR_RESPONSES
 from zeromode.service.schemas.lattice import AuxeticRequest, AuxeticResponse
-from zeromode.solver.allostery import InaccurateDesign
-from zeromode.solver.finite_strain import FiniteStrainUnreachable
+from zeromode.solver.applications.allostery import InaccurateDesign
+from zeromode.solver.applications.finite_strain import FiniteStrainUnreachable
+from zeromode.solver.applications.network_allostery import tune_network
 from zeromode.solver.frame import Frame
-from zeromode.solver.network_allostery import tune_network
 
 router = APIRouter(prefix="/v1/design", tags=["design"])
 

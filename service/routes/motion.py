@@ -19,11 +19,11 @@ from zeromode.service.schemas.motion import (
     RefineRequest,
     RefineResponse,
 )
-from zeromode.solver.finite_motion import SingularPath, trace_motion
-from zeromode.solver.lattice import path_strains
-from zeromode.solver.motion_target import MotionTarget, TargetUnreachable, aim_motion
-from zeromode.solver.periodic import trace_motion_through_cell
-from zeromode.solver.refine import RefinementFailed, refine
+from zeromode.solver.applications.lattice import path_strains
+from zeromode.solver.motion.finite_motion import SingularPath, trace_motion
+from zeromode.solver.motion.periodic import trace_motion_through_cell
+from zeromode.solver.motion.refine import RefinementFailed, refine
+from zeromode.solver.motion.target import MotionTarget, TargetUnreachable, aim_motion
 
 router = APIRouter(prefix="/v1", tags=["finite motion"])
 
@@ -54,7 +54,7 @@ def post_motion(request: MotionRequest):
     lengths at every configuration, the tiled tangent a zero mode, singular points of the frame
     located); where that check fails, the frame's own continuation answers. With a `target`
     (a distance, an angle, a lattice strain, a fraction of the usable range) the path ends
-    exactly where it is reached (solver.motion_target), or 422 names why it cannot be.
+    exactly where it is reached (solver.motion.target), or 422 names why it cannot be.
     """
     t0 = time.perf_counter()
     frame = motion_frame(request)

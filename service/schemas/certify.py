@@ -8,8 +8,13 @@ from pydantic import BaseModel, Field
 
 from zeromode.service.schemas.common import AnalysisCounts, FrameModel, Points, RequestModel
 from zeromode.service.schemas.limits import Limited
-from zeromode.solver.certificates import MAX_DOF, OPTIMAL_MAX_DIM, PRESTRESS_TOL, SDP_MAX_DIM
-from zeromode.solver.stiffness import GAP_RTOL
+from zeromode.solver.certificates.prestress import (
+    MAX_DOF,
+    OPTIMAL_MAX_DIM,
+    PRESTRESS_TOL,
+    SDP_MAX_DIM,
+)
+from zeromode.solver.certificates.stiffness import GAP_RTOL
 from zeromode.solver.tolerances import GIVEN_MODE_RTOL
 
 

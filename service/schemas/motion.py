@@ -15,7 +15,7 @@ from zeromode.service.schemas.common import (
     ResultFrame,
 )
 from zeromode.service.schemas.limits import AtMost, limit_text
-from zeromode.solver.rigidity import DENSE_MAX_DOF
+from zeromode.solver.analysis.rigidity import DENSE_MAX_DOF
 
 FIDELITY = (
     "Finite-motion fidelity ε(a) = min over path points X(τ) and proper rigid motions R of "

@@ -1,4 +1,4 @@
-"""The fabrication tolerance report (options.tolerance of /v1/design): solver/tolerance.py."""
+"""The fabrication tolerance report (options.tolerance of /v1/design): solver/certificates/fabrication.py."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """Hand-made mechanisms: frames with one chosen nontrivial zero mode.
 
-Built independently of zeromode.solver.design: the paper's bipartite construction, solved
+Built independently of zeromode.solver.construction.design: the paper's bipartite construction, solved
 numerically from its own equations, and qualified by the reference counts.  For specified positions x_S and motions u_S (k × d), an
 unspecified node (x_U, u_U) joined to every specified node keeps the bars iff
     A ṽ = b,   A = [u_Siᵀ  x_Siᵀ  −1],  ṽ = (x_U, u_U, c),  b_i = x_Si·u_Si,

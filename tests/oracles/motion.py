@@ -1,5 +1,5 @@
 """Finite motion from scratch: bar lengths, rigid alignment, the fidelity ε by a continuation
-written here, and the strains of a motion; independent of zeromode.solver.finite_motion.
+written here, and the strains of a motion; independent of zeromode.solver.motion.finite_motion.
 
 The fidelity (paper, finite-motion error) of a frame with one nontrivial zero mode for the
 target x_S + Δ_S is ε = min_τ min_R ‖R·X_S(τ) − (x_S + Δ_S)‖ / ‖Δ_S‖: the closest approach of

@@ -39,24 +39,24 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
-from zeromode.solver.allostery import _polish, check_source_pins, on_grid, response
-from zeromode.solver.budget import check_budget
-from zeromode.solver.design import check_motions_nonrigid
-from zeromode.solver.eigen import smallest_eigenpairs
-from zeromode.solver.errors import DomainError, InvalidInput
-from zeromode.solver.frame import Frame, check_positions
-from zeromode.solver.hierarchy import Module, place_module
-from zeromode.solver.normalisation import Normalisation, rms_radius
-from zeromode.solver.placement import target_zero_modes
-from zeromode.solver.progress import progress_stage, report_progress
-from zeromode.solver.rank import nullspace, orthonormal_range
-from zeromode.solver.rigidity import (
+from zeromode.solver.analysis.eigen import smallest_eigenpairs
+from zeromode.solver.analysis.normalisation import Normalisation, rms_radius
+from zeromode.solver.analysis.rank import nullspace, orthonormal_range
+from zeromode.solver.analysis.rigidity import (
     Analysis,
     analyze,
     compatibility_matrix,
     rigid_motions,
     zero_mode_residual,
 )
+from zeromode.solver.applications.allostery import _polish, check_source_pins, on_grid, response
+from zeromode.solver.budget import check_budget
+from zeromode.solver.construction.design import check_motions_nonrigid
+from zeromode.solver.construction.hierarchical_placement import Module, place_module
+from zeromode.solver.construction.placement import target_zero_modes
+from zeromode.solver.errors import DomainError, InvalidInput
+from zeromode.solver.frame import Frame, check_positions
+from zeromode.solver.progress import progress_stage, report_progress
 from zeromode.solver.tolerances import DESIGN_MODE_RTOL
 
 # A bar is left unstrained by the response when |(x_i − x_j)·(u_i − u_j)| ≤ this × |x_i − x_j|

@@ -44,19 +44,19 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from zeromode.solver.analysis.normalisation import Normalisation, rms_radius
+from zeromode.solver.analysis.rigidity import Analysis, analyze
 from zeromode.solver.budget import check_budget, remaining
 from zeromode.solver.errors import DomainError, InvalidInput
-from zeromode.solver.finite_motion import (
+from zeromode.solver.frame import Frame, check_positions
+from zeromode.solver.motion.finite_motion import (
     _kabsch,
     bar_lengths,
     kabsch_distance,
     motion_fidelity,
     relative_bar_error,
 )
-from zeromode.solver.frame import Frame, check_positions
-from zeromode.solver.normalisation import Normalisation, rms_radius
 from zeromode.solver.progress import progress_heartbeat, progress_stage, report_progress
-from zeromode.solver.rigidity import Analysis, analyze
 from zeromode.solver.tolerances import REACHED_EPS
 
 # Weight of ‖x_U − x_U⁰‖² relative to the straight-path term (see the module docstring).

@@ -42,20 +42,15 @@ import casadi as ca
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from zeromode.solver.budget import check_budget, remaining
-from zeromode.solver.errors import DomainError, InvalidInput
-from zeromode.solver.frame import Frame
-from zeromode.solver.lattice import (
+from zeromode.solver.analysis.rigidity import analyze
+from zeromode.solver.applications.lattice import (
     MAX_SHEET_CELLS,
     Lattice,
     boundary_strains,
     closest_unjoined,
     measured_lattice,
 )
-from zeromode.solver.progress import progress_stage, report_steps
-from zeromode.solver.refine import ipopt_solver
-from zeromode.solver.rigidity import analyze
-from zeromode.solver.sheet_module import (
+from zeromode.solver.applications.sheet_module import (
     SymmetricModule,
     cardan_trammel,
     sheet_edges,
@@ -64,13 +59,18 @@ from zeromode.solver.sheet_module import (
     trammel_coordinates,
     trammel_module,
 )
-from zeromode.solver.strain_range import (
+from zeromode.solver.applications.strain_range import (
     PROXIMITY_FRACTION,
     Patch,
     StrainRange,
     module_range,
     needed_reach,
 )
+from zeromode.solver.budget import check_budget, remaining
+from zeromode.solver.errors import DomainError, InvalidInput
+from zeromode.solver.frame import Frame
+from zeromode.solver.motion.refine import ipopt_solver
+from zeromode.solver.progress import progress_stage, report_steps
 
 # The stretches s searched (geometric grid: the deviation falls like 1/s², the size grows like s).
 STRETCHES = np.geomspace(0.5, 20.0, 48)

@@ -24,10 +24,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from zeromode.solver.analysis.normalisation import Normalisation
+from zeromode.solver.analysis.rank import RTOL, decide_rank
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import check_positions
-from zeromode.solver.normalisation import Normalisation
-from zeromode.solver.rank import RTOL, decide_rank
 from zeromode.solver.tolerances import CONSTRAINT_ATOL
 
 KINDS = {0: "points", 1: "points", 2: "conic", 3: "quadric_surface"}

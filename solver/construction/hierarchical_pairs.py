@@ -35,11 +35,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from zeromode.solver.analysis.rank import RTOL
 from zeromode.solver.budget import check_budget
+from zeromode.solver.construction.placement import (
+    MAX_RADIUS,
+    PREFERRED_SEPARATION,
+    Placement,
+    target_zero_modes,
+)
 from zeromode.solver.errors import DomainError
-from zeromode.solver.placement import MAX_RADIUS, PREFERRED_SEPARATION, Placement, target_zero_modes
 from zeromode.solver.progress import report_progress
-from zeromode.solver.rank import RTOL
 from zeromode.solver.tolerances import CONSTRAINT_ATOL, PLACEMENT_RTOL
 
 # Seeded starts per group; the best conditioned solution among them is placed.

@@ -23,10 +23,10 @@ from math import comb
 
 import numpy as np
 
+from zeromode.solver.analysis.rank import RTOL, nullspace
 from zeromode.solver.budget import check_budget
 from zeromode.solver.errors import DomainError
 from zeromode.solver.progress import report_progress
-from zeromode.solver.rank import RTOL, nullspace
 from zeromode.solver.tolerances import PLACEMENT_RTOL
 
 # Normalised units (the specified set has RMS radius 1).  A candidate is *well placed* when it

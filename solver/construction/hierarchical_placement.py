@@ -31,11 +31,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from zeromode.solver.design import single_mode_levels
-from zeromode.solver.normalisation import Normalisation
-from zeromode.solver.placement import Placement, place_nodes
-from zeromode.solver.rank import orthonormal_range
-from zeromode.solver.rigidity import rigid_motions
+from zeromode.solver.analysis.normalisation import Normalisation
+from zeromode.solver.analysis.rank import orthonormal_range
+from zeromode.solver.analysis.rigidity import rigid_motions
+from zeromode.solver.construction.design import single_mode_levels
+from zeromode.solver.construction.placement import Placement, place_nodes
 
 # Candidate points per anchor set (design.single_mode_levels uses 16): modules are small and
 # designed once per chain, so a larger pool buys conditioning cheaply.

@@ -15,7 +15,7 @@ which makes every count invariant under translation, rotation and scaling.
 Two routes, with identical counts and subspaces where both apply:
   * dense: a full SVD of C (small frames; exact bases of both null spaces);
   * sparse: shift-invert subspace iteration with one sparse Cholesky factorisation of
-    CᵀC + δI or CCᵀ + δI (solver/factorisation.py, nested-dissection order), then a
+    CᵀC + δI or CCᵀ + δI (solver/analysis/factorisation.py, nested-dissection order), then a
     Rayleigh–Ritz step on C itself so the singular values (and the rank decision) come from C,
     not from CᵀC whose small eigenvalues are squared into round-off. The one factorisation
     serves both null spaces: I − Cᵀ(CCᵀ + δI)⁻¹C = δ(CᵀC + δI)⁻¹ and I − C(CᵀC + δI)⁻¹Cᵀ =
@@ -31,15 +31,15 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from scipy.linalg import blas, lapack
 
-from zeromode.solver import sparse_kernels
+from zeromode.solver.analysis import sparse_kernels
+from zeromode.solver.analysis.compiled import compiling_alone, kernel_array
+from zeromode.solver.analysis.factorisation import cholesky_csr, minimum_degree, nested_dissection
+from zeromode.solver.analysis.normalisation import normalised
+from zeromode.solver.analysis.rank import RTOL, RankGap, complement_within, decide_rank
 from zeromode.solver.budget import check_budget
-from zeromode.solver.compiled import compiling_alone, kernel_array
 from zeromode.solver.errors import DomainError
-from zeromode.solver.factorisation import cholesky_csr, minimum_degree, nested_dissection
 from zeromode.solver.frame import Frame
-from zeromode.solver.normalisation import normalised
 from zeromode.solver.progress import report_detail
-from zeromode.solver.rank import RTOL, RankGap, complement_within, decide_rank
 
 # Dense linear algebra up to this many degrees of freedom (dN) in the modules that share this
 # crossover (finite motion, eigenmodes, certificates, zero_mode_residual below).
@@ -387,7 +387,7 @@ DISSECTION_MIN_DEGREE = 2.5
 @dataclass(frozen=True, eq=False)
 class _Sparse:
     """A sparse matrix A (m × n) as the CSR arrays of A and of Aᵀ, for the compiled steps
-    (solver/sparse_kernels.py): ``a @ y`` is A·Y, ``a.T`` is Aᵀ (no copy)."""
+    (solver/analysis/sparse_kernels.py): ``a @ y`` is A·Y, ``a.T`` is Aᵀ (no copy)."""
 
     indptr: np.ndarray
     indices: np.ndarray
@@ -677,7 +677,7 @@ def _ritz_pairs(matrix: _Sparse, y: np.ndarray):
 
 
 def warm_up() -> None:
-    """Compile the kernels (solver/sparse_kernels.py, solver/normalisation.py) for the one set of
+    """Compile the kernels (solver/analysis/sparse_kernels.py, solver/analysis/normalisation.py) for the one set of
     argument types the analysis passes them (int64 indices, float64 writable C-contiguous arrays:
     compiled.kernel_array), or load them from numba's cache: in a fresh environment 28 s of CPU
     (25 specialisations; 48 s of wall time at load 5 on 2 cores, 40 s of CPU and 2–2.5 min at load

@@ -18,20 +18,20 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from zeromode.solver.errors import DomainError, InvalidInput
-from zeromode.solver.frame import Frame, check_positions
-from zeromode.solver.hierarchical_modes import check_motion_count, place_groups
-from zeromode.solver.multimode import multi_mode_levels
-from zeromode.solver.normalisation import Normalisation, normalised
-from zeromode.solver.placement import (
+from zeromode.solver.analysis.normalisation import Normalisation, normalised
+from zeromode.solver.analysis.rigidity import Analysis, analyze, rigid_motions, zero_mode_residual
+from zeromode.solver.construction.hierarchical_pairs import check_motion_count, place_groups
+from zeromode.solver.construction.multimode import multi_mode_levels
+from zeromode.solver.construction.placement import (
     CandidatePool,
     Placement,
     candidate_levels,
     place_nodes,
     target_zero_modes,
 )
-from zeromode.solver.rigidity import Analysis, analyze, rigid_motions, zero_mode_residual
-from zeromode.solver.solution_space import check_targets, solution_space
+from zeromode.solver.construction.solution_space import check_targets, solution_space
+from zeromode.solver.errors import DomainError, InvalidInput
+from zeromode.solver.frame import Frame, check_positions
 from zeromode.solver.tolerances import DESIGN_MODE_RTOL, DISTINCT_RTOL, RIGID_RTOL
 
 # A design's report states σ_r of its frame (its conditioning): converged to this relative bound,

@@ -47,8 +47,13 @@ import numpy as np
 from scipy.optimize import brentq
 from scipy.spatial import cKDTree
 
+from zeromode.solver.analysis.normalisation import Normalisation
+from zeromode.solver.analysis.rigidity import DENSE_MAX_DOF
+from zeromode.solver.applications.lattice import boundary_sets
+from zeromode.solver.applications.strain_range import PROXIMITY_FRACTION
 from zeromode.solver.errors import DomainError, InvalidInput
-from zeromode.solver.finite_motion import (
+from zeromode.solver.frame import Frame
+from zeromode.solver.motion.finite_motion import (
     BarConstraints,
     MotionPath,
     aimed_correction,
@@ -60,12 +65,7 @@ from zeromode.solver.finite_motion import (
     relative_bar_error,
     trace_motion,
 )
-from zeromode.solver.frame import Frame
-from zeromode.solver.lattice import boundary_sets
-from zeromode.solver.normalisation import Normalisation
-from zeromode.solver.periodic import STOP_BISECTIONS, trace_motion_through_cell
-from zeromode.solver.rigidity import DENSE_MAX_DOF
-from zeromode.solver.strain_range import PROXIMITY_FRACTION
+from zeromode.solver.motion.periodic import STOP_BISECTIONS, trace_motion_through_cell
 from zeromode.solver.tolerances import DISTINCT_RTOL, TARGET_RTOL
 
 # The search horizon: the largest path parameter (/v1/motion's largest amplitude) up to which a

@@ -54,11 +54,11 @@ import numpy as np
 from scipy.optimize import brentq
 from scipy.spatial import cKDTree
 
+from zeromode.solver.applications.sheet_module import SymmetricModule
 from zeromode.solver.errors import DomainError
-from zeromode.solver.finite_motion import trace_motion
 from zeromode.solver.frame import Frame
+from zeromode.solver.motion.finite_motion import trace_motion
 from zeromode.solver.progress import report_detail
-from zeromode.solver.sheet_module import SymmetricModule
 
 # Two nodes without a bar between them closer than this fraction of the shortest bar collide.
 PROXIMITY_FRACTION = 0.1

@@ -24,9 +24,9 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from zeromode.solver.factorisation import cholesky
-from zeromode.solver.rank import nullspace
-from zeromode.solver.rigidity import DENSE_MAX_DOF
+from zeromode.solver.analysis.factorisation import cholesky
+from zeromode.solver.analysis.rank import nullspace
+from zeromode.solver.analysis.rigidity import DENSE_MAX_DOF
 
 # δ in K + δI, relative to the mean diagonal of K: below the wanted eigenvalues (down to ~1e-12
 # of the scale: the uniform margin of a chain of 64 blocks), so that they stay apart in the

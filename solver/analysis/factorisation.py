@@ -145,7 +145,7 @@ def cholesky_csr(
     shift: float = 0.0, supernodal: bool = False,
 ) -> Cholesky:
     """``cholesky`` of A (n × n, n = len(indptr) − 1) given by its CSR arrays, entries on and below
-    the diagonal read (the sparse route builds CᵀC and CCᵀ as arrays, solver/sparse_kernels.py)."""
+    the diagonal read (the sparse route builds CᵀC and CCᵀ as arrays, solver/analysis/sparse_kernels.py)."""
     n = indptr.size - 1
     # The row of each entry, expanded.
     row, col = np.repeat(np.arange(n, dtype=np.int64), np.diff(indptr)), indices

@@ -33,21 +33,14 @@ from functools import lru_cache
 import numpy as np
 from scipy.spatial import cKDTree
 
-from zeromode.solver.coupling import Module, check_transmission, couple
-from zeromode.solver.design import design
-from zeromode.solver.errors import DomainError, InvalidInput
-from zeromode.solver.frame import Frame, check_extent
-from zeromode.solver.multimode import spatial_quadric
-from zeromode.solver.progress import progress_stage, report_progress
-from zeromode.solver.rigidity import Analysis, analyze, zero_mode_residual
-from zeromode.solver.sheet_module import (
+from zeromode.solver.analysis.rigidity import Analysis, analyze, zero_mode_residual
+from zeromode.solver.applications.sheet_module import (
     SymmetricModule,
     sheet_edges,
     sheet_positions,
     two_node_module,
 )
-from zeromode.solver.solution_space import solution_space
-from zeromode.solver.strain_range import (
+from zeromode.solver.applications.strain_range import (
     PROXIMITY_FRACTION,
     ModuleMotion,
     StrainRange,
@@ -55,6 +48,13 @@ from zeromode.solver.strain_range import (
     module_range,
     needed_reach,
 )
+from zeromode.solver.construction.coupling import Module, check_transmission, couple
+from zeromode.solver.construction.design import design
+from zeromode.solver.construction.multimode import spatial_quadric
+from zeromode.solver.construction.solution_space import solution_space
+from zeromode.solver.errors import DomainError, InvalidInput
+from zeromode.solver.frame import Frame, check_extent
+from zeromode.solver.progress import progress_stage, report_progress
 from zeromode.solver.tolerances import ROOT_IMAG_RTOL
 
 MAX_SHEET_CELLS = 2500

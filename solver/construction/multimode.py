@@ -23,9 +23,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.polynomial import polynomial as poly
 
+from zeromode.solver.construction.placement import CandidatePool, candidate_levels
+from zeromode.solver.construction.solution_space import SolutionSpace, solution_space
 from zeromode.solver.errors import DomainError
-from zeromode.solver.placement import CandidatePool, candidate_levels
-from zeromode.solver.solution_space import SolutionSpace, solution_space
 from zeromode.solver.tolerances import CONSTRAINT_ATOL, RANK_RTOL
 
 

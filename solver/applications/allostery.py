@@ -48,25 +48,30 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from zeromode.solver.analysis.eigen import smallest_eigenpairs
+from zeromode.solver.analysis.factorisation import cholesky
+from zeromode.solver.analysis.normalisation import Normalisation, rms_radius, unit_scaled
+from zeromode.solver.analysis.rank import orthonormal_range
+from zeromode.solver.analysis.rigidity import compatibility_matrix, rigid_motions
 from zeromode.solver.budget import check_budget
-from zeromode.solver.design import (
+from zeromode.solver.construction.design import (
     Design,
     check_motions_nonrigid,
     check_specified_distinct,
     design,
     verify,
 )
-from zeromode.solver.eigen import smallest_eigenpairs
+from zeromode.solver.construction.hierarchical_placement import (
+    Module,
+    module_gap,
+    place_module,
+    tied_space,
+)
+from zeromode.solver.construction.placement import target_zero_modes
 from zeromode.solver.errors import DomainError, InvalidInput
-from zeromode.solver.factorisation import cholesky
-from zeromode.solver.finite_motion import bar_lengths
 from zeromode.solver.frame import Frame, check_positions
-from zeromode.solver.hierarchy import Module, module_gap, place_module, tied_space
-from zeromode.solver.normalisation import Normalisation, rms_radius, unit_scaled
-from zeromode.solver.placement import target_zero_modes
+from zeromode.solver.motion.finite_motion import bar_lengths
 from zeromode.solver.progress import progress_scope, progress_stage, report_progress
-from zeromode.solver.rank import orthonormal_range
-from zeromode.solver.rigidity import compatibility_matrix, rigid_motions
 from zeromode.solver.tolerances import DISTINCT_RTOL
 
 # An answer's target error ‖achieved − u_tgt‖/‖u_tgt‖ must not exceed this (the floor);

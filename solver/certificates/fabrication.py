@@ -66,13 +66,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from zeromode.solver.analysis.normalisation import Normalisation
+from zeromode.solver.analysis.rigidity import compatibility_matrix, rigid_motions
+from zeromode.solver.applications.lattice import poisson_ratio
 from zeromode.solver.budget import check_budget
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame
-from zeromode.solver.lattice import poisson_ratio
-from zeromode.solver.normalisation import Normalisation
 from zeromode.solver.progress import progress_stage, report_progress
-from zeromode.solver.rigidity import compatibility_matrix, rigid_motions
 from zeromode.solver.tolerances import GIVEN_MODE_RTOL, RANK_RTOL, RIGID_RTOL
 
 # The linear estimate agrees with the Monte Carlo when their statistics are within this factor:

@@ -71,10 +71,10 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from scipy.spatial import cKDTree
 
+from zeromode.solver.analysis.eigen import smallest_eigenpairs
+from zeromode.solver.analysis.rank import nullspace, orthonormal_range
 from zeromode.solver.budget import check_budget, remaining
-from zeromode.solver.eigen import smallest_eigenpairs
 from zeromode.solver.progress import report_progress
-from zeromode.solver.rank import nullspace, orthonormal_range
 
 # Relative gap (U − L)/U at which the bracket is closed.
 GAP_RTOL = 1e-3

@@ -16,10 +16,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from zeromode.solver.analysis.normalisation import normalised
+from zeromode.solver.analysis.rigidity import Analysis, analyze, rigid_motions
 from zeromode.solver.errors import DomainError
 from zeromode.solver.frame import Frame
-from zeromode.solver.normalisation import normalised
-from zeromode.solver.rigidity import Analysis, analyze, rigid_motions
 from zeromode.solver.tolerances import DISTINCT_RTOL, RIGID_RTOL
 
 

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from zeromode.solver.compiled import compiled, kernel_array
+from zeromode.solver.analysis.compiled import compiled, kernel_array
 
 
 def unit_scaled(x: np.ndarray) -> tuple[np.ndarray, float]:

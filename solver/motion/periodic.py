@@ -40,9 +40,19 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from zeromode.solver.bordered import BorderedFactor
+from zeromode.solver.analysis.bordered import BorderedFactor
+from zeromode.solver.analysis.normalisation import Normalisation, rms_radius
+from zeromode.solver.analysis.rank import (
+    RTOL,
+    complement_within,
+    decide_rank,
+    nullspace,
+    orthonormal_range,
+)
+from zeromode.solver.analysis.rigidity import DENSE_MAX_DOF, rigid_motions
 from zeromode.solver.errors import DomainError, InvalidInput
-from zeromode.solver.finite_motion import (
+from zeromode.solver.frame import Frame
+from zeromode.solver.motion.finite_motion import (
     SINGULAR_RTOL,
     BarConstraints,
     MotionPath,
@@ -61,11 +71,7 @@ from zeromode.solver.finite_motion import (
     start_direction,
     trace_motion,
 )
-from zeromode.solver.frame import Frame
-from zeromode.solver.normalisation import Normalisation, rms_radius
 from zeromode.solver.progress import progress_stage, report_progress
-from zeromode.solver.rank import RTOL, complement_within, decide_rank, nullspace, orthonormal_range
-from zeromode.solver.rigidity import DENSE_MAX_DOF, rigid_motions
 from zeromode.solver.tolerances import DESIGN_MODE_RTOL, GIVEN_MODE_RTOL
 
 # A tiled configuration whose bars are off by more than this (relative) is not a translate of

@@ -61,14 +61,10 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from zeromode.solver.bordered import BorderedFactor
-from zeromode.solver.budget import check_budget, remaining
-from zeromode.solver.eigen import nontrivial_zero_modes, smallest_eigenpairs
-from zeromode.solver.errors import DomainError, InvalidInput
-from zeromode.solver.frame import Frame
-from zeromode.solver.progress import progress_heartbeat, progress_stage, report_progress
-from zeromode.solver.rank import RTOL, nullspace, orthonormal_range
-from zeromode.solver.rigidity import (
+from zeromode.solver.analysis.bordered import BorderedFactor
+from zeromode.solver.analysis.eigen import nontrivial_zero_modes, smallest_eigenpairs
+from zeromode.solver.analysis.rank import RTOL, nullspace, orthonormal_range
+from zeromode.solver.analysis.rigidity import (
     DENSE_MAX_DOF,
     Analysis,
     analyze,
@@ -76,7 +72,11 @@ from zeromode.solver.rigidity import (
     rigid_motions,
     zero_mode_residual,
 )
-from zeromode.solver.stiffness import optimal_stiffness
+from zeromode.solver.budget import check_budget, remaining
+from zeromode.solver.certificates.stiffness import optimal_stiffness
+from zeromode.solver.errors import DomainError, InvalidInput
+from zeromode.solver.frame import Frame
+from zeromode.solver.progress import progress_heartbeat, progress_stage, report_progress
 from zeromode.solver.tolerances import GIVEN_MODE_RTOL
 
 SOLVERS = ("clarabel", "scs")

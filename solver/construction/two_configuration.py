@@ -24,12 +24,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from zeromode.solver.design import Design, design
+from zeromode.solver.analysis.rigidity import Analysis, analyze
+from zeromode.solver.construction.design import Design, design
 from zeromode.solver.errors import DomainError, InvalidInput
-from zeromode.solver.finite_motion import motion_fidelity
 from zeromode.solver.frame import Frame, check_positions
+from zeromode.solver.motion.finite_motion import motion_fidelity
 from zeromode.solver.progress import progress_stage
-from zeromode.solver.rigidity import Analysis, analyze
 from zeromode.solver.tolerances import REACHED_EPS
 
 

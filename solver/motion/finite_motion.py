@@ -75,15 +75,20 @@ import numpy as np
 import scipy.sparse.linalg as spla
 from scipy.optimize import minimize_scalar
 
-from zeromode.solver.bordered import BorderedFactor, pinned_coordinates
+from zeromode.solver.analysis.bordered import BorderedFactor, pinned_coordinates
+from zeromode.solver.analysis.eigen import nontrivial_zero_modes, smallest_eigenpairs
+from zeromode.solver.analysis.normalisation import Normalisation
+from zeromode.solver.analysis.rank import RTOL, complement_within, nullspace
+from zeromode.solver.analysis.rigidity import (
+    DENSE_MAX_DOF,
+    analyze,
+    compatibility_matrix,
+    rigid_motions,
+)
 from zeromode.solver.budget import check_budget
-from zeromode.solver.eigen import nontrivial_zero_modes, smallest_eigenpairs
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame, check_positions
-from zeromode.solver.normalisation import Normalisation
 from zeromode.solver.progress import progress_stage, report_progress
-from zeromode.solver.rank import RTOL, complement_within, nullspace
-from zeromode.solver.rigidity import DENSE_MAX_DOF, analyze, compatibility_matrix, rigid_motions
 from zeromode.solver.tolerances import GIVEN_MODE_RTOL, SIGN_TIE_RTOL
 
 # Largest frame traced (d·N). A sparse step costs a few factorisations of a dN × dN stiffness

@@ -1,4 +1,4 @@
-"""Compiled inner steps of the sparse rank route (solver/rigidity.py), on CSR arrays.
+"""Compiled inner steps of the sparse rank route (solver/analysis/rigidity.py), on CSR arrays.
 
 A sparse matrix A (m × n) is passed as its CSR arrays: ``indptr`` (m + 1), ``indices`` and
 ``data`` (one entry each, column and value), int64 indices. Blocks of vectors are (n, k) arrays.
@@ -21,7 +21,7 @@ in an environment):
     ``relative_error_bound``: the smallest nonzero Ritz pair, its space widened a vector at a
     time, and its error bound;
   * ``null_space_rounds``: the count's whole shift-invert subspace iteration, a generator that
-    hands its block to the caller for each shifted solve (CHOLMOD's, solver/factorisation.py).
+    hands its block to the caller for each shifted solve (CHOLMOD's, solver/analysis/factorisation.py).
 
 The iteration is one generator rather than a Python loop over the steps: at 10² nodes a round
 is a few microseconds of arithmetic, and the loop's decisions, array bookkeeping and calls cost
@@ -57,7 +57,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from zeromode.solver.compiled import compiled
+from zeromode.solver.analysis.compiled import compiled
 
 _u = np.uint64
 # null_space_rounds' requests to its caller
