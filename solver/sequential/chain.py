@@ -27,8 +27,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from zeromode.solver.errors import DomainError, InvalidInput
-from zeromode.solver.finite_motion import MotionPath, trace_motion
 from zeromode.solver.frame import Frame
+from zeromode.solver.motion.finite_motion import MotionPath, trace_motion
 from zeromode.solver.sequential.module_map import Module, ModuleMap, branch_signs
 from zeromode.solver.tolerances import MAP_RTOL
 

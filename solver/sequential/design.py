@@ -33,14 +33,15 @@ Otherwise ``feature_out_of_reach`` with the best figures.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
 
+from zeromode.solver.analysis.normalisation import rms_radius
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame
-from zeromode.solver.normalisation import rms_radius
 from zeromode.solver.sequential.module_map import Module, ModuleMap, module_map, two_triangle_module
 from zeromode.solver.tolerances import DISTINCT_RTOL, MAP_RTOL
 
@@ -202,7 +203,7 @@ def design_module(points, start: Module | None = None, reach: float = REACH) -> 
         for x in xs[1:]:
             add((sq(x, i, j) - sq(xs[0], i, j)) / r**2, 0.0, 0.0)
     order = sorted(range(len(ladder)), key=lambda j: ladder[j][0])
-    for j, k in zip(order, order[1:]):
+    for j, k in itertools.pairwise(order):
         add(ca.sumsqr(xs[k] - xs[j]) / (n * r**2), -np.inf, BRANCH_JUMP**2)
     w = ca.vertcat(*[ca.reshape(x.T, -1, 1) for x in xs])
     objective = sum(ca.sumsqr(x - s) for x, s in zip(xs, seeds)) / r**2
@@ -224,7 +225,7 @@ def _ladder(points: tuple[MapPoint, ...], r: float) -> list[tuple[float, MapPoin
     ins = sorted(p.d_in for p in points)
     margin = min(BRANCH_STEP * r, 0.5 * ins[0])
     ins = [ins[0] - margin] + ins + [ins[-1] + margin]
-    for k, (lo, hi) in enumerate(zip(ins, ins[1:])):
+    for k, (lo, hi) in enumerate(itertools.pairwise(ins)):
         steps = int(np.ceil((hi - lo) / (BRANCH_STEP * r)))
         inner = np.linspace(lo, hi, steps + 1)[1:-1]
         ends = [lo] if k == 0 else [hi] if k == len(ins) - 2 else []

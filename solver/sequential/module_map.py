@@ -33,12 +33,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from zeromode.solver.analysis.normalisation import rms_radius
+from zeromode.solver.analysis.rank import RTOL, nullspace
+from zeromode.solver.analysis.rigidity import compatibility_matrix
 from zeromode.solver.errors import DomainError, InvalidInput
-from zeromode.solver.finite_motion import MotionPath, curve_minimum, trace_motion
 from zeromode.solver.frame import Frame
-from zeromode.solver.normalisation import rms_radius
-from zeromode.solver.rank import RTOL, nullspace
-from zeromode.solver.rigidity import compatibility_matrix
+from zeromode.solver.motion.finite_motion import MotionPath, curve_minimum, trace_motion
 from zeromode.solver.tolerances import MAP_RTOL
 
 # Search horizon of the module's motion each way (finite_motion's path parameter: RMS node
