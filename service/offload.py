@@ -58,7 +58,8 @@ log = logging.getLogger("zeromode")
 # watchdog stops it (service/engine.py).
 OVERRUN_SLACK = 0.03
 # Requests whose answer can take long, by endpoint: the rest are cheap enough to answer inline.
-ALWAYS = frozenset({"/v1/motion", "/v1/refine", "/v1/certify", "/v1/design/allosteric", "/v1/design/two-configuration"})
+ALWAYS = frozenset({"/v1/motion", "/v1/refine", "/v1/certify", "/v1/design/allosteric", "/v1/design/two-configuration",
+                    "/v1/design/sequential"})
 # Above these sizes a frame's plot or export (nodes or bars), its analysis or a network's tuning
 # (degrees of freedom dN or bars: a floppy frame's null-space bases cost seconds, 300 2D nodes up
 # to 2.8 s, 1 000 up to 37 s), an auxetic sheet and a design (specified nodes × motions) are heavy.
@@ -74,7 +75,8 @@ HEAVY_DENSE_SIDE = 1_000
 VALIDATE_HERE_BYTES = 1_000_000
 # Routes that are not job endpoints (service/tasks.py RUNNABLE) answered by a worker when heavy,
 # through ``execute_route`` (their answer may be a file).
-ROUTES = frozenset({"/v1/design/two-configuration", "/v1/design/allosteric/network", "/v1/plot", "/v1/export"})
+ROUTES = frozenset({"/v1/design/two-configuration", "/v1/design/allosteric/network", "/v1/plot", "/v1/export",
+                    "/v1/design/sequential", "/v1/map"})
 JSON_HEADERS = [("content-type", "application/json")]
 
 
@@ -110,15 +112,15 @@ def heavy(endpoint: str, request: dict[str, Any]) -> bool:
             fmt is not None and fmt.motion and request.get("path") is None)
     if endpoint == "/v1/design/allosteric/network":
         return analysis
-    return large  # /v1/plot
+    return large  # /v1/plot, /v1/map
 
 
 @cache
 def _route(path: str) -> APIRoute:
     """The POST route of ``path`` among ROUTES."""
-    from zeromode.service.routes import design, export, lattice, plot
+    from zeromode.service.routes import design, export, lattice, plot, sequential
 
-    return next(r for module in (design, export, lattice, plot) for r in module.router.routes
+    return next(r for module in (design, export, lattice, plot, sequential) for r in module.router.routes
                 if isinstance(r, APIRoute) and r.path == path and "POST" in r.methods)
 
 

@@ -28,8 +28,10 @@ __all__ = [
     "certify",
     "design",
     "examples",
+    "module_map",
     "motion",
     "refine",
+    "sequential",
     "sweep",
     "two_configuration",
 ]
@@ -40,8 +42,8 @@ _HOMES: dict[str, tuple[str, str | None]] = {
     "examples": ("zeromode.examples", None),
     **{
         name: ("zeromode._library", name)
-        for name in ("allosteric", "analyze", "auxetic", "certify", "design", "motion", "refine", "sweep",
-                     "two_configuration")
+        for name in ("allosteric", "analyze", "auxetic", "certify", "design", "module_map", "motion", "refine",
+                     "sequential", "sweep", "two_configuration")
     },
 }
 
@@ -53,8 +55,10 @@ if TYPE_CHECKING:  # the names as a type checker sees them, without importing th
         auxetic,
         certify,
         design,
+        module_map,
         motion,
         refine,
+        sequential,
         sweep,
         two_configuration,
     )

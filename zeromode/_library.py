@@ -21,9 +21,11 @@ from zeromode._results import (
     AnalysisResult,
     CertificateResult,
     DesignResult,
+    MapResult,
     MotionResult,
     RefineResult,
     Result,
+    SequentialResult,
 )
 
 if TYPE_CHECKING:
@@ -37,8 +39,10 @@ __all__ = [
     "auxetic",
     "certify",
     "design",
+    "module_map",
     "motion",
     "refine",
+    "sequential",
     "sweep",
     "two_configuration",
 ]
@@ -551,3 +555,102 @@ def sweep(endpoint: str, template: Mapping | None = None, grid: Mapping[str, Seq
 
     path = endpoint if endpoint.startswith("/") else f"/v1/{endpoint}"
     return run(path, plain(template), plain(grid), plain(requests), **options)
+
+
+# ----------------------------------------------------------------------------- sequential
+
+
+def module_map(frame: Frame | Result | Mapping, input_pair: Sequence[int], output_pair: Sequence[int], *,
+               at: Sequence[float] = ()) -> MapResult:
+    """The map d_out = f(d_in) of a one-mode module between its input and output node pairs,
+    from its exact finite motion (POST /v1/map; arXiv 1906.08400's modules as maps).
+
+    Parameters
+    ----------
+    frame : Frame, result or Frame body
+        A frame with exactly one nontrivial zero mode.
+    input_pair, output_pair : (2,) node indices
+        d_in = |x_a − x_b|, d_out = |x_c − x_e| (neither pair a bar).
+    at : input distances
+        Where f and f′ are evaluated exactly (inside the usable range).
+
+    Returns
+    -------
+    MapResult
+        ``solution`` is the solver's ModuleMap; ``to_dict()`` the samples, the usable range
+        between folds, the fixed points and the values at ``at``; ``plot()`` the graph of f.
+
+    Examples
+    --------
+    >>> import zeromode as zm
+    >>> module = zm.Frame.build([[-1, 0], [1, 0], [-0.8, 1], [0.8, 1], [0.15, 0.45]],
+    ...                         [[0, 2], [0, 4], [2, 4], [1, 3], [1, 4], [3, 4]])
+    >>> m = zm.module_map(module, (0, 1), (2, 3), at=[1.0])
+    >>> m.to_dict()["lower"]["kind"], round(m.to_dict()["evaluated"][0]["d_out"], 6)
+    ('fold', 1.944466)
+    """
+    from zeromode.service.convert import module_from_model
+    from zeromode.service.responses import module_map_body
+    from zeromode.solver.sequential.module_map import module_map as map_of
+
+    request = _request("sequential.MapRequest", {
+        "frame": _frame_body(frame), "input_pair": input_pair, "output_pair": output_pair, "at": at,
+    })
+    t0 = time.perf_counter()
+    solution = map_of(module_from_model(request))
+    body = {**module_map_body(solution, request.at), "timings_ms": _total_ms(t0)}
+    return MapResult(request, solution, _wire("sequential.MapResponse", body))
+
+
+def sequential(features: Sequence[Mapping], *, n_modules: int | None = None, d0: float | None = None,
+               start: Mapping | None = None, reach: float = 3.0) -> SequentialResult:
+    """A module whose map has the requested features, and optionally a chain of ``n_modules``
+    copies verified by continuation against the map's iterates (POST /v1/design/sequential).
+
+    Parameters
+    ----------
+    features : list of dicts
+        ``{"kind": "fixed_point", "d": d*, "slope": f′(d*)}``,
+        ``{"kind": "period_two", "d1": …, "d2": …}`` or
+        ``{"kind": "range", "source": [a, b], "target": [c, e]}``; met together, to map_rtol.
+    n_modules : int, optional
+        Chain this many copies (the output pair of one is the input pair of the next).
+    d0 : float, optional
+        The first copy's input distance (default: the first feature's first input).
+    start : dict, optional
+        ``{"frame": …, "input_pair": …, "output_pair": …}``, the module optimised (default: the
+        two-triangle module).
+    reach : float
+        Nodes stay within this many RMS radii of the start's centre.
+
+    Returns
+    -------
+    SequentialResult
+        ``solution`` is the solver's SequentialDesign; a feature out of reach raises
+        DomainError ``feature_out_of_reach`` with ``best``.
+
+    Examples
+    --------
+    >>> import zeromode as zm
+    >>> s = zm.sequential([{"kind": "fixed_point", "d": 1.5, "slope": -0.5}])
+    >>> s.to_dict()["deviation"] <= s.to_dict()["map_rtol"]
+    True
+    """
+    from zeromode.service.convert import feature_points, module_from_model
+    from zeromode.service.responses import sequential_body
+    from zeromode.solver.sequential.chain import design_sequential
+
+    chain = None if n_modules is None else {"n_modules": n_modules, "d0": d0}
+    request = _request("sequential.SequentialRequest", {
+        "features": list(features), "start": start, "chain": chain, "reach": reach,
+    })
+    t0 = time.perf_counter()
+    solution = design_sequential(
+        feature_points(request.features),
+        None if request.start is None else module_from_model(request.start),
+        request.reach,
+        None if request.chain is None else request.chain.n_modules,
+        None if request.chain is None else request.chain.d0,
+    )
+    return SequentialResult(request, solution, _wire("sequential.SequentialResponse",
+                                                     sequential_body(solution, _total_ms(t0))))

@@ -257,3 +257,33 @@ def _plot_modes() -> int:
     from zeromode.service.schemas.plot import MAX_PLOT_MODES
 
     return MAX_PLOT_MODES
+
+
+class MapResult(Result):
+    """``zm.module_map``: a module's map d_out = f(d_in) (solution: ModuleMap); ``plot()`` charts
+    f, the drawings are of the module's frame."""
+
+    def document(self) -> dict:
+        return {"frame": self.request.frame.model_dump()}
+
+    def plot(self, scale: float = 1.0, solution_space: bool = True) -> Figure:
+        """The graph of f on its usable range, the diagonal, fixed points and folds."""
+        from zeromode.viz.sequential import map_figure
+
+        return map_figure(self.body, scale)
+
+
+class SequentialResult(Result):
+    """``zm.sequential``: a module designed for map features and its verified chain (solution:
+    SequentialDesign); ``plot()`` charts the map with the chain's orbit and d_k along the chain;
+    the drawings are of the chained frame (or the module without a chain)."""
+
+    def document(self) -> dict:
+        chain = self.body["chain"]
+        return {"frame": (chain or self.body["module"])["frame"]}
+
+    def plot(self, scale: float = 1.0, solution_space: bool = True) -> Figure:
+        """The designed map (with the chain's cobweb) and the chain's distances."""
+        from zeromode.viz.sequential import sequential_figure
+
+        return sequential_figure(self.body, scale)

@@ -29,6 +29,7 @@ import numpy as np
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame
 from zeromode.solver.motion.finite_motion import MotionPath, trace_motion
+from zeromode.solver.sequential.design import REACH, ModuleDesign, design_module
 from zeromode.solver.sequential.module_map import Module, ModuleMap, branch_signs
 from zeromode.solver.tolerances import MAP_RTOL
 
@@ -170,3 +171,22 @@ def verify_chain(chain: Chain, the_map: ModuleMap, horizon: float = CHAIN_HORIZO
         error.best = result
         raise error
     return result
+
+
+@dataclass(frozen=True, eq=False)
+class SequentialDesign:
+    """A module designed for map points and, if asked, its chain verified by continuation."""
+
+    design: ModuleDesign
+    chain: ChainVerification | None
+
+
+def design_sequential(points, start: Module | None = None, reach: float = REACH, n_modules: int | None = None,
+                      d0: float | None = None) -> SequentialDesign:
+    """design.design_module for ``points``, then (``n_modules`` given) its chain from ``d0``
+    (default the first point's input distance) verified by verify_chain.  Refusals as theirs."""
+    design = design_module(points, start, reach)
+    if n_modules is None:
+        return SequentialDesign(design, None)
+    start_d = design.points[0].d_in if d0 is None else d0
+    return SequentialDesign(design, verify_chain(chain_of(design.map, n_modules, start_d), design.map))
