@@ -53,6 +53,9 @@ EVAL_STEP_RTOL = 1e-14
 # A bar or the input distance is met when its squared length is within this fraction of itself
 # (lengths then within half of it: far below MAP_RTOL, a few decades above round-off).
 EVAL_RESIDUAL_RTOL = 1e-13
+# Newton solves of the homotopy along d_in that finds a configuration again on the map's branch
+# when the direct solve crossed to the other one (next to a fold, where the branches meet).
+HOMOTOPY_STEPS = 16
 
 
 @dataclass(frozen=True, eq=False)
@@ -130,14 +133,14 @@ class ModuleMap:
         self._check_range(d)
         flat = d.ravel()
         start = self.positions[self._nearest(flat)]
-        values, slopes, _ = pair_map(self.module, start, flat)
+        values, slopes, _ = pair_map(self.module, start, flat, self.branch)
         return values.reshape(d.shape), slopes.reshape(d.shape)
 
     def configurations(self, d) -> np.ndarray:
         """The module's configurations (K, N, d) at input distances d (K,) on the map's branch."""
         d = np.asarray(d, dtype=float).ravel()
         self._check_range(d)
-        return pair_map(self.module, self.positions[self._nearest(d)], d)[2]
+        return pair_map(self.module, self.positions[self._nearest(d)], d, self.branch)[2]
 
     def _nearest(self, d: np.ndarray) -> np.ndarray:
         """Index of the sample nearest each d (K,) in d_in: the warm start on the branch."""
@@ -226,10 +229,19 @@ def _least_squares(j: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     return np.linalg.solve(r, np.einsum("kmn,km->kn", q, rhs)[..., None])[..., 0]
 
 
-def pair_map(module: Module, start: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(d_out, f′, the configurations (K, N, d)) at the configurations with d_in = d (K,) reached by Gauss–Newton from the
-    warm starts ``start`` (K, N, d) (module docstring). DomainError ``not_converged`` naming the
-    first d whose Newton iteration fails."""
+def _residuals(module: Module, y: np.ndarray, d: np.ndarray, lengths2: np.ndarray):
+    """(½(|Y_i − Y_j|² − l_e²) (K, B), ½(d_in² − d²) (K,), whether both are met (K,))."""
+    e, (a, b) = module.frame.edges, module.input_pair
+    diff = y[:, e[:, 0]] - y[:, e[:, 1]]
+    g = 0.5 * (np.sum(diff * diff, axis=2) - lengths2)
+    h = 0.5 * (np.sum((y[:, a] - y[:, b]) ** 2, axis=1) - d**2)
+    met = (np.max(np.abs(g) / lengths2, axis=1) <= EVAL_RESIDUAL_RTOL) & (np.abs(h) <= EVAL_RESIDUAL_RTOL * d**2)
+    return g, h, met
+
+
+def _solve_at(module: Module, start: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """The configurations (K, N, d) with d_in = d (K,) by Gauss–Newton from ``start`` (module
+    docstring); DomainError ``not_converged`` naming the first d where it fails."""
     y = np.array(start, dtype=float)
     k, n, dim = y.shape
     e = module.frame.edges
@@ -238,30 +250,44 @@ def pair_map(module: Module, start: np.ndarray, d: np.ndarray) -> tuple[np.ndarr
     scale = rms_radius(ref)
     gauge_rows = _rigid_rows(y)
     gauge_at = np.einsum("krm,km->kr", gauge_rows, y.reshape(k, -1))
-    (a, b), (c, f) = module.input_pair, module.output_pair
     done = np.zeros(k, dtype=bool)
     for _ in range(EVAL_MAX_ITER):
-        diff = y[:, e[:, 0]] - y[:, e[:, 1]]
-        g = 0.5 * (np.sum(diff * diff, axis=2) - lengths2)
-        h = 0.5 * (np.sum((y[:, a] - y[:, b]) ** 2, axis=1) - d**2)
+        g, h, met = _residuals(module, y, d, lengths2)
         res = np.concatenate([g, h[:, None], np.einsum("krm,km->kr", gauge_rows, y.reshape(k, -1)) - gauge_at], axis=1)
-        met = (np.max(np.abs(g) / lengths2, axis=1) <= EVAL_RESIDUAL_RTOL) & (np.abs(h) <= EVAL_RESIDUAL_RTOL * d**2)
         step = _least_squares(_bordered_jacobian(module, y, gauge_rows), -res)
-        size = np.max(np.abs(step), axis=1) / scale
-        done |= met & (size <= EVAL_STEP_RTOL)
+        done |= met & (np.max(np.abs(step), axis=1) / scale <= EVAL_STEP_RTOL)
         if np.all(done):
             break
         y[~done] += step[~done].reshape(-1, n, dim)
-    diff = y[:, e[:, 0]] - y[:, e[:, 1]]
-    g = 0.5 * (np.sum(diff * diff, axis=2) - lengths2)
-    h = 0.5 * (np.sum((y[:, a] - y[:, b]) ** 2, axis=1) - d**2)
-    ok = (np.max(np.abs(g) / lengths2, axis=1) <= EVAL_RESIDUAL_RTOL) & (np.abs(h) <= EVAL_RESIDUAL_RTOL * d**2)
+    ok = _residuals(module, y, d, lengths2)[2]
     if not np.all(ok):
         bad = float(d[~ok][0])
         raise DomainError("not_converged", f"the module's configuration at d_in = {bad:.10g} was not found by Newton's method.")
-    d_in = np.sqrt(np.sum((y[:, a] - y[:, b]) ** 2, axis=1))
+    return y
+
+
+def pair_map(module: Module, start: np.ndarray, d: np.ndarray, branch: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(d_out, f′, the configurations (K, N, d)) with d_in = d (K,), from the warm starts
+    ``start`` (K, N, d) (module docstring).  With ``branch`` (±1, branch_signs of the map), a
+    configuration Newton's method took to the other branch (near a fold the two are close) is
+    found again by HOMOTOPY_STEPS Newton solves from its start along d_in; DomainError
+    ``not_converged`` if that fails too."""
+    y = _solve_at(module, start, d)
+    if branch:
+        wrong = branch_signs(module, y) != branch
+        if np.any(wrong):
+            x, d0 = start[wrong], module.distances(start[wrong])[0]
+            for t in np.linspace(0.0, 1.0, HOMOTOPY_STEPS + 1)[1:]:
+                x = _solve_at(module, x, d0 + t * (d[wrong] - d0))
+            y[wrong] = x
+            if np.any(branch_signs(module, y) != branch):
+                bad = float(d[branch_signs(module, y) != branch][0])
+                raise DomainError("not_converged", f"the module's configuration at d_in = {bad:.10g} was not found on the map's branch.")
+    k, n, dim = y.shape
+    e, (c, f) = module.frame.edges, module.output_pair
+    gauge_rows = _rigid_rows(y)
     rhs = np.zeros((k, len(e) + 1 + gauge_rows.shape[1]))
-    rhs[:, len(e)] = d_in
+    rhs[:, len(e)] = module.distances(y)[0]
     v = _least_squares(_bordered_jacobian(module, y, gauge_rows), rhs).reshape(k, n, dim)
     out = y[:, c] - y[:, f]
     d_out = np.linalg.norm(out, axis=1)
@@ -328,9 +354,11 @@ def module_map(module: Module, horizon: float = MAP_HORIZON, max_step: float = M
     idx = np.arange(keep[0], keep[1] + 1)
     if d_in[idx[-1]] < d_in[idx[0]]:
         idx, ends = idx[::-1], ends[::-1]
-    positions = path.positions[idx]
-    square = len(module.frame.edges) + 1 + _rigid_rows(positions[:1]).shape[1] == positions[0].size
+    square = len(module.frame.edges) + 1 + _rigid_rows(path.positions[:1]).shape[1] == path.positions[0].size
     branch = int(branch_signs(module, module.frame.positions[None])[0]) if square else 0
+    if branch:  # a sample within round-off of a fold may lie just past it: not a warm start
+        idx = idx[branch_signs(module, path.positions[idx]) == branch]
+    positions = path.positions[idx]
     return ModuleMap(module, d_in[idx], d_out[idx], sample_slopes(module, positions), positions, ends[0], ends[1], path, branch)
 
 
