@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import time
 
-from fastapi import APIRouter
+from fastapi import APIRouter, Body
 from fastapi.responses import JSONResponse
 
 from zeromode.service.convert import feature_points, module_from_model
@@ -13,6 +13,7 @@ from zeromode.service.errors import error_body
 from zeromode.service.responses import module_map_body, sequential_body, sequential_refusal_best
 from zeromode.service.schemas.common import ERROR_RESPONSES
 from zeromode.service.schemas.sequential import (
+    SEQUENTIAL_EXAMPLES,
     MapRequest,
     MapResponse,
     SequentialRequest,
@@ -35,7 +36,7 @@ def post_map(request: MapRequest) -> dict:
 
 
 @router.post("/design/sequential", response_model=SequentialResponse, responses=ERROR_RESPONSES)
-def post_sequential(request: SequentialRequest):
+def post_sequential(request: SequentialRequest = Body(openapi_examples=SEQUENTIAL_EXAMPLES)):  # noqa: B008
     """A module whose map has the requested features (IPOPT on its node positions, verified by
     continuation to map_rtol) and, with `chain`, n copies chained and verified by continuation
     of the whole chain against the map's iterates. A feature out of reach answers 422

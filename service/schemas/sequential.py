@@ -136,3 +136,33 @@ class SequentialResponse(BaseModel):
     map_rtol: float = Field(description="The promise: features and chain within this.")
     solver_status: str = Field(description="IPOPT's return status (the answer is verified by continuation, not by it).")
     timings_ms: dict[str, float]
+
+
+# Named examples of POST /v1/design/sequential (its OpenAPI examples; docs/sequential.md).
+SEQUENTIAL_EXAMPLES = {
+    "deployable": {
+        "summary": "Deployable chain",
+        "description": "An unstable fixed point 1.2 (f′ = 1.8) and a stable one 1.8 (f′ = 0.4): "
+                       "a 1 % change at the input opens the far end of the chain.",
+        "value": {"features": [{"kind": "fixed_point", "d": 1.2, "slope": 1.8},
+                               {"kind": "fixed_point", "d": 1.8, "slope": 0.4}],
+                  "chain": {"n_modules": 16, "d0": 1.21}},
+    },
+    "curvature": {
+        "summary": "Chain that changes its curvature",
+        "description": "A marginal fixed point 1.3 (f′ = 1): near it f is close to the identity, so "
+                       "every copy opens alike and the chain's curvature changes along its motion.",
+        "value": {"features": [{"kind": "fixed_point", "d": 1.3, "slope": 1.0}],
+                  "chain": {"n_modules": 12}},
+    },
+    "period_two": {
+        "summary": "Period-2 chain",
+        "description": "f(1.3) = 1.7 and f(1.7) = 1.3: the copies alternate.",
+        "value": {"features": [{"kind": "period_two", "d1": 1.3, "d2": 1.7}], "chain": {"n_modules": 12}},
+    },
+    "stable_fixed_point": {
+        "summary": "Stable fixed point",
+        "description": "d* = 1.5 with f′ = −0.5: a disturbance at the input dies out along the chain, alternating.",
+        "value": {"features": [{"kind": "fixed_point", "d": 1.5, "slope": -0.5}], "chain": {"n_modules": 12}},
+    },
+}
