@@ -399,7 +399,7 @@ def rest_table() -> list[str]:
 
     from fastapi.testclient import TestClient
 
-    from zeromode.service.app import create_app
+    from zeromode.service.rest.app import create_app
 
     client = TestClient(create_app())
     rows = [

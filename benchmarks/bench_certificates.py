@@ -192,7 +192,7 @@ def scale_section() -> list[str]:
     """The "At scale" section (module docstring)."""
     from fastapi.testclient import TestClient
 
-    from zeromode.service.app import create_app
+    from zeromode.service.rest.app import create_app
     from zeromode.solver.analysis.rank import orthonormal_range
     from zeromode.solver.analysis.rigidity import compatibility_matrix, rigid_motions
     from zeromode.solver.applications import lattice as lattices

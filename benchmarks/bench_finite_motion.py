@@ -68,8 +68,8 @@ from pathlib import Path
 
 import numpy as np
 
-from zeromode.service.examples import example_request
-from zeromode.service.responses import json_safe
+from zeromode.service.wire.examples import example_request
+from zeromode.service.wire.responses import json_safe
 from zeromode.solver.budget import time_budget
 from zeromode.solver.construction.design import design
 from zeromode.solver.errors import DomainError

@@ -66,8 +66,8 @@ def requests_for(points: int) -> list[dict]:
 
 
 def run_one(request: dict) -> str:
-    from zeromode.service.settings import Settings
-    from zeromode.service.tasks import execute
+    from zeromode.service.jobs.tasks import execute
+    from zeromode.service.wire.settings import Settings
 
     return execute("bench", ENDPOINT, request, Settings().model_dump_json())[0]
 
@@ -117,7 +117,7 @@ def health_probe(url: str, stop: threading.Event, latencies: list[float]) -> Non
 
 
 def fill_store(db_url: str, result_bytes: bytes) -> list[str]:
-    from zeromode.service.store import Store
+    from zeromode.service.jobs.store import Store
 
     store = Store(db_url)
     now = time.time()
@@ -127,7 +127,7 @@ def fill_store(db_url: str, result_bytes: bytes) -> list[str]:
              "bytes": len(result_bytes), "created": now, "started": now, "finished": now,
              "attempts": 1, "owner": "bench"} for i in ids]
     with store.db.begin() as conn:
-        from zeromode.service.store import jobs
+        from zeromode.service.jobs.store import jobs
 
         for k in range(0, len(rows), 500):
             conn.execute(jobs.insert(), rows[k : k + 500])
@@ -194,7 +194,7 @@ def main() -> None:
     finally:
         proc.terminate()
         proc.wait(timeout=30)
-    from zeromode.service.store import Store
+    from zeromode.service.jobs.store import Store
 
     store = Store(db_url)
     direct = []
@@ -228,8 +228,8 @@ def main() -> None:
 
 def httpx_free_answer(request: dict) -> dict:
     """One point's answer, as a stored result of realistic size."""
-    from zeromode.service.settings import Settings
-    from zeromode.service.tasks import execute
+    from zeromode.service.jobs.tasks import execute
+    from zeromode.service.wire.settings import Settings
 
     return json.loads(execute("bench", ENDPOINT, request, Settings().model_dump_json())[1])
 

@@ -24,7 +24,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 import zeromode as zm
-from zeromode.service.schemas.sequential import SEQUENTIAL_EXAMPLES
+from zeromode.service.wire.schemas.sequential import SEQUENTIAL_EXAMPLES
 from zeromode.solver.sequential.module_map import module_map, two_triangle_module
 
 IMG = Path(__file__).parent / "img"

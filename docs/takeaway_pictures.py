@@ -23,7 +23,7 @@ import httpx
 import uvicorn
 from PIL import Image
 
-from zeromode.service.app import create_app
+from zeromode.service.rest.app import create_app
 
 IMG = Path(__file__).resolve().parent / "img"
 CHROMIUM_ARGS = [

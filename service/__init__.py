@@ -1,4 +1,7 @@
-"""zeromode.service — the thin REST layer (FastAPI) over zeromode.solver."""
+"""zeromode.service — the three service layers over the library (docs/architecture.md), each
+importing only those below it: ``wire`` (settings, schemas, the one place results become bodies),
+``jobs`` (the job engine: records, Dask tasks, sweeps), ``rest`` (the FastAPI app and its routes),
+and ``cli.py`` on top."""
 
 from importlib.metadata import PackageNotFoundError, version
 

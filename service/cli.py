@@ -49,9 +49,9 @@ def cmd_serve(args) -> int:
         f"'content-type: application/json' -d @- http://{args.host}:{args.port}/v1/design)",
         flush=True,
     )
-    from zeromode.service.settings import Settings, server_options
+    from zeromode.service.wire.settings import Settings, server_options
 
-    app = "zeromode.service.app:app"
+    app = "zeromode.service.rest.app:app"
     options = server_options(Settings())
     # Each uvicorn worker that runs jobs starts its own embedded Dask cluster: together they use
     # one worker process per core.
@@ -68,12 +68,12 @@ def cmd_serve(args) -> int:
 
 def cmd_analyze(args) -> int:
     """The /v1/analyze answer for a Frame, or for a /v1/analyze request ({"frame", "options"})."""
-    from zeromode.service.documents import validated
-    from zeromode.service.routes.analyze import post_analyze
-    from zeromode.service.schemas.analyze import AnalyzeRequest
+    from zeromode.operations import endpoints
+    from zeromode.operations.documents import validated
+    from zeromode.service.wire.schemas.analyze import AnalyzeRequest
 
     doc = _load_json(args.frame)
-    body = post_analyze(validated(doc if "frame" in doc else {"frame": doc}, AnalyzeRequest))
+    body = endpoints.analyze(validated(doc if "frame" in doc else {"frame": doc}, AnalyzeRequest)).body
     if args.pretty:
         gap = body["rank_gap"]
         print(
@@ -88,7 +88,7 @@ def cmd_analyze(args) -> int:
 
 
 def cmd_example(args) -> int:
-    from zeromode.service.examples import example_description, example_names, example_request
+    from zeromode.service.wire.examples import example_description, example_names, example_request
 
     if args.action == "list":
         for name in example_names():
@@ -109,7 +109,7 @@ def cmd_plot(args) -> int:
     import dataclasses
     from pathlib import Path
 
-    from zeromode.service.plotting import picture_for_document
+    from zeromode.operations.plotting import picture_for_document
     from zeromode.viz.layout import layout
     from zeromode.viz.svg import scene_svg
 
@@ -131,7 +131,7 @@ def cmd_plot(args) -> int:
 
 
 def cmd_design(args) -> int:
-    from zeromode.service.documents import respond
+    from zeromode.operations.endpoints import respond
 
     body, _ = respond(_load_json(args.request))
     return _write_json(body, args.output)
@@ -148,19 +148,13 @@ def _write_json(body: dict, output: str | None) -> int:
     return 0
 
 
-# File suffixes that name one export format (.svg is a cut file or an animation: say which).
-EXPORT_SUFFIXES = {
-    ".vtu": "vtk", ".xdmf": "xdmf", ".graphml": "graphml", ".json": "node_link_json", ".dxf": "dxf",
-    ".stl": "stl", ".csv": "kit_csv", ".gif": "gif", ".mp4": "mp4",
-}
-
 
 def cmd_export(args) -> int:
     from pathlib import Path
 
-    from zeromode.service.documents import validated
-    from zeromode.service.exporting import export_file
-    from zeromode.service.schemas.export import ExportRequest
+    from zeromode.operations.documents import validated
+    from zeromode.operations.exporting import EXPORT_SUFFIXES, export_file
+    from zeromode.service.wire.schemas.export import ExportRequest
 
     output = Path(args.output)
     fmt = args.format or EXPORT_SUFFIXES.get(output.suffix.lower())
@@ -229,8 +223,8 @@ def cmd_sweep(args) -> int:
     import time
 
     if args.table and args.table.endswith(".parquet"):
-        from zeromode.service.extras import require
-        from zeromode.service.sweeps import PARQUET
+        from zeromode.service.jobs.sweeps import PARQUET
+        from zeromode.service.wire.extras import require
 
         require(*PARQUET)  # before any work: one sentence with the install line, exit code 2
     spec = _load_json(args.grid)
@@ -251,7 +245,7 @@ def cmd_sweep(args) -> int:
                 break
             time.sleep(args.poll)
     else:
-        from zeromode.service.sweeps import SweepRefused, run_sweep
+        from zeromode.service.jobs.sweeps import SweepRefused, run_sweep
         from zeromode.solver.errors import DomainError
 
         def progress(p) -> None:
@@ -271,7 +265,7 @@ def _write_sweep(records: list[dict], output: str, table: str | None) -> int:
     .parquet); exit status 0 when every point is done, 1 otherwise."""
     from pathlib import Path
 
-    from zeromode.service.sweeps import csv_text, ndjson_line, parquet_bytes, row
+    from zeromode.service.jobs.sweeps import csv_text, ndjson_line, parquet_bytes, row
 
     lines = b"".join(ndjson_line(r) for r in records)
     if output == "-":
@@ -313,20 +307,16 @@ def cmd_job(args) -> int:
 
 
 def cmd_motion(args) -> int:
-    from zeromode.service.documents import validated
-    from zeromode.service.routes.motion import post_motion
-    from zeromode.service.schemas.motion import MotionRequest
+    from zeromode.operations import endpoints
+    from zeromode.operations.documents import validated
+    from zeromode.service.wire.schemas.motion import MotionRequest
 
     doc = _load_json(args.frame)
     body = dict(doc) if "frame" in doc else {"frame": doc}  # a /v1/motion request, or a frame
     options = {"target": args.target and json.loads(args.target), "amplitude": args.amplitude, "direction": args.direction}
     body.update({k: v for k, v in options.items() if v is not None})
-    answer = post_motion(validated(body, MotionRequest))
-    if not isinstance(answer, dict):  # a 422 with the best path found
-        detail = json.loads(answer.body)["detail"]
-        print(f"error [{detail['code']}]: {detail['message']}", file=sys.stderr)
-        return 2
-    return _write_json(answer, args.output)
+    # a singular path or an unreachable target raises its DomainError: main prints it (exit 2)
+    return _write_json(endpoints.motion(validated(body, MotionRequest)).body, args.output)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -422,7 +412,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    from zeromode.service.extras import MissingExtra  # after parsing: --help needs no numpy
+    from zeromode.service.wire.extras import MissingExtra  # after parsing: --help needs no numpy
     from zeromode.solver.errors import DomainError
 
     try:

@@ -50,7 +50,7 @@ def pytest_sessionfinish(session: pytest.Session) -> None:
 @pytest.fixture(scope="session")
 def client() -> TestClient:
     """The real app in process; server exceptions become 500 responses, as a client sees them."""
-    from zeromode.service.app import create_app
+    from zeromode.service.rest.app import create_app
 
     return TestClient(create_app(), raise_server_exceptions=False)
 
@@ -59,8 +59,8 @@ def client() -> TestClient:
 def dask_scheduler():
     """One real Dask cluster of two worker processes on loopback for the session; apps under
     test point ZEROMODE_DASK_SCHEDULER at it instead of each starting their own."""
-    from zeromode.service.engine import local_cluster
-    from zeromode.service.settings import Settings
+    from zeromode.service.jobs.cluster import local_cluster
+    from zeromode.service.wire.settings import Settings
 
     cluster = local_cluster(Settings(dask_workers=2))
     try:

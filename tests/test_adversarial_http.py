@@ -19,8 +19,8 @@ import pytest
 from fastapi.testclient import TestClient
 
 from tests.client.conftest import loopback_socket, served, wait_for_health
-from zeromode.service.app import create_app
-from zeromode.service.settings import Settings
+from zeromode.service.rest.app import create_app
+from zeromode.service.wire.settings import Settings
 
 LIMIT = 50_000
 KEY = "hostile-key-1"

@@ -27,7 +27,7 @@ from oracles.rigidity import (
     span,
 )
 
-from zeromode.service.app import create_app
+from zeromode.service.rest.app import create_app
 from zeromode.solver.applications.allostery import (
     GAP_FLOOR,
     MAX_MODULES,

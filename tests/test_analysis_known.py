@@ -27,7 +27,7 @@ from oracles.rigidity import (
 )
 from scipy.sparse.linalg import svds
 
-from zeromode.service.responses import counts_body
+from zeromode.service.wire.responses import counts_body
 from zeromode.solver import Frame, analyze
 from zeromode.solver.analysis import rigidity
 from zeromode.solver.errors import DomainError

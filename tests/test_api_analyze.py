@@ -26,8 +26,8 @@ from oracles.rigidity import (
 )
 from oracles.wire import assert_error
 
-from zeromode.service.app import create_app
-from zeromode.service.settings import Settings
+from zeromode.service.rest.app import create_app
+from zeromode.service.wire.settings import Settings
 
 SETTINGS = Settings()  # the defaults the test app is built with
 

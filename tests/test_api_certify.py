@@ -23,8 +23,8 @@ from oracles.rigidity import (
 )
 from oracles.wire import frame_body
 
-from zeromode.service.app import create_app
-from zeromode.service.settings import Settings
+from zeromode.service.rest.app import create_app
+from zeromode.service.wire.settings import Settings
 from zeromode.solver.applications.lattice import auxetic_sheet
 from zeromode.solver.certificates.prestress import OPTIMAL_MAX_DIM
 from zeromode.solver.frame import Frame

@@ -7,7 +7,7 @@ from oracles.mechanisms import four_bar, outward_square, parallelogram
 from oracles.motion import fidelity, relative_bar_error, rigid_distance
 from oracles.wire import frame_body
 
-from zeromode.service.app import create_app
+from zeromode.service.rest.app import create_app
 from zeromode.solver.motion.finite_motion import MAX_DOF
 
 

@@ -12,7 +12,7 @@ from client.conftest import served
 from oracles.motion import boundary_strains, relative_bar_error
 from oracles.sheet_range import SheetEvents, first_event
 
-from zeromode.service.app import create_app
+from zeromode.service.rest.app import create_app
 
 
 @pytest.fixture(scope="module")

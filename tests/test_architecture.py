@@ -1,18 +1,21 @@
 """The layers stay apart (docs/architecture.md), read from the source with ast.
 
-solver/ is mathematics only: it imports nothing of the service, of drawing, of the wire format
+The import graph of every zeromode module (solver/, viz/, export/, service/, zeromode/; imports
+inside functions and under TYPE_CHECKING count) has no circle, and no module imports a layer
+above its own (LAYERS). solver/ is mathematics only: it imports nothing of the service, of drawing, of the wire format
 (JSON, pydantic) or of the web. Routes hold no numerical code: no numpy or scipy. The user's
 pipeline is chained in one place: only solver/pipeline.py calls both refinement and certificates.
 """
 
 import ast
+import graphlib
 from pathlib import Path
 
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 SOLVER = sorted((ROOT / "solver").rglob("*.py"))
-ROUTES = sorted((ROOT / "service" / "routes").glob("*.py"))
+ROUTES = sorted((ROOT / "service" / "rest" / "routes").glob("*.py"))
 
 NOT_IN_SOLVER = (
     "zeromode.service",
@@ -96,3 +99,134 @@ def test_viz_and_export_do_not_reach_up(path):
     banned = ABOVE[path.parent.name]
     bad = {name for name in imported_modules(path) if any(name == b or name.startswith(b + ".") for b in banned)}
     assert not bad, f"{path.parent.name}/{path.name} imports {sorted(bad)}"
+
+
+# Where each source tree is installed (pyproject.toml's package-dir).
+TREES = {"solver": "zeromode.solver", "viz": "zeromode.viz", "export": "zeromode.export",
+         "service": "zeromode.service", "zeromode": "zeromode"}
+# The layers, lowest first: a module may import its own layer and those of lower ranks. A
+# module belongs to the layer whose longest prefix names it. Layers of one rank (the doors)
+# import each other in neither direction.
+LAYERS: list[dict[str, tuple[str, ...]]] = [
+    {"solver": ("zeromode.solver",)},               # mathematics: numpy in and out
+    {"viz": ("zeromode.viz",)},                     # pictures of arrays
+    {"export": ("zeromode.export",)},               # files of a Takeaway (animations via viz)
+    {"wire": ("zeromode.service.wire",)},           # settings, schemas, error bodies, results → bodies
+    {"library": ("zeromode.operations", "zeromode._library", "zeromode._results", "zeromode.examples")},
+    {"jobs": ("zeromode.service.jobs",)},           # the job engine: records, Dask tasks, sweeps
+    {"rest": ("zeromode.service.rest",),            # the doors: REST, and `import zeromode`
+     "facade": ("zeromode.__init__",)},
+    {"cli": ("zeromode.service.cli",)},             # the command line, over all of them
+]
+# Packages whose __init__ holds no code of a layer (a version string, a docstring).
+NEUTRAL = {"zeromode.service"}
+
+
+def module_files() -> dict[str, Path]:
+    """Every zeromode module and its file; a package as its name, except the facade
+    ``zeromode/__init__.py`` (``zeromode.__init__``, a layer of its own)."""
+    modules = {}
+    for tree, package in TREES.items():
+        for path in (ROOT / tree).rglob("*.py"):
+            parts = path.relative_to(ROOT / tree).with_suffix("").parts
+            if parts[-1] == "__init__" and not (tree == "zeromode" and len(parts) == 1):
+                parts = parts[:-1]
+            modules[".".join((package, *parts))] = path
+    return modules
+
+
+MODULES = module_files()
+
+
+def _target(name: str) -> str | None:
+    """The zeromode module an imported name lives in (a package's name for its __init__)."""
+    while name and name not in MODULES:
+        if name == "zeromode":
+            return "zeromode.__init__"
+        name = name.rpartition(".")[0]
+    return name or None
+
+
+def import_graph(modules: dict[str, Path]) -> dict[str, set[str]]:
+    """module → the zeromode modules it imports, anywhere in its source (absolute and
+    relative imports; ``from package import name`` resolved to a submodule where there is one)."""
+    graph = {}
+    for module, path in modules.items():
+        package = module if path.name == "__init__.py" else module.rpartition(".")[0]
+        found = set()
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Import):
+                found.update(alias.name for alias in node.names)
+            elif isinstance(node, ast.ImportFrom):
+                base = node.module or ""
+                if node.level:
+                    parent = package.rsplit(".", node.level - 1)[0] if node.level > 1 else package
+                    base = f"{parent}.{base}" if base else parent
+                found.update(f"{base}.{alias.name}" for alias in node.names)
+        graph[module] = {t for name in found if name.startswith("zeromode")
+                         and (t := _target(name)) is not None and t != module}
+    return graph
+
+
+def layer_of(module: str) -> tuple[int, str]:
+    """(rank, layer) of a module: the longest LAYERS prefix naming it."""
+    found = [(len(prefix), rank, layer) for rank, layers in enumerate(LAYERS) for layer, prefixes in layers.items()
+             for prefix in prefixes if module == prefix or module.startswith(prefix + ".")]
+    assert found, f"{module} is in no layer of tests/test_architecture.py's LAYERS"
+    _, rank, layer = max(found)
+    return rank, layer
+
+
+def circle(graph: dict[str, set[str]]) -> list[str] | None:
+    """One import circle of ``graph``, or None."""
+    try:
+        graphlib.TopologicalSorter(graph).prepare()
+    except graphlib.CycleError as exc:
+        return exc.args[1]
+    return None
+
+
+def upward_imports(graph: dict[str, set[str]]) -> list[str]:
+    """Every import of a layer above the importer's own, or of another layer of its rank."""
+    bad = []
+    for module, targets in graph.items():
+        if module in NEUTRAL:
+            continue
+        rank, layer = layer_of(module)
+        for target in targets - NEUTRAL:
+            other_rank, other = layer_of(target)
+            if other_rank > rank or (other_rank == rank and other != layer):
+                bad.append(f"{module} ({layer}) imports {target} ({other})")
+    return sorted(bad)
+
+
+GRAPH = import_graph(MODULES)
+
+
+def test_the_graph_is_read(tmp_path):
+    # Guards the two tests below against a graph that lost its modules or edges (a test that
+    # could not fail): every tree is there, known edges are seen, relative imports resolved.
+    assert {m.split(".")[1] for m in MODULES if m.count(".")} >= {"solver", "viz", "export", "service", "operations"}
+    assert "zeromode.solver.frame" in GRAPH["zeromode.service.wire.convert"]
+    assert "zeromode.service.wire.settings" in GRAPH["zeromode.service.rest.app"]
+    source = tmp_path / "engine.py"
+    source.write_text("def f():\n    from .sweeps import run_sweep\n    from ..wire import settings\n")
+    assert import_graph({"zeromode.service.jobs.engine": source})["zeromode.service.jobs.engine"] == {
+        "zeromode.service.jobs.sweeps", "zeromode.service.wire.settings"}
+
+
+def test_the_checks_catch_a_circle_and_an_upward_import():
+    graph = {"zeromode.service.jobs.engine": {"zeromode.service.jobs.sweeps"},
+             "zeromode.service.jobs.sweeps": {"zeromode.service.jobs.engine"},
+             "zeromode.solver.frame": {"zeromode.viz.picture"}, "zeromode.viz.picture": set()}
+    assert set(circle(graph)) == {"zeromode.service.jobs.engine", "zeromode.service.jobs.sweeps"}
+    assert upward_imports(graph) == ["zeromode.solver.frame (solver) imports zeromode.viz.picture (viz)"]
+
+
+def test_no_import_circle():
+    found = circle(GRAPH)
+    assert found is None, "import circle: " + " → ".join(found)
+
+
+def test_no_layer_imports_upward():
+    assert upward_imports(GRAPH) == []

@@ -88,7 +88,7 @@ HEAVY_IMPORTS = """
 import sys
 from zeromode.service.cli import build_parser
 build_parser()
-heavy = ("numpy", "scipy", "pydantic", "fastapi", "zeromode.solver", "zeromode.service.app")
+heavy = ("numpy", "scipy", "pydantic", "fastapi", "zeromode.solver", "zeromode.service.rest.app")
 print(sorted(m for m in sys.modules if any(m == h or m.startswith(h + ".") for h in heavy)))
 """
 
@@ -151,7 +151,7 @@ def test_analyze_refuses_a_bad_frame_in_one_line_with_exit_code_2(tmp_path):
 
 
 def test_example_lists_the_shipped_examples_and_shows_each_as_a_design_request():
-    shipped = sorted(p.stem for p in (Path(__file__).parents[1] / "service" / "examples").glob("*.json"))
+    shipped = sorted(p.stem for p in (Path(__file__).parents[1] / "service" / "wire" / "examples").glob("*.json"))
     listed = ok(zeromode("example", "list")).stdout.splitlines()
     assert sorted(line.split()[0] for line in listed) == shipped
     assert all(len(line.split(maxsplit=1)) == 2 for line in listed)  # each with its description
@@ -366,8 +366,8 @@ def test_the_cli_names_the_install_line_before_any_work_without_pyarrow(tmp_path
 
 LIBRARY = """
 import json, sys
-from zeromode.service.extras import MissingExtra
-from zeromode.service.sweeps import run_sweep, sweep
+from zeromode.service.wire.extras import MissingExtra
+from zeromode.service.jobs.sweeps import run_sweep, sweep
 grid = json.load(open(sys.argv[1]))
 args = (grid["endpoint"], grid["template"], grid["grid"])
 try:

@@ -3,7 +3,7 @@
 Every example is designed through POST /v1/design and its frame is re-analysed with the test
 suite's own reference rank (tests/oracles/rigidity.py): exactly d(d+1)/2 + M zero modes, no
 self-stress, every requested motion a zero mode, and the paper's node counts where it gives them.
-The examples are JSON files of the zeromode.service.examples package: GET /v1/examples serves
+The examples are JSON files of the zeromode.service.wire.examples package: GET /v1/examples serves
 them, and a built wheel carries them.
 """
 
@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from oracles.rigidity import compatibility_matrix, normalised, reference_counts
 
-from zeromode.service.examples import example_description, example_names, example_request
+from zeromode.service.wire.examples import example_description, example_names, example_request
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -53,19 +53,19 @@ def test_example_designs_as_in_the_paper(client, name):
 
 
 def test_the_service_lists_and_serves_every_example_file(client):
-    files = sorted(p.stem for p in (REPO / "service" / "examples").glob("*.json"))
+    files = sorted(p.stem for p in (REPO / "service" / "wire" / "examples").glob("*.json"))
     assert len(files) >= 8 and example_names() == files
     listed = client.get("/v1/examples").json()
     assert [e["name"] for e in listed] == files
     for name in files:
-        on_disk = json.loads((REPO / "service" / "examples" / f"{name}.json").read_text(encoding="utf-8"))
+        on_disk = json.loads((REPO / "service" / "wire" / "examples" / f"{name}.json").read_text(encoding="utf-8"))
         assert {"name": name, "description": on_disk["description"]} in listed
         assert client.get(f"/v1/examples/{name}/request").json() == on_disk["request"]
         assert example_description(name) == on_disk["description"]
     # A copy: changing it changes nothing served.
     example_request(files[0])["dim"] = 7
     assert example_request(files[0]) == json.loads(
-        (REPO / "service" / "examples" / f"{files[0]}.json").read_text(encoding="utf-8")
+        (REPO / "service" / "wire" / "examples" / f"{files[0]}.json").read_text(encoding="utf-8")
     )["request"]
     missing = client.get("/v1/examples/no_such_example/request")
     assert missing.status_code == 404 and missing.json()["detail"]["code"] == "unknown_example"
@@ -81,7 +81,7 @@ def test_a_built_wheel_carries_the_examples_and_the_pictures(tmp_path):
     )
     (wheel,) = tmp_path.glob("zeromode-*.whl")
     names = set(zipfile.ZipFile(wheel).namelist())
-    for path in (REPO / "service" / "examples").glob("*.json"):
-        assert f"zeromode/service/examples/{path.name}" in names
+    for path in (REPO / "service" / "wire" / "examples").glob("*.json"):
+        assert f"zeromode/service/wire/examples/{path.name}" in names
     for path in (REPO / "viz").glob("*.py"):
         assert f"zeromode/viz/{path.name}" in names

@@ -21,9 +21,9 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from zeromode.operations.endpoints import respond
 from zeromode.service.cli import main
-from zeromode.service.documents import respond
-from zeromode.service.examples import example_request
+from zeromode.service.wire.examples import example_request
 
 LATTICE = {"cells": [2, 2], "poisson_ratio": -0.5}
 ALLOSTERIC = {

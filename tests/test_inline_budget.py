@@ -1,6 +1,6 @@
 """Requests the service answers in its own threads cannot overrun their time budget (issue #18).
 
-A request is answered in process only when ``service.offload.heavy`` says it is cheap; there the
+A request is answered in process only when ``service.jobs.heavy.heavy`` says it is cheap; there the
 budget is checked between steps only, so every such class must stay far below the budget at its
 largest. Here, for each class, the largest request left inline (just under its threshold) is
 timed in process and must take at most a quarter of the default 60 s budget in CPU time (the
@@ -27,18 +27,18 @@ from test_offload import numbers_close, running_service, upload_time
 
 from benchmarks.bench_adversarial import chain, scattered
 from benchmarks.bench_offload import big_frame
-from zeromode.service.app import create_app
-from zeromode.service.offload import (
+from zeromode.service.jobs.heavy import (
     HEAVY_CELLS,
     HEAVY_DENSE_SIDE,
     HEAVY_DESIGN,
     HEAVY_DOF,
     HEAVY_EDGES,
     HEAVY_NODES,
-    VALIDATE_HERE_BYTES,
     heavy,
 )
-from zeromode.service.settings import Settings
+from zeromode.service.rest.app import create_app
+from zeromode.service.rest.offload import VALIDATE_HERE_BYTES
+from zeromode.service.wire.settings import Settings
 
 RNG = np.random.default_rng(0)
 

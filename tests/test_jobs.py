@@ -22,9 +22,9 @@ from client.conftest import served
 from fastapi.testclient import TestClient
 from oracles.mechanisms import parallelogram
 
-from zeromode.service.app import create_app
-from zeromode.service.settings import Settings
-from zeromode.service.store import Store
+from zeromode.service.jobs.store import Store
+from zeromode.service.rest.app import create_app
+from zeromode.service.wire.settings import Settings
 
 AUXETIC = {"dim": 2, "cells": [3, 2], "poisson_ratio": -0.5}
 # Fig. 3c of the paper: four unspecified nodes.

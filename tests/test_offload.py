@@ -1,4 +1,4 @@
-"""Heavy requests on the job engine's worker processes (service/offload.py), against a real
+"""Heavy requests on the job engine's worker processes (service/rest/offload.py), against a real
 `zeromode serve` with its embedded Dask cluster: the same answers as in process, the time budget
 held inside a long library call, work stopped when the client leaves, /health quick while many
 heavy requests run.
@@ -20,8 +20,8 @@ from fastapi.testclient import TestClient
 from test_sweeps import zeromode_service
 
 from benchmarks.bench_offload import big_frame, heavy_load
-from zeromode.service.app import create_app
-from zeromode.service.settings import Settings
+from zeromode.service.rest.app import create_app
+from zeromode.service.wire.settings import Settings
 
 SHEET = {"dim": 2, "cells": [3, 3], "poisson_ratio": -0.5}
 

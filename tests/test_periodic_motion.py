@@ -14,7 +14,7 @@ from fastapi.testclient import TestClient
 from oracles.motion import boundary_strains, relative_bar_error, rigid_distance
 from oracles.wire import frame_body
 
-from zeromode.service.app import create_app
+from zeromode.service.rest.app import create_app
 from zeromode.solver import DomainError, Frame
 from zeromode.solver.applications.lattice import auxetic_sheet
 from zeromode.solver.motion.finite_motion import trace_motion

@@ -26,8 +26,8 @@ from PIL import Image
 from scipy.ndimage import binary_dilation
 
 from zeromode.service.cli import main
-from zeromode.service.examples import example_request
-from zeromode.service.responses import frame_body
+from zeromode.service.wire.examples import example_request
+from zeromode.service.wire.responses import frame_body
 from zeromode.solver.construction.design import design
 from zeromode.solver.frame import Frame
 from zeromode.viz.curves import solution_drawing

@@ -1,4 +1,4 @@
-"""service/prechecks.py: what each job endpoint refuses up front, decided without its computation.
+"""zeromode/operations/prechecks.py: what each job endpoint refuses up front, decided without its computation.
 
 For every job endpoint a table of bad requests, each with the code written here from the
 request's own defect (a sheet colliding at rest, a refinement with more bar equations than
@@ -17,8 +17,8 @@ import pytest
 from oracles.frames import K4_PLANE, SQUARE, TRIANGLE
 from test_allostery import request_body, sites
 
-from zeromode.service.prechecks import precheck
-from zeromode.service.tasks import RUNNABLE
+from zeromode.operations.prechecks import precheck
+from zeromode.service.jobs.tasks import RUNNABLE
 from zeromode.solver.errors import DomainError
 
 # Worst case for one check (issue #18: a refusal in ≤ 50 ms); an auxetic sheet's `strain` is

@@ -23,8 +23,8 @@ from oracles.frames import SQUARE_CORNERS
 
 from benchmarks.allostery_tasks import make_task
 from benchmarks.lattices import LATTICES
-from zeromode.service.settings import Settings
-from zeromode.service.tasks import execute
+from zeromode.service.jobs.tasks import execute
+from zeromode.service.wire.settings import Settings
 from zeromode.solver.applications.lattice import auxetic_sheet
 from zeromode.solver.applications.network_allostery import tune_network
 from zeromode.solver.certificates.prestress import certify
@@ -233,7 +233,7 @@ def test_certify_a_sheet_with_its_optimal_margin():
 
 
 def job(endpoint: str, request: dict, callback):
-    """``request`` run as a job runs it (service.tasks.execute), reporting to ``callback``: its
+    """``request`` run as a job runs it (service.jobs.tasks.execute), reporting to ``callback``: its
     status and answer."""
     status, data = execute("progress-test", endpoint, request, Settings().model_dump_json(), callback)
     return status, json.loads(data) if status == "done" else data

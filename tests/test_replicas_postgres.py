@@ -27,9 +27,9 @@ from fastapi.testclient import TestClient
 from test_jobs import without_timings
 from test_sweeps import SLOW_POINTS, finish, get_from, wait_until_some_done
 
-from zeromode.service.app import ENGINE_RETRY_FIRST_S, create_app
-from zeromode.service.settings import Settings
-from zeromode.service.store import Store, jobs, metadata
+from zeromode.service.jobs.store import Store, jobs, metadata
+from zeromode.service.rest.app import ENGINE_RETRY_FIRST_S, create_app
+from zeromode.service.wire.settings import Settings
 
 # A replica silent this long is taken for dead (ZEROMODE_JOB_LEASE_S; 20 s by default): short,
 # so that the test waits seconds, not minutes, for the survivor to adopt.

@@ -19,8 +19,8 @@ from fastapi.testclient import TestClient
 from test_jobs import app_client
 from test_sweeps import finish, submit
 
-from zeromode.service.app import create_app
-from zeromode.service.settings import Settings
+from zeromode.service.rest.app import create_app
+from zeromode.service.wire.settings import Settings
 
 AUXETIC = {"dim": 2, "cells": [2, 2]}
 

@@ -17,7 +17,7 @@ import pytest
 
 from benchmarks.lattices import triangulated_lattice
 from tests.client.conftest import served
-from zeromode.service.app import create_app
+from zeromode.service.rest.app import create_app
 
 
 @pytest.fixture(scope="module")
@@ -62,7 +62,7 @@ def test_a_100k_node_lattice_through_rest_with_gzip_bodies(url):
 
 def test_a_gzip_body_that_inflates_past_the_limit_is_refused(url):
     # 1 MB of zeros compresses to about 1 kB: the limit must count the decompressed bytes.
-    from zeromode.service.settings import Settings
+    from zeromode.service.wire.settings import Settings
 
     limit = Settings().max_body_bytes
     bomb = gzip.compress(b'{"frame": ' + b" " * (limit + 1) + b"}")

@@ -11,9 +11,9 @@ import pytest
 from fastapi.testclient import TestClient
 from oracles.frames import SQUARE_CORNERS, SQUARE_LINKAGE
 
-from zeromode.service.app import create_app
-from zeromode.service.examples import example_request
-from zeromode.service.settings import Settings
+from zeromode.service.rest.app import create_app
+from zeromode.service.wire.examples import example_request
+from zeromode.service.wire.settings import Settings
 
 TRIANGLE = {"dim": 2, "positions": [[0, 0], [1, 0], [0, 1]], "edges": [[0, 1], [1, 2], [0, 2]]}
 PENTAGON = {

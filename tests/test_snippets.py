@@ -310,7 +310,7 @@ def check_synopsis(block: Block) -> None:
 
 
 def check_container(block: Block) -> None:
-    from zeromode.service.settings import Settings
+    from zeromode.service.wire.settings import Settings
 
     dockerfile = (ROOT / "Dockerfile").read_text()
     exposed = set(re.findall(r"^EXPOSE\s+(\d+)", dockerfile, flags=re.MULTILINE))

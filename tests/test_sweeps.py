@@ -27,9 +27,9 @@ from client.conftest import loopback_socket, wait_for_health
 from fastapi.testclient import TestClient
 from test_jobs import app_client, without_timings
 
-from zeromode.service.app import create_app
-from zeromode.service.settings import Settings
-from zeromode.service.sweeps import sweep
+from zeromode.service.jobs.sweeps import sweep
+from zeromode.service.rest.app import create_app
+from zeromode.service.wire.settings import Settings
 from zeromode_client import SweepProgress
 
 AUXETIC = {"dim": 2, "cells": [3, 3]}
@@ -152,7 +152,7 @@ def app_jobs(client: TestClient):
 
 
 def _open(client: TestClient):
-    from zeromode.service.jobs import jobs_of_app
+    from zeromode.service.jobs.manager import jobs_of_app
 
     return jobs_of_app(client.app.state)
 
@@ -294,7 +294,7 @@ def test_a_service_killed_mid_sweep_keeps_its_results_and_its_successor_finishes
             wait_until_some_done(url, sweep_id, 4)
             os.kill(proc.pid, signal.SIGKILL)
             proc.wait()
-        from zeromode.service.store import Store
+        from zeromode.service.jobs.store import Store
 
         # What the killed service had recorded, read from its database.
         before = {p["point"]: p for p in Store(env["ZEROMODE_DATABASE_URL"]).iter_sweep_points(sweep_id)}
@@ -366,7 +366,7 @@ def test_a_large_sweep_is_validated_on_the_workers_with_the_same_refusal(tmp_pat
     """From 64 points a running engine's workers validate the sweep: the refusal is the one the
     service itself gives (the lowest bad point, the endpoint's own error), and it uses the app's
     settings, not the workers' environment."""
-    from zeromode.service.sweeps import SweepRefused, points, validate_points
+    from zeromode.service.jobs.sweeps import SweepRefused, points, validate_points
 
     template = {"dim": 2, "cells": [4, 4]}
     grid = {"poisson_ratio": [-0.3 - 0.001 * i for i in range(100)]}

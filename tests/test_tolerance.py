@@ -15,7 +15,7 @@ import pytest
 from oracles.motion import poisson_ratio
 from oracles.rigidity import compatibility_matrix, kernel, normalised, rigid_generators, span
 
-from zeromode.service.examples import example_request
+from zeromode.service.wire.examples import example_request
 from zeromode.solver.applications.allostery import design_allosteric
 from zeromode.solver.applications.lattice import auxetic_sheet
 from zeromode.solver.certificates.fabrication import AGREEMENT_FACTOR, tolerance_report

@@ -23,7 +23,7 @@ import pytest
 from required import missing
 
 from tests.client.conftest import served
-from zeromode.service.app import create_app
+from zeromode.service.rest.app import create_app
 
 CHROMIUM_ARGS = [
     "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",

@@ -2,8 +2,8 @@
 motions you choose (Kim, Lu, Strogatz & Bassett, "Conformational control of mechanical
 networks").
 
-The library door: each function runs the one pipeline the REST service runs (solver/pipeline.py
-and the solver functions its routes call) and returns a result that draws itself in Jupyter
+The library door: each function runs the one pipeline the REST service, its jobs and the CLI
+run (zeromode.operations.endpoints) and returns a result that draws itself in Jupyter
 (``_repr_svg_``), plots (``.plot()``), animates (``.animate()``), exports by suffix
 (``.export(path)``), converts (``.to_networkx()``, ``.to_dict()`` — the REST body) and
 continues the pipeline (``.refine()``, ``.certify()``, ``.motion()``). No server is needed.
@@ -40,10 +40,12 @@ __all__ = [
 _HOMES: dict[str, tuple[str, str | None]] = {
     "Frame": ("zeromode.solver.frame", "Frame"),
     "examples": ("zeromode.examples", None),
+    # A sweep runs on the job engine's Dask cluster (the service's sweeps run the same code).
+    "sweep": ("zeromode.service.jobs.sweeps", "sweep"),
     **{
         name: ("zeromode._library", name)
         for name in ("allosteric", "analyze", "auxetic", "certify", "design", "module_map", "motion", "refine",
-                     "sequential", "sweep", "two_configuration")
+                     "sequential", "two_configuration")
     },
 }
 
@@ -59,9 +61,9 @@ if TYPE_CHECKING:  # the names as a type checker sees them, without importing th
         motion,
         refine,
         sequential,
-        sweep,
         two_configuration,
     )
+    from zeromode.service.jobs.sweeps import sweep
     from zeromode.solver.frame import Frame
 
 

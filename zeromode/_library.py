@@ -1,8 +1,17 @@
-"""The library's functions: each validates its arguments as the REST request of the same call
-(zeromode.service.schemas: the same defaults, limits and 4xx-worthy refusals, raised here as
-zeromode.solver.errors.InvalidInput), runs the one pipeline its route runs (solver/pipeline.py
-and the solver functions of service/routes), and wraps the answer with its REST body
-(zeromode.service.responses) in a result object (zeromode._results).
+"""The library: its functions and the results they return.
+
+Each function validates its arguments as the REST request of the same call
+(zeromode.service.wire.schemas: the same defaults, limits and 4xx-worthy refusals, raised here as
+zeromode.solver.errors.InvalidInput), runs the endpoint's operation (zeromode.operations.endpoints:
+the one its route, its job and the CLI run) and wraps the solver's result and the REST body in a
+result object.
+
+A result holds the validated request, the solver's own result (``solution``: a PipelineResult,
+an Analysis, a MotionPath, …) and the REST body (``to_dict()``). It draws itself as POST
+/v1/plot draws the same document (zeromode.operations.plotting and viz/), writes files as POST
+/v1/export does (zeromode.operations.exporting), and continues the pipeline on its frame
+(``refine``, ``certify``, ``motion``: the functions below, so results and functions live in one
+module). Attributes it does not define are read from ``solution`` (``zm.analyze(f).rank``).
 
 Domain failures are raised as the solver raises them (a DomainError with ``code``: the 422 of
 the REST call; refinement, motion and allostery failures carry their best result).
@@ -13,25 +22,20 @@ u_S = x_S.
 
 from __future__ import annotations
 
-import time
+import copy
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from zeromode._results import (
-    AnalysisResult,
-    CertificateResult,
-    DesignResult,
-    MapResult,
-    MotionResult,
-    RefineResult,
-    Result,
-    SequentialResult,
-)
-
 if TYPE_CHECKING:
-    import pandas as pd
+    import networkx as nx
+    import numpy as np
+    from matplotlib.figure import Figure
+    from pydantic import BaseModel
 
     from zeromode.solver.frame import Frame
+    from zeromode.viz.picture import Picture
 
 __all__ = [
     "allosteric",
@@ -43,64 +47,303 @@ __all__ = [
     "motion",
     "refine",
     "sequential",
-    "sweep",
     "two_configuration",
 ]
 
 Points = Sequence[Sequence[float]]
 
 
-def plain(value: Any) -> Any:
-    """``value`` with numpy arrays and scalars as Python lists and numbers (what a request holds)."""
-    if hasattr(value, "tolist"):
-        return value.tolist()
-    if isinstance(value, Mapping):
-        return {k: plain(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [plain(v) for v in value]
-    return value
+# ----------------------------------------------------------------------------- results
+
+
+# Suffixes that name the picture itself (as ``zeromode plot`` writes it).
+_PICTURE_SUFFIXES = (".svg", ".png", ".pdf")
+
+
+@dataclass(frozen=True, eq=False)
+class Result:
+    """A library result: ``request`` (the REST request model), ``solution`` (the solver's
+    result) and ``body`` (the REST response body; read it through ``to_dict()``)."""
+
+    request: BaseModel
+    solution: Any
+    body: dict = field(repr=False)
+
+    def __getattr__(self, name: str) -> Any:
+        if name.startswith("_") or name in ("request", "solution", "body"):
+            raise AttributeError(name)
+        return getattr(self.solution, name)
+
+    def __repr__(self) -> str:
+        return f"<{type(self).__name__} of {type(self.solution).__name__}>"
+
+    # --- what it is -------------------------------------------------------------------------
+
+    def to_dict(self) -> dict:
+        """The REST response body of the same request (a fresh copy): POST /v1/… returns exactly
+        this, apart from ``timings_ms``, which measure this call."""
+        return copy.deepcopy(self.body)
+
+    def document(self) -> dict:
+        """The document /v1/plot and /v1/export read for this result (documents.kind): its body,
+        or for a body without a frame, the frame with its modes."""
+        return self.body
+
+    def frame_body(self) -> dict:
+        """The contract's Frame of this result (the designed, refined or given frame)."""
+        return self.document()["frame"]
+
+    @property
+    def frame(self) -> Frame:
+        """The result's frame as a zeromode Frame (positions (N, d), edges (B, 2), specified)."""
+        from zeromode.service.wire.convert import frame_from_model
+        from zeromode.service.wire.schemas.common import FrameModel
+
+        return frame_from_model(FrameModel.model_validate(self.frame_body()))
+
+    @property
+    def modes(self) -> np.ndarray:
+        """The result's zero modes beyond rigid motions (M, N, d): designed, refined or found."""
+        import numpy as np
+
+        frame = self.frame
+        modes = self.body.get("modes") or self.document().get("modes")
+        return np.asarray(modes or np.zeros((0, frame.n_nodes, frame.dim)), dtype=float)
+
+    # --- pictures ---------------------------------------------------------------------------
+
+    def picture(self, solution_space: bool = True) -> Picture:
+        """The viz Picture POST /v1/plot (and ``zeromode plot``) draws for this result's document:
+        specified nodes red, unspecified blue, bars grey, requested motions hollow green arrows,
+        zero modes solid green, the solution space light blue (paper, Fig. 3)."""
+        from zeromode.operations.plotting import picture_for_document
+
+        return picture_for_document(self.document(), solution_space=solution_space)
+
+    def _repr_svg_(self) -> str:
+        from zeromode.viz.svg import picture_svg
+
+        return picture_svg(self.picture())
+
+    def plot(self, scale: float = 1.0, solution_space: bool = True) -> Figure:
+        """The picture of ``_repr_svg_`` as a matplotlib Figure (``scale`` pixels per SVG pixel)."""
+        from zeromode.viz.layout import layout
+        from zeromode.viz.raster import draw_shapes, scene_figure
+
+        scene = layout(self.picture(solution_space))
+        figure, axes = scene_figure(scene, scale)
+        draw_shapes(axes, scene.shapes)
+        return figure
+
+    # --- taking it away ---------------------------------------------------------------------
+
+    def export(self, path: str | Path, format: str | None = None, **options: Any) -> Path:
+        """Write the result to ``path``, its format named by the suffix as ``zeromode export``
+        names it (.vtu, .xdmf, .graphml, .json, .dxf, .stl, .csv, .gif, .mp4) or by ``format``
+        (a /v1/export format: ``cut_svg``, ``svg_animation``, …); ``.svg``, ``.png`` and ``.pdf``
+        without ``format`` are the picture.  ``options``: the other fields of a /v1/export
+        request (fabrication, animation, motion, tolerance).  Returns the path."""
+        path = Path(path)
+        suffix = path.suffix.lower()
+        if format is None and suffix in _PICTURE_SUFFIXES:
+            from zeromode.viz.layout import layout
+
+            scene = layout(self.picture())
+            if suffix == ".svg":
+                from zeromode.viz.svg import scene_svg
+
+                path.write_text(scene_svg(scene), encoding="utf-8")
+            else:
+                from zeromode.viz.raster import write_raster
+
+                write_raster(scene, path)
+            return path
+        from zeromode.operations.exporting import EXPORT_SUFFIXES, export_file
+
+        fmt = format or EXPORT_SUFFIXES.get(suffix)
+        if fmt is None:
+            raise ValueError(f"the suffix {suffix or '(none)'} names no export format; give format=.")
+        content, _, _ = export_file(self._export_request(fmt, **options))
+        path.write_bytes(content)
+        return path
+
+    def _export_request(self, fmt: str, **options: Any):
+        """The /v1/export request that writes this result in format ``fmt``."""
+        from zeromode.operations.documents import plain, validated
+        from zeromode.service.wire.schemas.export import ExportRequest
+
+        return validated(plain({"format": fmt, **self._exported(), **options}), ExportRequest)
+
+    def _exported(self) -> dict:
+        """What a /v1/export request carries of this result: its document."""
+        return {"document": self.document()}
+
+    def animate(self, **options: Any) -> str:
+        """The finite motion as an animated SVG (SMIL), as /v1/export writes ``svg_animation``:
+        the result's own path, or one traced along its first mode. ``options``: the other
+        fields of a /v1/export request (animation, motion)."""
+        from zeromode.operations.exporting import export_file
+
+        content, _, _ = export_file(self._export_request("svg_animation", **options))
+        return content.decode()
+
+    def to_networkx(self) -> nx.Graph:
+        """The frame as a networkx Graph, as the GraphML export writes it: node positions
+        (``x``, ``y``[, ``z``]), ``role``, ``site``, mode components; bar ``length`` and index."""
+        from zeromode.export.graphs import frame_graph
+        from zeromode.operations.exporting import takeaway_for
+
+        return frame_graph(takeaway_for(self._export_request("node_link_json")), nested_metadata=True)
+
+    # --- the pipeline, continued on this result's frame -------------------------------------
+
+    def refine(self, motion: Any = None, **fields: Any) -> Result:
+        """Refine this frame for finite-motion fidelity (POST /v1/refine; ``zm.refine``): the
+        specified nodes follow ``motion`` (k, d), by default the first mode's rows on them."""
+        if motion is None and "targets" not in fields:
+            motion = self.modes[0][list(self.frame.specified)]
+        return refine(self, motion, **fields)
+
+    def certify(self, modes: Any = None, **options: Any) -> Result:
+        """Certificates of this frame and its modes (POST /v1/certify; ``zm.certify``)."""
+        return certify(self, self.modes if modes is None else modes, **options)
+
+    def motion(self, mode: int | Any = 0, **fields: Any) -> Result:
+        """The finite motion of this frame along its mode number ``mode`` (or a given (N, d)
+        mode) (POST /v1/motion; ``zm.motion``)."""
+        return motion(self, mode, **fields)
+
+
+class AnalysisResult(Result):
+    """``zm.analyze``: counts and bases of the zero modes and self-stresses (solution: Analysis)."""
+
+    def document(self) -> dict:
+        return {"frame": self.request.frame.model_dump(), "modes": self.body["modes"][:_plot_modes()]}
+
+
+class DesignResult(Result):
+    """``zm.design``, ``zm.auxetic``, ``zm.allosteric``, ``zm.two_configuration``: a designed frame."""
+
+
+class MotionResult(Result):
+    """``zm.motion``: a finite motion (solution: MotionPath); its document carries the frame it moved."""
+
+    def document(self) -> dict:
+        return {**self.body, "frame": self.request.frame.model_dump()}
+
+    def picture(self, solution_space: bool = True) -> Picture:
+        """The given frame, with the two ends of its path beside it (a /v1/plot body)."""
+        from zeromode.operations.plotting import picture_for_document
+
+        ends = [self.body["path"][0], self.body["path"][-1]]
+        return picture_for_document(
+            {"frame": self.request.frame.model_dump(), "configurations": ends,
+             "labels": ["given", "one end of the path", "the other end"]},
+            solution_space=False,
+        )
+
+    def _exported(self) -> dict:
+        """A /v1/motion response with the frame it moved (the response has none)."""
+        return {"document": self.body, "frame": self.request.frame.model_dump()}
+
+
+class RefineResult(Result):
+    """``zm.refine``: the refined frame with its path (solution: Refinement)."""
+
+    def picture(self, solution_space: bool = True) -> Picture:
+        """The refined frame with its refined mode (a /v1/plot body)."""
+        from zeromode.operations.plotting import picture_for_document
+
+        return picture_for_document(
+            {"frame": self.body["frame"], "modes": self.body["modes"] or []}, solution_space=solution_space
+        )
+
+
+class CertificateResult(Result):
+    """``zm.certify``: self-stress, prestress-stability and rigidity-margin certificates
+    (solution: Certificate) of the request's frame and modes."""
+
+    def document(self) -> dict:
+        return {"frame": self.request.frame.model_dump(), "modes": self.request.modes[:_plot_modes()]}
+
+    @property
+    def modes(self) -> np.ndarray:
+        """The modes the certificates were asked about (M, N, d)."""
+        import numpy as np
+
+        frame = self.frame
+        return np.asarray(self.request.modes or np.zeros((0, frame.n_nodes, frame.dim)), dtype=float)
+
+
+def _plot_modes() -> int:
+    """How many modes a /v1/plot body draws at most (the first ones are drawn)."""
+    from zeromode.service.wire.schemas.plot import MAX_PLOT_MODES
+
+    return MAX_PLOT_MODES
+
+
+class MapResult(Result):
+    """``zm.module_map``: a module's map d_out = f(d_in) (solution: ModuleMap); ``plot()`` charts
+    f, the drawings are of the module's frame."""
+
+    def document(self) -> dict:
+        return {"frame": self.request.frame.model_dump()}
+
+    def plot(self, scale: float = 1.0, solution_space: bool = True) -> Figure:
+        """The graph of f on its usable range, the diagonal, fixed points and folds."""
+        from zeromode.viz.sequential import map_figure
+
+        return map_figure(self.body, scale)
+
+
+class SequentialResult(Result):
+    """``zm.sequential``: a module designed for map features and its verified chain (solution:
+    SequentialDesign); ``plot()`` charts the map with the chain's orbit and d_k along the chain;
+    the drawings are of the chained frame (or the module without a chain)."""
+
+    def document(self) -> dict:
+        chain = self.body["chain"]
+        return {"frame": (chain or self.body["module"])["frame"]}
+
+    def plot(self, scale: float = 1.0, solution_space: bool = True) -> Figure:
+        """The designed map (with the chain's cobweb) and the chain's distances."""
+        from zeromode.viz.sequential import sequential_figure
+
+        return sequential_figure(self.body, scale)
+
+
+# ----------------------------------------------------------------------------- helpers
 
 
 def _frame_body(frame: Frame | Result | Mapping) -> dict:
     """The contract's Frame of a Frame, a library result (its frame) or a Frame body."""
     if isinstance(frame, Result):
         return frame.frame_body()
+    from zeromode.operations.documents import plain
+    from zeromode.service.wire.responses import frame_body
+
     if isinstance(frame, Mapping):
         return plain(frame)
-    from zeromode.service.responses import frame_body
 
     return frame_body(frame)
 
 
-def _schema(model_name: str) -> Any:
-    """The model ``module.Name`` of zeromode.service.schemas."""
-    import importlib
+def _run(endpoint: str, body: dict, result: type[Result]) -> Any:
+    """``body`` validated as the endpoint's request (InvalidInput naming the first bad field, as
+    documents.validated refuses a document), run by the endpoint's operation (the one its route
+    and its job run), wrapped with the body as the endpoint sends it (absent optional fields as
+    null, as a job's answer is made: service.jobs.tasks.answer)."""
+    from zeromode.operations.documents import plain, validated
+    from zeromode.operations.endpoints import OPERATIONS, wire_body
 
-    module, name = model_name.rsplit(".", 1)
-    return getattr(importlib.import_module(f"zeromode.service.schemas.{module}"), name)
-
-
-def _request(model_name: str, body: dict) -> Any:
-    """``body`` validated as the REST request model ``model_name`` (InvalidInput naming the
-    first bad field, as documents.validated refuses a document)."""
-    from zeromode.service.documents import validated
-
-    return validated(plain(body), _schema(model_name))
-
-
-def _wire(model_name: str, body: dict) -> dict:
-    """The body as the route's response model sends it (absent optional fields as null), as a
-    job's answer is made (service.tasks.answer)."""
-    return _schema(model_name).model_validate(body).model_dump(mode="json")
+    operation = OPERATIONS[endpoint]
+    request = validated(plain(body), operation.request_model)
+    outcome = operation.run(request)
+    return result(request, outcome.solution, wire_body(endpoint, outcome.body))
 
 
 def _dim(points: Points, dim: int | None) -> int:
     return dim if dim is not None else len(points[0])
-
-
-def _total_ms(t0: float) -> dict[str, float]:
-    """The routes' ``timings_ms`` of a call that times one stage: its wall time in ms."""
-    return {"total": 1e3 * (time.perf_counter() - t0)}
 
 
 # ----------------------------------------------------------------------------- analysis
@@ -109,9 +352,10 @@ def _total_ms(t0: float) -> dict[str, float]:
 def analyze(frame: Frame | Result | Mapping, **options: Any) -> AnalysisResult:
     """Zero modes, rigid motions and self-stresses of a frame (POST /v1/analyze).
 
-    The compatibility matrix C (paper, Eq. 3: row e = (i, j) holds (x_i − x_j)ᵀ at node i and
-    (x_j − x_i)ᵀ at node j) is ranked; its null space holds the zero modes (C u = 0, Eq. 2), the
-    null space of Cᵀ the self-stresses.
+    The compatibility matrix C (paper, Eq. 3, C u = 0: row e = (i, j) holds (x_i − x_j)ᵀ at node
+    i and (x_j − x_i)ᵀ at node j, the edge constraint of Eq. 1) is ranked; its null space holds
+    the zero modes, the null space of Cᵀ the self-stresses; without self-stresses the zero modes
+    number N_D = dN − N_B (Eq. 2), d(d+1)/2 of them rigid motions.
 
     Parameters
     ----------
@@ -134,21 +378,7 @@ def analyze(frame: Frame | Result | Mapping, **options: Any) -> AnalysisResult:
     >>> a = zm.analyze(square); (a.rank, a.nontrivial_zero_modes, a.self_stresses)
     (4, 1, 0)
     """
-    from zeromode.service.convert import frame_from_model
-    from zeromode.service.responses import analyze_body
-    from zeromode.service.settings import current_settings
-    from zeromode.solver.analysis.rigidity import analyze as analyze_frame
-    from zeromode.solver.progress import progress_stage
-
-    request = _request("analyze.AnalyzeRequest", {"frame": _frame_body(frame), "options": options})
-    t0 = time.perf_counter()
-    o = request.options
-    with progress_stage(0.0, 1.0, "analysis", detail=True):
-        result = analyze_frame(
-            frame_from_model(request.frame), rtol=o.rtol, method=o.method, bases=o.bases,
-            basis_limit=current_settings().max_basis_numbers, gap_rtol=o.gap_rtol,
-        )
-    return AnalysisResult(request, result, _wire("analyze.AnalyzeResponse", analyze_body(result, _total_ms(t0))))
+    return _run("/v1/analyze", {"frame": _frame_body(frame), "options": options}, AnalysisResult)
 
 
 # ----------------------------------------------------------------------------- design
@@ -159,8 +389,10 @@ def design(positions: Points, motions: Points | Sequence[Points], *, dim: int | 
     """A frame whose only non-rigid zero modes are the given motions (POST /v1/design).
 
     Judicious constraint placement: each unspecified node is placed on the solution space of
-    the specified nodes' motions (paper, Eqs. 4–7: Ã (x_U, u_U) = 0 and its quadric), joined to
-    them by bars that the motions keep at first order; the designed frame is verified by one
+    the specified nodes' motions (paper, Eqs. 4–6: the edge constraints Ã ṽ = b and the quadric
+    α̃ᵀ Q α̃ = 0), joined to them by bars that the motions keep at first order (Eq. 1), until
+    N_D = d(N_S + N_U) − N_B = d(d+1)/2 + M (Eq. 7 for M = 1); several motions share the nodes
+    where their quadrics intersect (Eq. 8, Fig. 4). The designed frame is verified by one
     rigidity analysis. solver.pipeline.design_pipeline, with the stages ``options`` ask for.
 
     Parameters
@@ -190,18 +422,14 @@ def design(positions: Points, motions: Points | Sequence[Points], *, dim: int | 
     """
     import numpy as np
 
-    from zeromode.service.documents import design_arguments
-    from zeromode.service.responses import design_body
-    from zeromode.solver.pipeline import design_pipeline
+    from zeromode.operations.documents import plain
 
     motions = plain(motions)
     if np.ndim(motions) == 2:  # one motion
         motions = [motions]
-    request = _request("design.DesignRequest", {
+    return _run("/v1/design", {
         "dim": _dim(positions, dim), "positions": positions, "motions": motions, "options": options,
-    })
-    result = design_pipeline(**design_arguments(request))
-    return DesignResult(request, result, _wire("design.DesignResponse", design_body(result, result.timings_ms)))
+    }, DesignResult)
 
 
 def auxetic(poisson_ratio: float, cells: Sequence[int] = (4, 4), **fields: Any) -> DesignResult:
@@ -233,15 +461,9 @@ def auxetic(poisson_ratio: float, cells: Sequence[int] = (4, 4), **fields: Any) 
     >>> sheet = zm.auxetic(-0.5, (2, 2)); print(round(sheet.to_dict()["poisson_ratio"], 6))
     -0.5
     """
-    from zeromode.service.documents import auxetic as auxetic_design
-    from zeromode.service.responses import auxetic_body
-
-    request = _request("lattice.AuxeticRequest", {
+    return _run("/v1/design/auxetic", {
         "dim": 2 if len(cells) == 2 else 3, "cells": cells, "poisson_ratio": poisson_ratio, **fields,
-    })
-    t0 = time.perf_counter()
-    result = auxetic_design(request)
-    return DesignResult(request, result, _wire("lattice.AuxeticResponse", auxetic_body(result, _total_ms(t0))))
+    }, DesignResult)
 
 
 def allosteric(source: Any, target: Any, *, frame: Frame | Result | Mapping | None = None,
@@ -282,38 +504,15 @@ def allosteric(source: Any, target: Any, *, frame: Frame | Result | Mapping | No
     >>> a = zm.allosteric(site(0), site(6)); a.to_dict()["report"]["target_error"] < 1e-8
     True
     """
-    from zeromode.service.responses import allosteric_body, network_allosteric_body
-
     if frame is not None:
-        from zeromode.solver.applications.network_allostery import tune_network
-        from zeromode.solver.frame import Frame as SolverFrame
-
-        request = _request("allostery.NetworkAllostericRequest", {
+        return _run("/v1/design/allosteric/network", {
             "frame": _frame_body(frame), "source": source, "target": target, "source_motion": source_motion,
             "target_motion": target_motion, "strain_ratio": strain_ratio, "options": options,
-        })
-        f = request.frame
-        given = SolverFrame.build(f.positions, f.edges, dim=f.dim)
-        result = tune_network(
-            given, request.source, request.target, source_motion=request.source_motion,
-            target_motion=request.target_motion, strain_ratio=request.strain_ratio, seed=request.options.seed,
-        )
-        return DesignResult(request, result, _wire(
-            "allostery.NetworkAllostericResponse", network_allosteric_body(result, given.edges)
-        ))
-    from zeromode.service.documents import allosteric as allosteric_design
-    from zeromode.service.documents import allosteric_tolerance
-
+        }, DesignResult)
     sites = [s if isinstance(s, Mapping) else {"positions": s[0], "motion": s[1]} for s in (source, target)]
-    request = _request("allostery.AllostericRequest", {
+    return _run("/v1/design/allosteric", {
         "dim": _dim(sites[0]["positions"], dim), "source": sites[0], "target": sites[1], "options": options,
-    })
-    t0 = time.perf_counter()
-    result = allosteric_design(request)
-    tolerance = allosteric_tolerance(request, result)
-    return DesignResult(request, result, _wire(
-        "allostery.AllostericResponse", allosteric_body(result, _total_ms(t0), tolerance)
-    ))
+    }, DesignResult)
 
 
 def two_configuration(initial: Points, final: Points, *, dim: int | None = None, seed: int = 0) -> DesignResult:
@@ -321,7 +520,7 @@ def two_configuration(initial: Points, final: Points, *, dim: int | None = None,
     keeping its length (POST /v1/design/two-configuration).
 
     The averaging principle: the midpoint frame (x_S + y_S)/2 designed with the flex
-    (y_S − x_S)/2 keeps every bar length at both ends (|l(y) − l(x)| = 0 by Eq. 2 on the
+    (y_S − x_S)/2 keeps every bar length at both ends (|l(y) − l(x)| = 0 by Eq. 1 on the
     midpoint). Whether one continuous motion joins them is traced and reported.
 
     Parameters
@@ -346,17 +545,9 @@ def two_configuration(initial: Points, final: Points, *, dim: int | None = None,
     >>> t.to_dict()["report"]["max_length_mismatch"] < 1e-9
     True
     """
-    from zeromode.service.responses import two_configuration_body
-    from zeromode.solver.construction.two_configuration import design_two_configurations
-
-    request = _request("design.TwoConfigurationRequest", {
+    return _run("/v1/design/two-configuration", {
         "dim": _dim(initial, dim), "initial": initial, "final": final, "options": {"seed": seed},
-    })
-    t0 = time.perf_counter()
-    result = design_two_configurations(request.initial, request.final, dim=request.dim, seed=request.options.seed)
-    return DesignResult(request, result, _wire(
-        "design.TwoConfigurationResponse", two_configuration_body(result, _total_ms(t0))
-    ))
+    }, DesignResult)
 
 
 # ----------------------------------------------------------------------------- beyond the linear design
@@ -365,7 +556,7 @@ def two_configuration(initial: Points, final: Points, *, dim: int | None = None,
 def motion(frame: Frame | Result | Mapping, mode: int | Points | None = None, **fields: Any) -> MotionResult:
     """The finite motion of a frame along a zero mode (POST /v1/motion).
 
-    Predictor–corrector continuation: every configuration keeps every bar length (Eq. 2 at
+    Predictor–corrector continuation: every configuration keeps every bar length (Eq. 1 at
     finite amplitude, max_relative_bar_error ≤ 1e-9) and is aligned to the input frame.
 
     Parameters
@@ -397,44 +588,19 @@ def motion(frame: Frame | Result | Mapping, mode: int | Points | None = None, **
     >>> m = zm.design(square, square).motion(amplitude=0.2); m.to_dict()["max_relative_bar_error"] < 1e-9
     True
     """
-    from zeromode.service.prechecks import motion_frame
-    from zeromode.service.responses import motion_body
-    from zeromode.solver.applications.lattice import path_strains
-    from zeromode.solver.motion.finite_motion import SingularPath, trace_motion
-    from zeromode.solver.motion.periodic import trace_motion_through_cell
-    from zeromode.solver.motion.target import MotionTarget, aim_motion
-
     if isinstance(mode, int):  # the number of one of the result's modes, or of the frame's
         mode = (frame if isinstance(frame, Result) else analyze(frame)).modes[mode]
-    request = _request("motion.MotionRequest", {"frame": _frame_body(frame), "mode": mode, **fields})
-    t0 = time.perf_counter()
-    moved = motion_frame(request)
-    steps = request.model_dump(include={"mode", "max_step", "direction", "max_steps"})
-    aimed = None
-    if request.target is not None:
-        target = MotionTarget(
-            **request.target.model_dump(exclude={"nodes"}), nodes=tuple(request.target.nodes or ()),
-            boundary=request.boundary,
-        )
-        aimed = aim_motion(moved, target, periodic=request.boundary is not None, **steps)
-        path = aimed.path
-    else:
-        trace = trace_motion if request.boundary is None else trace_motion_through_cell
-        path = trace(moved, amplitude=request.amplitude, **steps)
-    strains = None if request.boundary is None else path_strains(moved.positions, path.positions, request.boundary)
-    body = motion_body(path, _total_ms(t0), strains, aimed)
-    if path.singularities and request.on_singularity == "error":
-        raise SingularPath(path)
-    return MotionResult(request, path, _wire("motion.MotionResponse", body))
+    return _run("/v1/motion", {"frame": _frame_body(frame), "mode": mode, **fields}, MotionResult)
 
 
 def refine(frame: Frame | Result | Mapping, motion: Points | None = None, **fields: Any) -> RefineResult:
     """Move the unspecified nodes so that the finite motion carries the specified nodes to
     x_S + a Δ_S along a continuous path (POST /v1/refine).
 
-    casadi + IPOPT with exact derivatives minimise the finite-motion infidelity ε(a) (the
-    specified nodes' distance from x_S + a Δ_S along the traced path, over K configurations),
-    reported before and after; the refined frame is re-verified (no new self-stress, one
+    The paper's design keeps bar lengths to first order (Eq. 1); at finite amplitude the path
+    drifts. casadi + IPOPT with exact derivatives minimise that finite-motion infidelity ε(a)
+    (the specified nodes' distance from x_S + a Δ_S along the traced path, over K
+    configurations), reported before and after; the refined frame is re-verified (no new self-stress, one
     nontrivial zero mode at both ends).
 
     Parameters
@@ -465,23 +631,14 @@ def refine(frame: Frame | Result | Mapping, motion: Points | None = None, **fiel
     >>> r["status"], r["epsilon_after"] <= r["epsilon_before"]
     ('ok', True)
     """
-    from zeromode.service.convert import frame_from_model
-    from zeromode.service.responses import refinement_body
-    from zeromode.solver.motion.refine import refine as refine_frame
-
-    request = _request("motion.RefineRequest", {"frame": _frame_body(frame), "motion": motion, **fields})
-    result = refine_frame(
-        frame_from_model(request.frame), motion_s=request.motion, amplitude=request.amplitude,
-        targets=request.targets,
-        **request.options.model_dump(include={"K", "tol", "max_iter", "max_time_s", "stay_on_solution_space"}),
-    )
-    return RefineResult(request, result, _wire("motion.RefineResponse", refinement_body(result)))
+    return _run("/v1/refine", {"frame": _frame_body(frame), "motion": motion, **fields}, RefineResult)
 
 
 def certify(frame: Frame | Result | Mapping, modes: Sequence[Points] = (), **options: Any) -> CertificateResult:
     """Self-stress, prestress-stability and rigidity-margin certificates (POST /v1/certify).
 
-    Self-stresses (Cᵀ s = 0) with their singular-value evidence; prestress stability decided by
+    Self-stresses (Cᵀ s = 0, the left null space of Eq. 3's C; the paper's count N_D = dN − N_B,
+    Eq. 2, holds only without them) with their singular-value evidence; prestress stability decided by
     an SDP over the stresses, with its margin; the rigidity margin of the frame's motions beyond
     rigid motions and the designed ``modes``, for uniform and SDP-optimal bar stiffness.
 
@@ -507,57 +664,10 @@ def certify(frame: Frame | Result | Mapping, modes: Sequence[Points] = (), **opt
     >>> c = zm.design(square, square).certify(); c.to_dict()["self_stress"]["count"]
     0
     """
-    from zeromode.service.convert import frame_from_model
-    from zeromode.service.responses import certificate_body
-    from zeromode.solver.certificates.prestress import certify as certify_frame
-
-    request = _request("certify.CertifyRequest", {"frame": _frame_body(frame), "modes": modes, "options": options})
-    o = request.options
-    result = certify_frame(
-        frame_from_model(request.frame), request.modes, solver=o.solver, stiffness=o.stiffness, max_iters=o.max_iters
-    )
-    return CertificateResult(request, result, _wire("certify.CertifyResponse", certificate_body(result)))
+    return _run("/v1/certify", {"frame": _frame_body(frame), "modes": modes, "options": options}, CertificateResult)
 
 
-def sweep(endpoint: str, template: Mapping | None = None, grid: Mapping[str, Sequence] | None = None,
-          requests: Sequence[Mapping] | None = None, **options: Any) -> pd.DataFrame:
-    """A sweep over one endpoint's requests, run on Dask without a server, as a DataFrame
-    (zeromode.service.sweeps.sweep, which the REST sweeps and ``zeromode sweep`` run).
-
-    Parameters
-    ----------
-    endpoint : str
-        "/v1/design", "/v1/design/auxetic", … (or without "/v1/").
-    template : dict, optional
-        The request every point starts from.
-    grid : dict of list, optional
-        Dotted paths of the template and their values: every combination, the last fastest.
-    requests : list of dict, optional
-        Instead of a grid, one point per request merged over the template.
-    **options
-        ``scheduler`` (tcp://host:8786; by default a LocalCluster for this call), ``settings``,
-        ``on_progress``.
-
-    Returns
-    -------
-    pandas.DataFrame
-        One row per point: ``param.<path>``, status, error code and the answer's scalar fields.
-
-    Examples
-    --------
-    >>> import zeromode as zm
-    >>> square = [[1, 1], [-1, 1], [-1, -1], [1, -1]]
-    >>> zm.sweep("design", {"dim": 2, "positions": square, "motions": [square]},
-    ...          {"options.n_unspecified": [2, 4]})["report.bars"].tolist()
-    [8, 12]
-    """
-    from zeromode.service.sweeps import sweep as run
-
-    path = endpoint if endpoint.startswith("/") else f"/v1/{endpoint}"
-    return run(path, plain(template), plain(grid), plain(requests), **options)
-
-
-# ----------------------------------------------------------------------------- sequential
+# ----------------------------------------------------------------------------- modules as maps
 
 
 def module_map(frame: Frame | Result | Mapping, input_pair: Sequence[int], output_pair: Sequence[int], *,
@@ -589,17 +699,9 @@ def module_map(frame: Frame | Result | Mapping, input_pair: Sequence[int], outpu
     >>> m.to_dict()["lower"]["kind"], round(m.to_dict()["evaluated"][0]["d_out"], 6)
     ('fold', 1.944466)
     """
-    from zeromode.service.convert import module_from_model
-    from zeromode.service.responses import module_map_body
-    from zeromode.solver.sequential.module_map import module_map as map_of
-
-    request = _request("sequential.MapRequest", {
+    return _run("/v1/map", {
         "frame": _frame_body(frame), "input_pair": input_pair, "output_pair": output_pair, "at": at,
-    })
-    t0 = time.perf_counter()
-    solution = map_of(module_from_model(request))
-    body = {**module_map_body(solution, request.at), "timings_ms": _total_ms(t0)}
-    return MapResult(request, solution, _wire("sequential.MapResponse", body))
+    }, MapResult)
 
 
 def sequential(features: Sequence[Mapping], *, n_modules: int | None = None, d0: float | None = None,
@@ -636,21 +738,7 @@ def sequential(features: Sequence[Mapping], *, n_modules: int | None = None, d0:
     >>> s.to_dict()["deviation"] <= s.to_dict()["map_rtol"]
     True
     """
-    from zeromode.service.convert import feature_points, module_from_model
-    from zeromode.service.responses import sequential_body
-    from zeromode.solver.sequential.chain import design_sequential
-
     chain = None if n_modules is None else {"n_modules": n_modules, "d0": d0}
-    request = _request("sequential.SequentialRequest", {
+    return _run("/v1/design/sequential", {
         "features": list(features), "start": start, "chain": chain, "reach": reach,
-    })
-    t0 = time.perf_counter()
-    solution = design_sequential(
-        feature_points(request.features),
-        None if request.start is None else module_from_model(request.start),
-        request.reach,
-        None if request.chain is None else request.chain.n_modules,
-        None if request.chain is None else request.chain.d0,
-    )
-    return SequentialResult(request, solution, _wire("sequential.SequentialResponse",
-                                                     sequential_body(solution, _total_ms(t0))))
+    }, SequentialResult)

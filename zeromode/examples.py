@@ -1,4 +1,4 @@
-"""The paper's named cases (zeromode.service.examples: GET /v1/examples, ``zeromode example``)
+"""The paper's named cases (zeromode.service.wire.examples: GET /v1/examples, ``zeromode example``)
 as /v1/design requests or as ready designs.
 
 >>> import zeromode as zm
@@ -13,7 +13,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from zeromode._results import DesignResult
+    from zeromode._library import DesignResult
 
 __all__ = ["description", "design", "names", "request"]
 
@@ -21,14 +21,14 @@ __all__ = ["description", "design", "names", "request"]
 def names() -> list[str]:
     """The examples' names, sorted (outward_2d: Fig. 3b; cube_outward_3d: Fig. 3d; two_mode_2d,
     two_mode_3d: Fig. 4; …)."""
-    from zeromode.service.examples import example_names
+    from zeromode.service.wire.examples import example_names
 
     return example_names()
 
 
 def description(name: str) -> str:
     """One sentence naming the example's figure and counts."""
-    from zeromode.service.examples import example_description
+    from zeromode.service.wire.examples import example_description
 
     return example_description(name)
 
@@ -36,7 +36,7 @@ def description(name: str) -> str:
 def request(name: str) -> dict:
     """A fresh copy of the example's /v1/design request body (InvalidInput ``unknown_example``
     for an unknown name)."""
-    from zeromode.service.examples import example_request
+    from zeromode.service.wire.examples import example_request
 
     return example_request(name)
 

@@ -21,7 +21,7 @@ import httpx
 import pytest
 import uvicorn
 
-from zeromode.service.app import create_app
+from zeromode.service.rest.app import create_app
 
 STARTUP_TIMEOUT_S = 60.0
 # The key the keyed service is started with (ZEROMODE_API_KEY).
@@ -95,7 +95,7 @@ def keyed_service(tmp_path_factory: pytest.TempPathFactory) -> Iterator[KeyedSer
     with loopback_socket() as sock:
         port = sock.getsockname()[1]
     log_path = tmp_path_factory.mktemp("keyed") / "uvicorn.log"
-    command = [sys.executable, "-m", "uvicorn", "zeromode.service.app:app"]
+    command = [sys.executable, "-m", "uvicorn", "zeromode.service.rest.app:app"]
     options = ["--host", "127.0.0.1", "--port", str(port), "--log-level", "warning"]
     with open(log_path, "w") as log:
         proc = subprocess.Popen(

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from oracles.two_triangles import TwoTriangles
 
-from zeromode.service.schemas.sequential import SEQUENTIAL_EXAMPLES
+from zeromode.service.wire.schemas.sequential import SEQUENTIAL_EXAMPLES
 from zeromode_client import Client, ZeromodeError
 
 MODULE = {"dim": 2, "positions": [[-1, 0], [1, 0], [-0.8, 1], [0.8, 1], [0.15, 0.45]],

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 from fastapi.testclient import TestClient
 
-from zeromode.service.app import create_app
+from zeromode.service.rest.app import create_app
 
 
 @pytest.fixture(scope="session")

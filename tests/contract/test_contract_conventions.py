@@ -17,7 +17,7 @@ from oracles.rigidity import COUNT_FIELDS, RANK_GAP_FIELDS
 from oracles.wire import assert_error
 
 from zeromode.service import __version__
-from zeromode.service.settings import Settings
+from zeromode.service.wire.settings import Settings
 
 SETTINGS = Settings()  # the defaults the test app is built with
 

@@ -24,8 +24,8 @@ from oracles.frames import K4_PLANE
 from schemathesis.checks import not_a_server_error
 from schemathesis.specs.openapi.checks import response_schema_conformance
 
-from zeromode.service.app import create_app
-from zeromode.service.settings import Settings
+from zeromode.service.rest.app import create_app
+from zeromode.service.wire.settings import Settings
 
 MAX_EXAMPLES = 30
 # The jobs' records: made by the first job a generated request submits, removed after the tests.

@@ -310,7 +310,7 @@ class SweepPoint:
 class SweepProgress:
     """How far a sweep is: points ``done`` and ``failed`` of ``total``, ``elapsed`` seconds since
     it was submitted. What ``sweep``'s ``on_progress`` receives (never the results: those are
-    yielded). The library's zeromode.service.sweeps.SweepProgress is its twin (this package
+    yielded). The library's zeromode.service.jobs.sweeps.SweepProgress is its twin (this package
     imports no server code)."""
 
     done: int

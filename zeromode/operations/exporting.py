@@ -1,0 +1,108 @@
+"""What POST /v1/export and ``zeromode export`` write: a document (documents.py) read into a
+zeromode.export Takeaway — its frame, modes, sites, states and report — with its finite motion
+traced (solver.finite_motion, as POST /v1/motion does) when a motion format needs one and the
+document carries none, and its fabrication tolerances (solver.tolerance) in the metadata when
+asked, then written by zeromode.export.
+"""
+
+from __future__ import annotations
+
+from zeromode.export import FORMATS, AnimationOptions, Fabrication, check_writable, export_bytes
+from zeromode.export.takeaway import Takeaway
+from zeromode.operations import endpoints
+from zeromode.operations.documents import (
+    ALLOSTERIC,
+    AUXETIC,
+    FRAME,
+    MOTION,
+    AllostericDocument,
+    AuxeticDocument,
+    DesignDocument,
+    PathDocument,
+    kind,
+    validated,
+)
+from zeromode.service.wire.convert import frame_from_model
+from zeromode.service.wire.responses import json_safe, tolerance_body
+from zeromode.service.wire.schemas.export import ExportRequest
+from zeromode.solver.certificates.fabrication import tolerance_report
+from zeromode.solver.errors import InvalidInput
+from zeromode.solver.motion.finite_motion import trace_motion
+
+# The export format a file's suffix names (``zeromode export``, the library's ``export``); .svg
+# is a cut file or an animation: the format says which.
+EXPORT_SUFFIXES = {
+    ".vtu": "vtk", ".xdmf": "xdmf", ".graphml": "graphml", ".json": "node_link_json", ".dxf": "dxf",
+    ".stl": "stl", ".csv": "kit_csv", ".gif": "gif", ".mp4": "mp4",
+}
+
+
+def export_file(request: ExportRequest) -> tuple[bytes, str, str]:
+    """(content, media type, file name) of the export the request asks for."""
+    check_writable(request.format)  # before the document is designed or its motion traced
+    fmt = FORMATS[request.format]
+    takeaway = takeaway_for(request)
+    f, a = request.fabrication, request.animation
+    content = export_bytes(
+        takeaway,
+        request.format,
+        Fabrication(f.mm_per_unit, f.pin_diameter_mm, f.link_width_mm, f.thickness_mm, f.sheet_width_mm, f.gap_mm),
+        AnimationOptions(a.frames, a.fps, a.scale, a.title),
+    )
+    return content, fmt.media_type, f"zeromode-{takeaway.metadata['kind']}{fmt.suffix}"
+
+
+def takeaway_for(request: ExportRequest) -> Takeaway:
+    """The request's document (designed first when it is a request) with the request's own
+    frame, modes and path taking precedence; the path traced when the format needs one."""
+    doc = request.document or {}
+    if doc and "frame" not in doc and kind(doc) != MOTION:
+        doc, _ = endpoints.respond(doc)
+    what = kind(doc) if doc else FRAME
+    frame_model = request.frame or (validated(doc, DesignDocument).frame if "frame" in doc else None)
+    if frame_model is None:
+        raise InvalidInput("invalid_request", "the export needs a frame: give `frame`, or a document with one.")
+    frame = frame_from_model(frame_model)
+    modes = request.modes if request.modes is not None else (doc.get("modes") or [])
+    metadata: dict = {"kind": what}
+    if isinstance(doc.get("report"), dict):
+        metadata["report"] = doc["report"]
+    sites, configurations, boundary = {}, {}, None
+    if what == ALLOSTERIC:
+        report = validated(doc, AllostericDocument).report
+        sites = {"source": report.source, "target": report.target, "relays": report.relays}
+    elif what == AUXETIC:
+        lattice = validated(doc, AuxeticDocument)
+        metadata["poisson_ratio"] = lattice.poisson_ratio
+        configurations = {state.name: state.positions for state in lattice.states}
+        boundary = lattice.report.boundary
+    if request.tolerance is not None:
+        tolerance = tolerance_report(
+            frame, modes, boundary=boundary, source=sites.get("source", ()), target=sites.get("target", ()),
+            **request.tolerance.model_dump(),
+        )
+        metadata["tolerance"] = tolerance_body(tolerance)
+    elif metadata.get("report", {}).get("tolerance"):
+        metadata["tolerance"] = metadata["report"]["tolerance"]
+    path, parameter, reference = None, None, None
+    if request.path is not None:
+        path, parameter = request.path, request.parameter
+    elif "path" in doc:
+        traced = validated(doc, PathDocument)
+        path, parameter, reference = traced.path, traced.parameter, traced.reference_index
+    elif FORMATS[request.format].motion:
+        m = request.motion
+        if modes and m.mode >= len(modes):
+            raise InvalidInput("invalid_options", f"motion.mode is {m.mode}; the document has {len(modes)} mode(s).")
+        motion = trace_motion(
+            frame, mode=modes[m.mode] if modes else None, amplitude=m.amplitude, max_step=m.max_step
+        )
+        path, parameter, reference = motion.positions, motion.parameter, motion.reference_index
+        metadata["motion"] = {
+            "status": motion.status,
+            "max_relative_bar_error": motion.max_relative_bar_error,
+            "singularities": len(motion.singularities),
+        }
+    return Takeaway.build(
+        frame, modes, path, parameter, reference, configurations, **sites, metadata=json_safe(metadata)
+    )

@@ -1,0 +1,81 @@
+"""Pictures of the service's documents: what POST /v1/plot and ``zeromode plot`` draw.
+
+A /v1/plot body becomes a viz Picture field by field. A request or response document of
+/v1/design, /v1/design/auxetic or /v1/design/allosteric is recognised by its fields; a request
+is designed first (``endpoints.respond``) and drawn as its response is, so a request and its response
+give the same picture.
+"""
+
+from __future__ import annotations
+
+from zeromode.operations import endpoints
+from zeromode.operations.documents import (
+    ALLOSTERIC,
+    AUXETIC,
+    DESIGN,
+    AllostericDocument,
+    AuxeticDocument,
+    DesignDocument,
+    kind,
+    validated,
+)
+from zeromode.service.wire.convert import frame_from_model
+from zeromode.service.wire.schemas.allostery import AllostericRequest
+from zeromode.service.wire.schemas.plot import PlotRequest
+from zeromode.solver.errors import InvalidInput
+from zeromode.viz.designs import allosteric_picture, design_picture, lattice_picture
+from zeromode.viz.picture import Picture
+
+
+def picture_from_request(request: PlotRequest) -> Picture:
+    """The Picture of a validated /v1/plot body: its fields are Picture.build's arguments (raises
+    InvalidInput as Picture.build does)."""
+    return Picture.build(frame_from_model(request.frame), **{k: v for k, v in request if k != "frame"})
+
+
+def picture_for_document(doc: dict, solution_space: bool = True) -> Picture:
+    """The picture of a document, recognised by its fields.
+
+    - a /v1/design/auxetic response (``states``, ``poisson_ratio``): viz.designs.lattice_picture;
+    - a /v1/design/allosteric response (``report`` with ``source``, ``target``, ``relays``):
+      viz.designs.allosteric_picture with the achieved target motion (equal to the prescribed
+      one to ``report.target_error``);
+    - a /v1/design response (``frame``, ``modes``, ``report``): viz.designs.design_picture;
+    - any other document with a ``frame``: a /v1/plot body, whose ``solution_space`` defaults
+      to true here;
+    - requests of /v1/design/allosteric (``source``, ``target``), /v1/design/auxetic (``cells``
+      or ``poisson_ratio``) and /v1/design (``positions``, ``motions``) are designed first; an
+      allosteric request's own target motion is then drawn as the requested one.
+
+    ``solution_space`` false never draws the solution space; true draws it for designs and
+    plot bodies with a motion and specified nodes.  Raises InvalidInput on anything else.
+    """
+    if not isinstance(doc, dict):
+        raise InvalidInput("invalid_document", "the document must be a JSON object.")
+    if "frame" not in doc:
+        response, request = endpoints.respond(doc)
+        if isinstance(request, AllostericRequest):
+            a = validated(response, AllostericDocument)
+            return allosteric_picture(
+                frame_from_model(a.frame), a.modes, a.report.source, a.report.target, request.target.motion
+            )
+        return picture_for_document(response, solution_space)
+    what = kind(doc)
+    if what == AUXETIC:
+        a = validated(doc, AuxeticDocument)
+        states = {s.name: (s.positions, s.poisson_ratio) for s in a.states}
+        return lattice_picture(frame_from_model(a.frame), a.modes, a.poisson_ratio, states, a.report.boundary)
+    if what == ALLOSTERIC:
+        a = validated(doc, AllostericDocument)
+        return allosteric_picture(
+            frame_from_model(a.frame), a.modes, a.report.source, a.report.target, a.report.achieved_target_motion
+        )
+    if what == DESIGN:
+        d = validated(doc, DesignDocument)
+        return design_picture(frame_from_model(d.frame), d.modes, solution_space)
+    request = validated(doc, PlotRequest)
+    wanted = solution_space and doc.get("solution_space", True)
+    has_motion = bool(request.modes or request.targets)
+    return picture_from_request(
+        request.model_copy(update={"solution_space": bool(wanted and has_motion and request.frame.specified)})
+    )
