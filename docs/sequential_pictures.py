@@ -9,7 +9,8 @@ docs/img/sequential_bifurcation.png  the orbit of f (iterates 300…399 from nex
                                      range; a zoom on the flip
 docs/img/sequential_deployable.png   the deployable example's map with the chain's orbit, and
                                      d_k along the 16-module chain over its verified motion
-docs/img/sequential_curvature.png    the curvature example's chain at both ends of its motion
+docs/img/sequential_curvature.png    the curvature example's chain where it turns least and most
+                                     along its verified motion
 """
 
 from __future__ import annotations
@@ -107,22 +108,36 @@ def deployable() -> None:
     result.plot().savefig(IMG / "sequential_deployable.png", dpi=100)
 
 
+def turning(positions: np.ndarray, pairs: np.ndarray) -> float:
+    """The chain's total turning (degrees): the angle from its first pair's vector to its last's,
+    followed pair by pair."""
+    vectors = positions[pairs[:, 1]] - positions[pairs[:, 0]]
+    angles = np.unwrap(np.arctan2(vectors[:, 1], vectors[:, 0]))
+    return float(np.degrees(angles[-1] - angles[0]))
+
+
 def curvature() -> None:
     body = SEQUENTIAL_EXAMPLES["curvature"]["value"]
     result = zm.sequential(body["features"], n_modules=body["chain"]["n_modules"])
-    path = result.solution.chain.path
-    edges = result.solution.chain.chain.frame.edges
+    verified = result.solution.chain
+    positions, pairs = verified.path.positions, verified.chain.pairs
+    turns = np.array([turning(x, pairs) for x in positions])
+    edges = verified.chain.frame.edges
+    n = verified.chain.n_modules
     figure = Figure(figsize=(10, 4.5), layout="constrained")
-    for k, (i, name) in enumerate(((0, "one end of the motion"), (len(path.positions) - 1, "the other end"))):
+    for k, i in enumerate((int(np.argmin(np.abs(turns))), int(np.argmax(np.abs(turns))))):
         axes = figure.add_subplot(1, 2, k + 1)
-        x = path.positions[i]
+        x = positions[i]
         for a, b in edges:
             axes.plot(*x[[a, b]].T, color="0.4", lw=1)
         axes.plot(*x.T, "o", ms=3, color="C0")
+        axes.plot(*x[pairs[0]].T, color="C3", lw=3, label="input pair")
         axes.set_aspect("equal")
         axes.set_axis_off()
-        axes.set_title(name)
+        axes.set_title(f"total turning {abs(turns[i]):.0f}°, {abs(turns[i]) / n:.1f}° per copy")
+    figure.axes[0].legend(loc="lower left", fontsize="small")
     figure.savefig(IMG / "sequential_curvature.png", dpi=100)
+    print(f"curvature: total turning from {np.abs(turns).min():.1f}° to {np.abs(turns).max():.1f}° over {n} copies")
 
 
 if __name__ == "__main__":
