@@ -1,4 +1,4 @@
-"""The adversarial probe set of issue #18 against a live `zeromode serve`: figures for the README.
+"""The adversarial probe set of issue #18 against a live `zeromode serve`: figures for the guide.
 
 Probes, each one HTTP request (raw bytes where a client library would correct them):
 

@@ -226,7 +226,7 @@ def relative_sigma_r(frame: Frame, a) -> float:
 
 
 def frame_table(sizes: dict[str, list[int]]) -> tuple[list[str], list[str], dict]:
-    """The frames' rows, the PyRigi rows, and the counts-per-size summary for the README."""
+    """The frames' rows, the PyRigi rows, and the counts-per-size summary for the guide (docs/benchmarks/)."""
     rows = [
         (
             "| frame | d | N | N_B | route | rank | nontrivial zero modes | self-stresses | σ_r / σ_max "

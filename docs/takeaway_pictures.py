@@ -1,4 +1,4 @@
-"""Regenerate the pictures of the README's "Taking a design away" section:
+"""Regenerate the pictures of the guide's how-to pages (docs/howto/pictures.md, paraview.md, cut.md):
 
     .venv/bin/python docs/takeaway_pictures.py
 

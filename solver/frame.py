@@ -64,10 +64,16 @@ def check_extent(positions: np.ndarray, name: str = "positions") -> None:
 
 @dataclass(frozen=True, eq=False)
 class Frame:
-    """A validated bar-and-joint frame.
+    """A validated bar-and-joint frame: the paper's graph G = (V, E) of N nodes at x_i in d
+    dimensions and N_B bars of lengths l_ij = ‖x_i − x_j‖ (the frame of Eqs. 1–3).
 
     positions: (N, d) float, read-only.  edges: (N_B, 2) int, read-only, in the order given.
     specified: indices of the specified nodes V_S (possibly empty).
+
+    >>> from zeromode import Frame
+    >>> square = Frame.build([[0, 0], [1, 0], [1, 1], [0, 1]], [[0, 1], [1, 2], [2, 3], [3, 0]])
+    >>> square.maxwell_count  # N_D = dN − N_B (Eq. 2): 3 rigid motions and 1 mechanism
+    4
     """
 
     positions: np.ndarray

@@ -230,3 +230,33 @@ def test_no_import_circle():
 
 def test_no_layer_imports_upward():
     assert upward_imports(GRAPH) == []
+
+
+def test_each_operation_has_one_route_that_only_calls_it():
+    # One pipeline, three doors: the route of every operation is parse → call → serialise, a
+    # single `return endpoints.<operation>(request).body` (FastAPI parses, the response model
+    # serialises); the job engine runs the same functions (tasks.RUNNABLE ⊂ OPERATIONS).
+    import importlib
+    import inspect
+    import textwrap
+
+    from fastapi.routing import APIRoute
+
+    from zeromode.operations.endpoints import OPERATIONS
+    from zeromode.service.jobs.tasks import RUNNABLE
+
+    served = {}
+    for path in ROUTES:
+        if path.stem == "__init__":
+            continue
+        module = importlib.import_module(f"zeromode.service.rest.routes.{path.stem}")
+        for route in module.router.routes:
+            if isinstance(route, APIRoute) and route.path in OPERATIONS and "POST" in route.methods:
+                served[route.path] = route.endpoint
+    assert served.keys() == OPERATIONS.keys()
+    for path, endpoint in served.items():
+        (function,) = ast.parse(textwrap.dedent(inspect.getsource(endpoint))).body
+        body = [s for s in function.body if not (isinstance(s, ast.Expr) and isinstance(s.value, ast.Constant))]
+        expected = f"return endpoints.{OPERATIONS[path].run.__name__}({function.args.args[0].arg}).body"
+        assert [ast.unparse(s) for s in body] == [expected], f"{path}: {endpoint.__name__} does more than call its operation"
+    assert RUNNABLE and all(RUNNABLE[p] is OPERATIONS[p] for p in RUNNABLE)

@@ -112,10 +112,12 @@ def test_first_design_needs_no_web_stack_and_stays_within_the_floor(tmp_path):
     assert out[1] == ""
 
 
-@pytest.mark.parametrize("module", ["zeromode", "zeromode._library", "zeromode.examples", "zeromode.service.jobs.sweeps"])
+@pytest.mark.parametrize(
+    "module", ["zeromode", "zeromode._library", "zeromode.examples", "zeromode.service.jobs.sweeps", "zeromode.solver.frame"]
+)
 def test_doctests(module):
-    # The public library's doctests (solver/'s docstrings are not written as doctests): every
-    # name of zeromode.__all__ lives in one of these modules.
+    # The public library's doctests: every name of zeromode.__all__ lives in one of these
+    # modules (solver/'s other docstrings are not written as doctests).
     result = doctest.testmod(importlib.import_module(module), optionflags=doctest.ELLIPSIS)
     assert result.failed == 0
     assert result.attempted > 0

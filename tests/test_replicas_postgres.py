@@ -1,4 +1,4 @@
-"""Service replicas on one PostgreSQL database, as the README's deployment section tells users to
+"""Service replicas on one PostgreSQL database, as docs/howto/dask.md tells users to
 run them: the tests' own server on loopback (tests/postgres_server.py), real ``zeromode serve``
 processes with their own embedded Dask clusters, one of them killed with -9 mid-sweep.
 

@@ -1,5 +1,9 @@
 """Every fenced code block of the docs runs as written (issue #38): README.md, the client's
 README and docs/**/*.md (any Markdown file matched by DOCUMENTS, so blocks that move stay tested).
+The tutorials (docs/tutorials/*.ipynb) are not run here: the guide's build (``mkdocs build
+--strict``, the last step of CI's command) executes them; here they are checked to be stored
+without outputs. The README is the front page: its two commands, a short quickstart, and links
+that stay inside the repository (issue #39).
 
 How a block runs, by its language (every block must name one):
 - bash, sh, shell: with bash (``set -eo pipefail``; an HTTP error answer fails ``curl``), in
@@ -22,7 +26,7 @@ Directives: ``<!-- snippet: DIRECTIVE -->`` on the line before a block (invisibl
 - ``ci``: the command CI runs, not run again here: it must equal .ci/run's command.
 - ``install``: commands that CI's command covers (the venv, ``pip install`` of packages it
   installs), then at most ``zeromode serve``, which is how this test starts its server; not run.
-- ``synopsis``: usage lines ``zeromode SUB [--option …]``: every subcommand and option exists in
+- ``synopsis``: usage lines (docs/reference/cli.md) ``zeromode SUB [--option …]``: every subcommand and option exists in
   the CLI (its ``--help``), and every subcommand of the CLI is listed.
 - ``file NAME``: the block is the file NAME, written into the document's directory where it
   stands (the sentence before it names NAME, so the reader sees which file it is).
@@ -478,3 +482,47 @@ def python_with_promises(block: Block) -> tuple[str, set[str]]:
         call = f"__expect__(({expression}), {promises[line]!r}, {where!r}{flags})"
         lines[first:last + 1] = (text[:start].decode() + call + text[end:].decode()).split("\n")
     return "\n".join(lines) + "\n", {f"{block.document}:{block.line + line - 1}" for line in promises}
+
+
+# --- the README as a front page (issue #39) ---------------------------------------------------
+
+README_MAX_LINES = 250
+QUICKSTART_MAX_LINES = 30
+MARKDOWN_LINK = re.compile(r"!?\[[^\]]*\]\(([^)\s]+)\)")
+
+
+def test_the_readme_gives_exactly_the_two_commands():
+    """One install block that ends by starting the service, one CI block (check_ci holds it to
+    .ci/run's command, which builds the guide too), in that order; and the CLI synopsis is kept
+    somewhere in the docs (check_synopsis holds it to the CLI)."""
+    readme = blocks_of("README.md")
+    installs = [b for b in readme if b.directive == "install"]
+    cis = [b for b in readme if b.directive == "ci"]
+    assert len(installs) == 1 and len(cis) == 1 and installs[0].line < cis[0].line
+    assert shlex.split(commands(installs[0].code)[-1])[1:] == ["serve"]
+    assert commands(ci_command())[-1] == ".venv/bin/mkdocs build --strict"
+    assert any(b.directive == "synopsis" for b in ALL_BLOCKS)
+
+
+def test_the_readme_is_a_front_page():
+    """≤ 250 lines, a quickstart section of ≤ 30 lines with a library and a REST example, and
+    every link or picture it references a file or folder of this repository."""
+    text = (ROOT / "README.md").read_text()
+    assert len(text.splitlines()) <= README_MAX_LINES
+    quickstart = re.search(r"^## Quickstart\n(.*?)(?=^## )", text, flags=re.MULTILINE | re.DOTALL)
+    assert quickstart is not None and len(quickstart.group(1).strip().splitlines()) <= QUICKSTART_MAX_LINES
+    assert "import zeromode as zm" in quickstart.group(1) and "localhost:8000/v1/" in quickstart.group(1)
+    targets = [t.split("#")[0] for t in MARKDOWN_LINK.findall(text)]
+    outside = [t for t in targets if re.match(r"[a-z]+:", t) and not t.startswith("http://127.0.0.1")]
+    missing = [t for t in targets if not re.match(r"[a-z]+:", t) and not (ROOT / t).exists()]
+    assert not outside and not missing, f"outside the repository: {outside}; missing: {missing}"
+
+
+def test_tutorials_are_stored_without_outputs():
+    """The build executes the notebooks; stored outputs would be stale pictures in the repository."""
+    notebooks = sorted((ROOT / "docs" / "tutorials").glob("*.ipynb"))
+    assert notebooks
+    for notebook in notebooks:
+        cells = json.loads(notebook.read_text())["cells"]
+        stored = [i for i, c in enumerate(cells) if c.get("outputs") or c.get("execution_count")]
+        assert not stored, f"{notebook.name}: cells {stored} hold outputs"

@@ -437,7 +437,8 @@ def auxetic(poisson_ratio: float, cells: Sequence[int] = (4, 4), **fields: Any) 
     (POST /v1/design/auxetic; the paper's Fig. 5a).
 
     ν = −ε_y / ε_x of the lattice's mode, measured on its boundary; a 2D sheet of n_x × n_y
-    modules (``cells`` of two) or a 3D chain of n blocks (``cells`` of one). Its usable strain
+    modules (``cells`` of two) or a 3D chain of n blocks (``cells`` of one), each module designed
+    by judicious placement (Eqs. 4–7) and joined to its neighbours by merged nodes. Its usable strain
     range and expanded and contracted finite states come with it.
 
     Parameters
@@ -474,7 +475,7 @@ def allosteric(source: Any, target: Any, *, frame: Frame | Result | Mapping | No
     (POST /v1/design/allosteric; with ``frame``, POST /v1/design/allosteric/network).
 
     From scratch, each site is specified nodes with a motion, and the network between them is
-    designed as in ``design`` (paper, Fig. 5b: relays on the sites' solution spaces). In a given
+    designed as in ``design`` (paper, Fig. 5b: relays on the sites' solution spaces, Eqs. 4–6). In a given
     ``frame``, the smallest change found (bars removed, nodes added on solution spaces) makes
     the source's motion (or strain) move the target's (or strain it by ``strain_ratio``).
 

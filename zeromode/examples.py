@@ -1,6 +1,8 @@
 """The paper's named cases (zeromode.service.wire.examples: GET /v1/examples, ``zeromode example``)
 as /v1/design requests or as ready designs.
 
+Examples
+--------
 >>> import zeromode as zm
 >>> "outward_2d" in zm.examples.names()
 True
@@ -44,6 +46,8 @@ def request(name: str) -> dict:
 def design(name: str) -> DesignResult:
     """The example designed by ``zeromode.design`` with its request's options.
 
+    Examples
+    --------
     >>> design("outward_2d_four_nodes").to_dict()["report"]["unspecified_nodes"]
     4
     """

@@ -24,7 +24,7 @@ from pydantic_settings import BaseSettings, NoDecode, SettingsConfigDict
 
 
 class Settings(BaseSettings):
-    """Limits and deployment options (README, "Errors and limits"). Environment: ZEROMODE_<NAME>."""
+    """Limits and deployment options (docs/reference/limits.md, "Errors and limits"). Environment: ZEROMODE_<NAME>."""
 
     # An empty variable (ZEROMODE_JOB_DIR=) means "the default", as an unset one does.
     model_config = SettingsConfigDict(
