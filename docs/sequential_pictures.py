@@ -1,4 +1,4 @@
-"""Regenerate the pictures of docs/sequential.md:
+"""Regenerate the pictures of docs/module_maps.md:
 
     .venv/bin/python docs/sequential_pictures.py [bifurcation] [deployable] [curvature]
 

@@ -138,7 +138,7 @@ class SequentialResponse(BaseModel):
     timings_ms: dict[str, float]
 
 
-# Named examples of POST /v1/design/sequential (its OpenAPI examples; docs/sequential.md).
+# Named examples of POST /v1/design/sequential (its OpenAPI examples; docs/module_maps.md).
 SEQUENTIAL_EXAMPLES = {
     "deployable": {
         "summary": "Deployable chain",
