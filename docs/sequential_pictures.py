@@ -97,8 +97,8 @@ def bifurcation() -> None:
     whole, zoom = figure.add_subplot(1, 2, 1), figure.add_subplot(1, 2, 2)
     orbit_panel(whole, HEIGHTS, TRANSIENT, legend=True)
     whole.set_title("the two-triangle module's map f, orbits against h")
-    orbit_panel(zoom, ZOOM, ZOOM_TRANSIENT, legend=True)
-    zoom.set_title("zoom on the flip")
+    orbit_panel(zoom, ZOOM, ZOOM_TRANSIENT, legend=False)
+    zoom.set_title(f"zoom on the flip (orbit: the last {KEPT} of {ZOOM_TRANSIENT + KEPT} iterates)")
     figure.savefig(IMG / "sequential_bifurcation.png", dpi=110)
 
 
