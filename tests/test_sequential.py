@@ -154,6 +154,14 @@ def test_bad_modules_are_refused():
     with pytest.raises(DomainError) as fold:
         module_map(folded)
     assert fold.value.code == "reference_at_fold"
+    ladder = Frame.build([[float(i // 2), float(i % 2)] for i in range(202)],
+                         [[i, i + 2] for i in range(200)] + [[i, i + 1] for i in range(0, 202, 2)])
+    with pytest.raises(DomainError) as big:
+        module_map(Module.build(ladder, (0, 3), (198, 201)))
+    assert big.value.code == "too_expensive"
+    with pytest.raises(DomainError) as big_start:
+        design_module(fixed_point(1.5, -0.5), start=Module.build(ladder, (0, 3), (198, 201)))
+    assert big_start.value.code == "too_expensive"
     rigid = Frame.build([[0, 0], [1, 0], [0, 1], [1, 1]], [[0, 1], [0, 2], [1, 3], [2, 3], [0, 3]])
     with pytest.raises(DomainError):
         module_map(Module.build(rigid, (1, 2), (0, 3)))

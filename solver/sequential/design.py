@@ -57,6 +57,9 @@ MIN_BAR_FRACTION = 0.2
 # nodes by far more; near a fold a small change of d_in moves them several times as far).
 BRANCH_STEP = 0.05
 BRANCH_JUMP = 0.2
+# Largest start module designed (nodes): the slope's expression solves a symbolic (dN)² system
+# per configuration (the two-triangle module has 5 nodes).
+DESIGN_MAX_NODES = 16
 # IPOPT: the KKT tolerance (constraints are met to round-off long before) and the iteration cap.
 IPOPT_TOL = 1e-12
 IPOPT_MAX_ITER = 400
@@ -167,9 +170,12 @@ def _slope_expression(module: Module, x) -> ca.SX:
 
 def design_module(points, start: Module | None = None, reach: float = REACH) -> ModuleDesign:
     """A module (``start``'s bars, default the two-triangle module) whose map meets ``points``
-    (module docstring); FeatureOutOfReach with the best figures if it is not met."""
+    (module docstring); FeatureOutOfReach with the best figures if it is not met, DomainError
+    ``too_expensive`` for a start of more than DESIGN_MAX_NODES nodes."""
     points = check_points(points)
     start = two_triangle_module() if start is None else start
+    if start.frame.n_nodes > DESIGN_MAX_NODES:
+        raise DomainError("too_expensive", f"modules of up to {DESIGN_MAX_NODES} nodes are designed; the start has {start.frame.n_nodes}.")
     if not (np.isfinite(reach) and reach > 0):
         raise InvalidInput("invalid_reach", "reach must be a positive number.")
     start_map = module_map(start)

@@ -41,6 +41,9 @@ from zeromode.solver.frame import Frame
 from zeromode.solver.motion.finite_motion import MotionPath, curve_minimum, trace_motion
 from zeromode.solver.tolerances import MAP_RTOL
 
+# Largest module mapped (d·N): f′ at each sample takes a dense SVD of C and the exact evaluation
+# dense batched least squares, both cubic in d·N — a module is a small frame.
+MAP_MAX_DOF = 400
 # Search horizon of the module's motion each way (finite_motion's path parameter: RMS node
 # displacement over the RMS radius); a fold of a compact module comes well before.
 MAP_HORIZON = 6.0
@@ -321,7 +324,11 @@ def module_map(module: Module, horizon: float = MAP_HORIZON, max_step: float = M
     from the reference until d_in turns back (a fold, located on the curve between samples),
     a singular point, or ``horizon``.  DomainError from trace_motion for a frame with no or
     several nontrivial zero modes; ``input_fixed`` if d_in does not change along the motion,
-    ``reference_at_fold`` if it turns back at the reference itself."""
+    ``reference_at_fold`` if it turns back at the reference itself, ``too_expensive`` above
+    MAP_MAX_DOF."""
+    dof = module.frame.dim * module.frame.n_nodes
+    if dof > MAP_MAX_DOF:
+        raise DomainError("too_expensive", f"maps are computed for modules of up to {MAP_MAX_DOF} degrees of freedom (d·N); this one has {dof}.")
     last: dict[int, tuple[float, float]] = {}
     d_ref = float(module.distances(module.frame.positions)[0])
 
