@@ -129,15 +129,23 @@ def test_designed_module_meets_its_feature_in_closed_form(points):
 
 
 def test_features_out_of_reach_are_refused_with_the_best_figures():
+    # nodes within reach·r of the centre are at most 2·reach·r apart: refused before any work
+    r = np.sqrt(np.mean(np.sum((two_triangle_module().frame.positions - two_triangle_module().frame.positions.mean(0)) ** 2, 1)))
     with pytest.raises(DomainError) as far:
-        design_module(fixed_point(9.0, 0.5))  # wider than the module's reach
-    assert far.value.code == "feature_out_of_reach"
-    assert far.value.best.configurations.shape == (1, 5, 2)
-    assert "RMS radii" in far.value.message
+        design_module(fixed_point(2 * 3.0 * r * 1.01, 0.5))
+    assert far.value.code == "feature_out_of_reach" and "out of reach" in far.value.message
     with pytest.raises(DomainError) as steep:
         design_module(fixed_point(1.2, 40.0))
     assert steep.value.code == "feature_out_of_reach"
+    assert steep.value.best.configurations.shape == (1, 5, 2)
     assert steep.value.best.deviation > 1e-8
+    # the best module's own map, evaluated independently, shows the figure reported
+    exact = TwoTriangles(steep.value.best.module.frame.positions) if steep.value.best.map is not None else None
+    if exact is not None and exact.range()[0] < 1.2 < exact.range()[1]:
+        assert steep.value.best.slopes[0] == pytest.approx(exact.slope(1.2), rel=1e-8)
+    with pytest.raises(DomainError) as wide:
+        design_module(range_onto((0.5, 15.0), (0.6, 15.0)), reach=100.0)  # 300 inputs apart
+    assert wide.value.code == "too_expensive"
     with pytest.raises(InvalidInput) as same:
         design_module(period_two(1.3, 1.3))
     assert same.value.code == "invalid_feature"

@@ -57,6 +57,9 @@ MIN_BAR_FRACTION = 0.2
 # nodes by far more; near a fold a small change of d_in moves them several times as far).
 BRANCH_STEP = 0.05
 BRANCH_JUMP = 0.2
+# Most configurations in the NLP (each N × d unknowns with its symbolic slope): the ladder of
+# inputs spanning 10 RMS radii.
+MAX_LADDER = 200
 # Largest start module designed (nodes): the slope's expression solves a symbolic (dN)² system
 # per configuration (the two-triangle module has 5 nodes).
 DESIGN_MAX_NODES = 16
@@ -171,18 +174,33 @@ def _slope_expression(module: Module, x) -> ca.SX:
 def design_module(points, start: Module | None = None, reach: float = REACH) -> ModuleDesign:
     """A module (``start``'s bars, default the two-triangle module) whose map meets ``points``
     (module docstring); FeatureOutOfReach with the best figures if it is not met, DomainError
-    ``too_expensive`` for a start of more than DESIGN_MAX_NODES nodes."""
+    ``feature_out_of_reach`` before any work for a distance beyond 2·reach·r (no two nodes within
+    reach·r of the centre are farther apart), ``too_expensive`` for a start of more than
+    DESIGN_MAX_NODES nodes or a ladder of more than MAX_LADDER configurations."""
     points = check_points(points)
     start = two_triangle_module() if start is None else start
     if start.frame.n_nodes > DESIGN_MAX_NODES:
         raise DomainError("too_expensive", f"modules of up to {DESIGN_MAX_NODES} nodes are designed; the start has {start.frame.n_nodes}.")
     if not (np.isfinite(reach) and reach > 0):
         raise InvalidInput("invalid_reach", "reach must be a positive number.")
-    start_map = module_map(start)
     ref = start.frame.positions
     n, dim = ref.shape
     edges = start.frame.edges
     r, centre = rms_radius(ref), ref.mean(axis=0)
+    widest = max(max(p.d_in, p.d_out) for p in points)
+    if widest > 2 * reach * r:
+        raise DomainError(
+            "feature_out_of_reach",
+            f"a distance of {widest:.6g} is out of reach: nodes within {reach:g} RMS radii ({reach * r:.6g}) of the "
+            f"start's centre are at most {2 * reach * r:.6g} apart.",
+        )
+    if len(_ladder(points, r)) > MAX_LADDER:
+        raise DomainError(
+            "too_expensive",
+            f"the features span more than {MAX_LADDER} configurations of the NLP's ladder (inputs {BRANCH_STEP:g} "
+            "RMS radii apart): ask for closer input distances.",
+        )
+    start_map = module_map(start)
     ladder = _ladder(points, r)
     seeds = [start_map.positions[int(np.argmin(np.abs(start_map.d_in - x)))] for x, _ in ladder]
     xs = [ca.SX.sym(f"x{j}", n, dim) for j in range(len(ladder))]

@@ -67,12 +67,15 @@ def test_sequential_design_and_chain_follow_the_closed_form(client: Client) -> N
 
 def test_feature_out_of_reach_is_a_422_with_the_best_figures(client: Client, service_url: str) -> None:
     r = httpx.post(f"{service_url}/v1/design/sequential",
-                   json={"features": [{"kind": "fixed_point", "d": 9.0, "slope": 0.5}]}, timeout=120)
+                   json={"features": [{"kind": "fixed_point", "d": 1.2, "slope": 40.0}]}, timeout=120)
     assert r.status_code == 422
     detail = r.json()["detail"]
     assert detail["code"] == "feature_out_of_reach"
     best = detail["best"]
-    assert best["features"][0]["d_in"] == 9.0 and len(best["positions"]) == 5
+    assert best["features"][0]["d_in"] == 1.2 and len(best["positions"]) == 5 and best["deviation"] > 1e-8
+    with pytest.raises(ZeromodeError) as far:  # no node pair within reach is this far apart
+        client.design_sequential(features=[{"kind": "fixed_point", "d": 1e300, "slope": 0.5}])
+    assert far.value.code == "feature_out_of_reach"
     with pytest.raises(ZeromodeError) as same:
         client.design_sequential(features=[{"kind": "period_two", "d1": 1.3, "d2": 1.3}])
     assert same.value.code == "invalid_feature"
