@@ -46,10 +46,11 @@ import numpy as np
 
 from benchmarks.allostery_tasks import DEFAULT_EXCESS_COORDINATION, make_task, random_network
 from benchmarks.pruning import prune_for_allostery
-from zeromode.solver.applications.allostery import TARGET_ERROR_MAX, design_allosteric, response
+from zeromode.solver.applications.allostery import design_allosteric, response
 from zeromode.solver.applications.network_allostery import pair_strain, tune_network
 from zeromode.solver.construction.design import design
 from zeromode.solver.errors import DomainError
+from zeromode.solver.tolerances import TARGET_ERROR_MAX
 
 ROOT = Path(__file__).resolve().parent.parent
 DOC = ROOT / "docs" / "benchmarks" / "allostery.md"

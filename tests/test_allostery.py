@@ -29,12 +29,11 @@ from oracles.rigidity import (
 
 from zeromode.service.rest.app import create_app
 from zeromode.solver.applications.allostery import (
-    GAP_FLOOR,
     MAX_MODULES,
-    TARGET_ERROR_MAX,
     design_allosteric,
 )
 from zeromode.solver.errors import DomainError, InvalidInput
+from zeromode.solver.tolerances import GAP_FLOOR, TARGET_ERROR_MAX
 
 
 def sites(d: int, distance: float, seed: int = 0):

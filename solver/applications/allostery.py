@@ -72,19 +72,14 @@ from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame, check_positions
 from zeromode.solver.motion.finite_motion import bar_lengths
 from zeromode.solver.progress import progress_scope, progress_stage, report_progress
-from zeromode.solver.tolerances import DISTINCT_RTOL
+from zeromode.solver.tolerances import (
+    AXES_RTOL,
+    DISTINCT_RTOL,
+    GAP_FLOOR,
+    SENSITIVITY_PERTURBATION,
+    TARGET_ERROR_MAX,
+)
 
-# An answer's target error ‖achieved − u_tgt‖/‖u_tgt‖ must not exceed this (the floor);
-# an exact construction reaches ~1e-13, so this leaves four decades for the frame's conditioning.
-TARGET_ERROR_MAX = 1e-9
-# The relative singular-value gap σ_min/σ_max of the unit compatibility matrix past the designed
-# zero modes must reach this: well-built chains have 1e-3 … 1e-2 (measured, benchmarks/
-# bench_allostery.py); below 1e-6 a second soft mode is six decades from being a zero mode and
-# the frame's own rank decisions (RANK_RTOL = 1e-9 of C) are no longer safely away from it.
-GAP_FLOOR = 1e-6
-# The stated perturbation of the sensitivity figure: node displacements of Euclidean norm
-# PERTURBATION × the site size (all nodes together, worst direction).
-PERTURBATION = 1e-6
 # A chain of more modules is refused before any work (too_expensive): ~1 ms per module copy, but
 # the frame's analysis and figures grow with it; 400 modules is ~1600 nodes in 2D.
 MAX_MODULES = 400
@@ -188,7 +183,7 @@ class ResponseFigures:
     motion_sensitivity: float
     amplification: float
     amplification_worst: float
-    perturbation: float = PERTURBATION
+    perturbation: float = SENSITIVITY_PERTURBATION
 
     def acceptable(self) -> bool:
         return self.target_error <= TARGET_ERROR_MAX and self.gap >= GAP_FLOOR
@@ -290,7 +285,7 @@ def _axes(axis: np.ndarray, *clouds: np.ndarray) -> np.ndarray:
     for cloud in clouds:
         p = (cloud - cloud.mean(axis=0)) @ across
         values, vectors = np.linalg.eigh(p.T @ p)
-        if values[2] - values[1] > 1e-6 * max(values[2], 1e-300):
+        if values[2] - values[1] > AXES_RTOL * max(values[2], 1e-300):
             e2 = vectors[:, 2]
             skew = float(np.sum((p @ e2) ** 3))
             e2 = -e2 if skew < 0 else e2
@@ -874,7 +869,7 @@ def _attempt(sim: Similarity, src, tgt, options: ChainOptions, distance: float) 
     achieved = response(frame, source, u_src)[target]
     error = float(np.linalg.norm(achieved - u_tgt) / np.linalg.norm(u_tgt))
     gap, shape, motion_k, amplification, worst = linear_figures(frame, u, source, target, sim.length)
-    figures = ResponseFigures(achieved, error, gap, shape * PERTURBATION, motion_k * PERTURBATION, amplification, worst)
+    figures = ResponseFigures(achieved, error, gap, shape * SENSITIVITY_PERTURBATION, motion_k * SENSITIVITY_PERTURBATION, amplification, worst)
     return AllostericDesign(
         design=result,
         source=tuple(source.tolist()),

@@ -77,11 +77,11 @@ from zeromode.service.wire.schemas.sequential import (
 from zeromode.service.wire.settings import current_settings
 from zeromode.solver.applications.allostery import InaccurateDesign, design_allosteric
 from zeromode.solver.applications.finite_strain import FiniteStrainUnreachable
-from zeromode.solver.applications.lattice import path_strains
 from zeromode.solver.applications.network_allostery import tune_network
 from zeromode.solver.certificates.fabrication import tolerance_report
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame
+from zeromode.solver.motion.boundary_strain import path_strains
 from zeromode.solver.motion.finite_motion import SingularPath, trace_motion
 from zeromode.solver.motion.periodic import trace_motion_through_cell
 from zeromode.solver.motion.refine import RefinementFailed

@@ -55,9 +55,9 @@ from zeromode.service.wire.schemas.lattice import AuxeticRequest
 from zeromode.service.wire.schemas.motion import MotionRequest, RefineRequest
 from zeromode.solver.analysis.rigidity import check_dense_size
 from zeromode.solver.applications.allostery import allosteric_inputs
-from zeromode.solver.applications.lattice import boundary_sets
 from zeromode.solver.certificates.prestress import check_certify_request
 from zeromode.solver.frame import Frame, check_extent
+from zeromode.solver.motion.boundary_strain import boundary_sets
 from zeromode.solver.motion.finite_motion import check_trace_arguments, given_mode
 from zeromode.solver.motion.refine import refinement_target
 from zeromode.solver.pipeline import check_auxetic_request, check_design_request
