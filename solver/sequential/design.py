@@ -44,7 +44,7 @@ from zeromode.solver.budget import remaining
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame
 from zeromode.solver.sequential.module_map import Module, ModuleMap, module_map, two_triangle_module
-from zeromode.solver.tolerances import DISTINCT_RTOL, MAP_RTOL
+from zeromode.solver.tolerances import DISTINCT_RTOL, MAP_IPOPT_TOL, MAP_RTOL
 
 # The designed module stays within this many RMS radii of the start's centroid (its extent).
 REACH = 3.0
@@ -63,8 +63,7 @@ MAX_LADDER = 200
 # Largest start module designed (nodes): the slope's expression solves a symbolic (dN)² system
 # per configuration (the two-triangle module has 5 nodes).
 DESIGN_MAX_NODES = 16
-# IPOPT: the KKT tolerance (constraints are met to round-off long before) and the iteration cap.
-IPOPT_TOL = 1e-12
+# IPOPT's iteration cap (its tolerance: tolerances.MAP_IPOPT_TOL).
 IPOPT_MAX_ITER = 400
 # ... and its time limit (CPU and wall; the request's budget if shorter): a design takes ~1 s.
 IPOPT_MAX_S = 60.0
@@ -238,7 +237,7 @@ def design_module(points, start: Module | None = None, reach: float = REACH) -> 
     left = IPOPT_MAX_S if budget is None else min(IPOPT_MAX_S, budget)
     # IPOPT's default (monotone) barrier update: refine.ipopt_solver's adaptive one misses the
     # deployable pair of fixed points (measured), so the options are this NLP's own.
-    options = {"ipopt.tol": IPOPT_TOL, "ipopt.max_iter": IPOPT_MAX_ITER, "ipopt.max_cpu_time": left,
+    options = {"ipopt.tol": MAP_IPOPT_TOL, "ipopt.max_iter": IPOPT_MAX_ITER, "ipopt.max_cpu_time": left,
                "ipopt.max_wall_time": left, "ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": False}
     solver = ca.nlpsol("module_design", "ipopt", {"x": w, "f": objective, "g": ca.vertcat(*g)}, options)
     got = solver(x0=np.concatenate([s.ravel() for s in seeds]), lbg=lo, ubg=hi)

@@ -39,7 +39,7 @@ from zeromode.solver.analysis.rigidity import compatibility_matrix
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame
 from zeromode.solver.motion.finite_motion import MotionPath, curve_minimum, trace_motion
-from zeromode.solver.tolerances import MAP_RTOL
+from zeromode.solver.tolerances import FIXED_POINT_RTOL, MAP_RESIDUAL_RTOL, MAP_RTOL, MAP_STEP_RTOL
 
 # Largest module mapped (d·N): f′ at each sample takes a dense SVD of C and the exact evaluation
 # dense batched least squares, both cubic in d·N — a module is a small frame.
@@ -49,13 +49,9 @@ MAP_MAX_DOF = 400
 MAP_HORIZON = 6.0
 # Continuation step of the map's samples (same units): about 1 % of a module's size per sample.
 MAP_MAX_STEP = 0.02
-# Gauss–Newton of the exact evaluation: iterations, and the relative size (of the module's RMS
-# radius) of a correction at which it has converged (quadratic convergence: round-off next).
+# Gauss–Newton of the exact evaluation: at most this many iterations (its tolerances:
+# tolerances.MAP_STEP_RTOL, MAP_RESIDUAL_RTOL).
 EVAL_MAX_ITER = 30
-EVAL_STEP_RTOL = 1e-14
-# A bar or the input distance is met when its squared length is within this fraction of itself
-# (lengths then within half of it: far below MAP_RTOL, a few decades above round-off).
-EVAL_RESIDUAL_RTOL = 1e-13
 # Newton solves of the homotopy along d_in that finds a configuration again on the map's branch
 # when the direct solve crossed to the other one (next to a fold, where the branches meet).
 HOMOTOPY_STEPS = 16
@@ -181,7 +177,7 @@ class ModuleMap:
             elif g[k + 1] == 0:
                 continue
             else:
-                star = brentq(lambda x: float(self.evaluate(x)[0]) - x, lo, hi, xtol=1e-15 * hi, rtol=1e-15)
+                star = brentq(lambda x: float(self.evaluate(x)[0]) - x, lo, hi, xtol=FIXED_POINT_RTOL * hi, rtol=FIXED_POINT_RTOL)
             found.append((float(star), float(self.evaluate(star)[1])))
         return found
 
@@ -238,7 +234,7 @@ def _residuals(module: Module, y: np.ndarray, d: np.ndarray, lengths2: np.ndarra
     diff = y[:, e[:, 0]] - y[:, e[:, 1]]
     g = 0.5 * (np.sum(diff * diff, axis=2) - lengths2)
     h = 0.5 * (np.sum((y[:, a] - y[:, b]) ** 2, axis=1) - d**2)
-    met = (np.max(np.abs(g) / lengths2, axis=1) <= EVAL_RESIDUAL_RTOL) & (np.abs(h) <= EVAL_RESIDUAL_RTOL * d**2)
+    met = (np.max(np.abs(g) / lengths2, axis=1) <= MAP_RESIDUAL_RTOL) & (np.abs(h) <= MAP_RESIDUAL_RTOL * d**2)
     return g, h, met
 
 
@@ -258,7 +254,7 @@ def _solve_at(module: Module, start: np.ndarray, d: np.ndarray) -> np.ndarray:
         g, h, met = _residuals(module, y, d, lengths2)
         res = np.concatenate([g, h[:, None], np.einsum("krm,km->kr", gauge_rows, y.reshape(k, -1)) - gauge_at], axis=1)
         step = _least_squares(_bordered_jacobian(module, y, gauge_rows), -res)
-        done |= met & (np.max(np.abs(step), axis=1) / scale <= EVAL_STEP_RTOL)
+        done |= met & (np.max(np.abs(step), axis=1) / scale <= MAP_STEP_RTOL)
         if np.all(done):
             break
         y[~done] += step[~done].reshape(-1, n, dim)
