@@ -117,7 +117,8 @@ LAYERS: list[dict[str, tuple[str, ...]]] = [
     {"analysis": ("zeromode.solver.frame", "zeromode.solver.analysis")},
     {"motion": ("zeromode.solver.motion",)},
     {"construction": ("zeromode.solver.construction",)},
-    {"applications": ("zeromode.solver.applications",)},
+    {"applications": ("zeromode.solver.applications",),
+     "sequential": ("zeromode.solver.sequential",)},  # modules as maps, chains (over motion)
     {"certificates": ("zeromode.solver.certificates",)},
     {"pipeline": ("zeromode.solver.pipeline",)},
     {"viz": ("zeromode.viz",)},                     # pictures of arrays
