@@ -356,3 +356,26 @@ SPRING_DROP_RTOL = 1e-7
 # units of k_max · RMS radius: round-off of the energy's gradient with rods 10⁵ stiffer than the
 # springs is ~1e-16 · 1e5; Newton steps then polish to round-off.
 RELAXATION_GRADIENT_RTOL = 1e-11
+
+# --- modules as maps ------------------------------------------------------------------------
+
+# A module's map meets a requested feature (d_out = f(d_in) relative to the requested distance,
+# f′ relative to max(1, |f′|)) and a chain's conformation its iterates (d_{k+1} = f(d_k),
+# relative to d_k) within this: the promise of /v1/design/sequential (arXiv 1906.08400's
+# designs, verified by continuation). Exact evaluation by Newton reaches ≈ 1e-13.
+MAP_RTOL = 1e-8
+
+# Exact evaluation of a module's map (sequential/module_map.py, Gauss–Newton on the bar lengths and
+# d_in = d): converged once a correction is below MAP_STEP_RTOL of the module's RMS radius and
+# every bar and d_in are met, their squared lengths within MAP_RESIDUAL_RTOL of themselves
+# (lengths within half of it): far below MAP_RTOL, a few decades above round-off (≈ 1e-16).
+MAP_STEP_RTOL = 1e-14
+MAP_RESIDUAL_RTOL = 1e-13
+
+# Fixed points of a map, located by Brent's method on f(d) − d between samples: to this relative
+# width, a few ulps (f is exact to ≈ 1e-13, so the fixed point is as exact as f allows).
+FIXED_POINT_RTOL = 1e-15
+
+# IPOPT's KKT tolerance in a module's design (sequential/design.py): the map points are equality
+# constraints met to round-off long before; the answer is verified to MAP_RTOL by continuation.
+MAP_IPOPT_TOL = 1e-12

@@ -117,7 +117,8 @@ LAYERS: list[dict[str, tuple[str, ...]]] = [
     {"analysis": ("zeromode.solver.frame", "zeromode.solver.analysis")},
     {"motion": ("zeromode.solver.motion",)},
     {"construction": ("zeromode.solver.construction",)},
-    {"applications": ("zeromode.solver.applications", "zeromode.solver.multistable")},  # multistable: a linkage by construction, springs on its motion
+    {"applications": ("zeromode.solver.applications", "zeromode.solver.multistable"),  # multistable: a linkage by construction, springs on its motion
+     "sequential": ("zeromode.solver.sequential",)},  # modules as maps, chains (over motion)
     {"certificates": ("zeromode.solver.certificates",)},
     {"pipeline": ("zeromode.solver.pipeline",)},
     {"viz": ("zeromode.viz",)},                     # pictures of arrays

@@ -16,7 +16,7 @@ from typing import Any
 
 # Requests whose answer can take long, by endpoint: the rest are cheap enough to answer inline.
 ALWAYS = frozenset({"/v1/motion", "/v1/refine", "/v1/certify", "/v1/design/allosteric", "/v1/design/two-configuration",
-                    "/v1/design/multistable"})
+                    "/v1/design/multistable", "/v1/design/sequential"})
 # Above these sizes a frame's plot or export (nodes or bars), its analysis or a network's tuning
 # (degrees of freedom dN or bars: a floppy frame's null-space bases cost seconds, 300 2D nodes up
 # to 2.8 s, 1 000 up to 37 s), an auxetic sheet and a design (specified nodes × motions) are heavy.

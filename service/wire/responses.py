@@ -608,3 +608,74 @@ def multistable_body(result, timings_ms: dict) -> dict:
             "timings_ms": timings_ms,
         },
     }
+
+def module_map_body(the_map, at=()) -> dict:
+    """/v1/map's body (without timings) for a solver ModuleMap: samples, range, fixed points and
+    the exact values at ``at``."""
+    end = lambda e: {"kind": e.kind, "d_in": e.d_in, "d_out": e.d_out}
+    values, slopes = the_map.evaluate(np.asarray(at, dtype=float)) if len(at) else ([], [])
+    module = the_map.module
+    return {
+        "input_pair": list(module.input_pair),
+        "output_pair": list(module.output_pair),
+        "d_in": the_map.d_in.tolist(),
+        "d_out": the_map.d_out.tolist(),
+        "slope": the_map.slope.tolist(),
+        "lower": end(the_map.lower),
+        "upper": end(the_map.upper),
+        "fixed_points": [{"d": d, "slope": s, "stable": bool(abs(s) < 1)} for d, s in the_map.fixed_points()],
+        "evaluated": [{"d_in": float(x), "d_out": float(v), "slope": float(s)} for x, v, s in zip(at, values, slopes)],
+        "max_relative_bar_error": the_map.path.max_relative_bar_error,
+    }
+
+
+def sequential_body(result, timings_ms: dict) -> dict:
+    """/v1/design/sequential's body for a solver SequentialDesign."""
+    from zeromode.solver.tolerances import MAP_RTOL
+
+    design, verified = result.design, result.chain
+    chain = None
+    if verified is not None:
+        chain = {
+            "frame": frame_body(verified.chain.frame),
+            "pairs": verified.chain.pairs.tolist(),
+            "iterates": verified.chain.iterates.tolist(),
+            "distances": verified.distances.tolist(),
+            "deviation": verified.deviation,
+            "iterate_deviation": verified.iterate_deviation,
+            "ends": list(verified.ends),
+        }
+    module = design.module
+    return {
+        "module": {"frame": frame_body(module.frame), "input_pair": list(module.input_pair),
+                   "output_pair": list(module.output_pair)},
+        "map": module_map_body(design.map),
+        "features": [
+            {"d_in": p.d_in, "d_out": p.d_out, "slope": p.slope, "achieved_d_out": float(v), "achieved_slope": float(s)}
+            for p, v, s in zip(design.points, design.achieved, design.slopes)
+        ],
+        "chain": chain,
+        "deviation": design.deviation,
+        "map_rtol": MAP_RTOL,
+        "solver_status": design.solver_status,
+        "timings_ms": timings_ms,
+    }
+
+
+def sequential_refusal_best(exc) -> dict | None:
+    """The best figures of a refused sequential design (FeatureOutOfReach: the features as met
+    and the module IPOPT ended with; chain_mismatch: the chain's deviation), else None."""
+    best = getattr(exc, "best", None)
+    if best is None:
+        return None
+    if hasattr(best, "points"):
+        return json_safe({
+            "features": [
+                {"d_in": p.d_in, "d_out": p.d_out, "slope": p.slope, "achieved_d_out": float(v), "achieved_slope": float(s)}
+                for p, v, s in zip(best.points, best.achieved, best.slopes)
+            ],
+            "deviation": best.deviation,
+            "solver_status": best.solver_status,
+            "positions": best.configurations[0].tolist(),
+        })
+    return json_safe({"deviation": best.deviation, "iterate_deviation": best.iterate_deviation})

@@ -27,7 +27,7 @@ from zeromode.operations.documents import (
     validated,
 )
 from zeromode.operations.prechecks import motion_frame
-from zeromode.service.wire.convert import frame_from_model
+from zeromode.service.wire.convert import feature_points, frame_from_model, module_from_model
 from zeromode.service.wire.errors import with_best
 from zeromode.service.wire.responses import (
     allosteric_body,
@@ -37,10 +37,13 @@ from zeromode.service.wire.responses import (
     design_body,
     inaccurate_design_best,
     json_safe,
+    module_map_body,
     motion_body,
     multistable_body,
     network_allosteric_body,
     refinement_body,
+    sequential_body,
+    sequential_refusal_best,
     solution_space_body,
     two_configuration_body,
 )
@@ -68,12 +71,18 @@ from zeromode.service.wire.schemas.motion import (
     RefineResponse,
 )
 from zeromode.service.wire.schemas.multistable import MultistableRequest, MultistableResponse
+from zeromode.service.wire.schemas.sequential import (
+    MapRequest,
+    MapResponse,
+    SequentialRequest,
+    SequentialResponse,
+)
 from zeromode.service.wire.settings import current_settings
 from zeromode.solver.applications.allostery import InaccurateDesign, design_allosteric
 from zeromode.solver.applications.finite_strain import FiniteStrainUnreachable
 from zeromode.solver.applications.network_allostery import tune_network
 from zeromode.solver.certificates.fabrication import tolerance_report
-from zeromode.solver.errors import InvalidInput
+from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame
 from zeromode.solver.motion.boundary_strain import path_strains
 from zeromode.solver.motion.finite_motion import SingularPath, trace_motion
@@ -283,6 +292,43 @@ def certify(r: CertifyRequest) -> Outcome:
     return Outcome(result, certificate_body(result))
 
 
+# ----------------------------------------------------------------------------- modules as maps
+
+
+def module_map(r: MapRequest) -> Outcome:
+    """POST /v1/map: a module's map d_out = f(d_in) from its finite motion (solver.sequential:
+    samples, usable range between folds, fixed points, f and f′ exactly at ``at``)."""
+    from zeromode.solver.sequential.module_map import module_map as map_of
+
+    t0 = time.perf_counter()
+    result = map_of(module_from_model(r))
+    return Outcome(result, {**module_map_body(result, r.at), "timings_ms": _ms_since(t0)})
+
+
+def sequential(r: SequentialRequest) -> Outcome:
+    """POST /v1/design/sequential: a module designed for the features (IPOPT, verified by
+    continuation) and, with ``chain``, its chain verified against the map's iterates; a refusal
+    carries its best figures (``feature_out_of_reach``, ``chain_mismatch``)."""
+    from zeromode.solver.sequential.chain import design_sequential
+
+    t0 = time.perf_counter()
+    chain = r.chain
+    try:
+        result = design_sequential(
+            feature_points(r.features),
+            None if r.start is None else module_from_model(r.start),
+            r.reach,
+            None if chain is None else chain.n_modules,
+            None if chain is None else chain.d0,
+        )
+    except DomainError as exc:
+        best = sequential_refusal_best(exc)
+        if best is None:
+            raise
+        raise with_best(exc, best) from None
+    return Outcome(result, sequential_body(result, _ms_since(t0)))
+
+
 # ----------------------------------------------------------------------------- the registry
 
 
@@ -308,6 +354,8 @@ OPERATIONS: dict[str, Operation] = {
     "/v1/motion": Operation(motion, MotionRequest, MotionResponse),
     "/v1/refine": Operation(refine, RefineRequest, RefineResponse),
     "/v1/certify": Operation(certify, CertifyRequest, CertifyResponse),
+    "/v1/map": Operation(module_map, MapRequest, MapResponse),
+    "/v1/design/sequential": Operation(sequential, SequentialRequest, SequentialResponse),
 }
 
 
