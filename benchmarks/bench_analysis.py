@@ -55,9 +55,9 @@ from zeromode.solver.analysis.rigidity import (
     BASIS_MAX_NUMBERS,
     DENSE_MAX_ENTRIES_BASES,
     DENSE_MAX_ENTRIES_COUNTS,
-    SHIFT,
     compatibility_matrix,
 )
+from zeromode.solver.tolerances import NULL_SHIFT_RTOL
 
 OUT = Path(__file__).resolve().parent.parent / "docs" / "benchmarks" / "analysis.md"
 PYRIGI_MAX_NODES = 200
@@ -170,11 +170,11 @@ def runs_for(n: int, fns=()) -> int:
 def cholmod_factorisation(frame: Frame):
     """A callable that factorises CᵀC + δI of the normalised frame once, CHOLMOD's own order.
 
-    CᵀC is formed outside the timed call; δ = SHIFT·‖C‖_F² (the scale only matters for
+    CᵀC is formed outside the timed call; δ = NULL_SHIFT_RTOL·‖C‖_F² (the scale only matters for
     positive definiteness)."""
     c = compatibility_matrix(frame.normalised_positions(), frame.edges)
     gram = (c.T @ c).tocsr()
-    shift = SHIFT * spla.norm(c) ** 2
+    shift = NULL_SHIFT_RTOL * spla.norm(c) ** 2
     return lambda: cholesky(gram, shift=shift, supernodal=True)
 
 

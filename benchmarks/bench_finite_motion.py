@@ -672,6 +672,7 @@ def path_row(name: str, frame, seconds: float, path, note: str, strain=None) -> 
 def motion_at_scale() -> dict:
     """Part 3 (module docstring)."""
     from zeromode.solver.applications import lattice as lattices
+    from zeromode.solver.motion.boundary_strain import boundary_strains
     from zeromode.solver.motion.finite_motion import trace_motion
     from zeromode.solver.motion.periodic import PeriodicCell, tiled_motion, trace_periodic_motion
 
@@ -691,7 +692,7 @@ def motion_at_scale() -> dict:
 
     def end_strain(p):
         moved = p.positions[p.singularities[-1].step] if p.singularities else p.positions[-1]
-        return lattices.boundary_strains(sheet.frame.positions, moved - sheet.frame.positions, boundary)[0]
+        return boundary_strains(sheet.frame.positions, moved - sheet.frame.positions, boundary)[0]
 
     seconds, path = timed_runs(periodic)
     rows.append(path_row("auxetic sheet 50 × 50, periodic route", sheet.frame, seconds, path, "cell traced, tiled, checked on the sheet; collision located on the sheet", end_strain(path)))

@@ -42,13 +42,9 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from zeromode.solver.applications.finite_strain import finite_strain_sheet
-from zeromode.solver.applications.lattice import (
-    auxetic_chain_3d,
-    auxetic_sheet,
-    boundary_strains,
-    path_strains,
-)
+from zeromode.solver.applications.lattice import auxetic_chain_3d, auxetic_sheet
 from zeromode.solver.certificates.prestress import certify
+from zeromode.solver.motion.boundary_strain import boundary_strains, path_strains
 from zeromode.solver.motion.finite_motion import bar_lengths
 from zeromode.solver.motion.periodic import trace_motion_through_cell
 

@@ -2,7 +2,7 @@
 
     .venv/bin/python docs/takeaway_pictures.py
 
-docs/img/viewer.png      the viewer page (GET /) in headless Chromium, mid-way through the
+docs/img/viewer.png      the designer page (GET /) in headless Chromium, mid-way through the
                          finite motion of the 3 × 3 auxetic sheet
 docs/img/motion_frame.png  one frame of the GIF export of the allosteric example's motion
 docs/img/cut_file.png    the DXF cut file of the outward_2d design, drawn by ezdxf's matplotlib
@@ -62,8 +62,8 @@ def viewer_screenshot(url: str) -> None:
         page.wait_for_selector("#example option[value^='preset:auxetic']", state="attached")
         value = page.eval_on_selector("#example option[value^='preset:auxetic']", "o => o.value")
         page.select_option("#example", value)
-        page.wait_for_function("document.getElementById('request').value.includes('cells')")
-        page.click("#design")
+        page.wait_for_function("designer.kind === 'auxetic'")
+        page.click("[data-testid=design]")
         page.wait_for_selector("#slider:not([disabled])", timeout=120_000)
         page.wait_for_selector("#downloads button")
         page.eval_on_selector("#slider", "s => { s.value = Math.round(0.8 * s.max); s.dispatchEvent(new Event('input')); }")

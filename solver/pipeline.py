@@ -41,7 +41,6 @@ from zeromode.solver.applications.lattice import (
     chain_modules,
     chain_specified,
     check_sheet_strain,
-    poisson_ratio,
     sheet_module_for,
 )
 from zeromode.solver.applications.sheet_module import sheet_edges, sheet_positions
@@ -55,8 +54,10 @@ from zeromode.solver.construction.coupling import merged_frame
 from zeromode.solver.construction.design import Design, design, design_targets
 from zeromode.solver.errors import InvalidInput
 from zeromode.solver.frame import Frame
+from zeromode.solver.motion.boundary_strain import poisson_ratio
 from zeromode.solver.motion.refine import Refinement, RefinementFailed, check_problem_size, refine
 from zeromode.solver.progress import progress_stage
+from zeromode.solver.tolerances import IPOPT_TOL
 
 # Estimated cost of the stages in seconds, for progress: each stage that runs gets its share of
 # the whole (_shares).  Measured with the default options (Fig. 3c square, cube, 2 × 2 to 40 × 40
@@ -83,7 +84,7 @@ class RefineStage:
 
     amplitude: float = 0.1
     K: int = 8
-    tol: float = 1e-8
+    tol: float = IPOPT_TOL
     max_time_s: float = 5.0
 
 

@@ -29,12 +29,11 @@ from oracles.rigidity import (
 
 from zeromode.service.rest.app import create_app
 from zeromode.solver.applications.allostery import (
-    GAP_FLOOR,
     MAX_MODULES,
-    TARGET_ERROR_MAX,
     design_allosteric,
 )
 from zeromode.solver.errors import DomainError, InvalidInput
+from zeromode.solver.tolerances import GAP_FLOOR, TARGET_ERROR_MAX
 
 
 def sites(d: int, distance: float, seed: int = 0):
@@ -209,6 +208,32 @@ def test_amplification_is_what_seeded_fabrication_errors_do(d, distance):
     assert sampled[:4].max() <= 100 * np.sqrt(distance / 12)
     print(f"\nd={d} D={distance}: A reported {f.amplification:.0f} (worst {f.amplification_worst:.0f}), sampled "
           f"RMS {rms:.0f}, worst of four {sampled[:4].max():.0f}")
+
+
+@pytest.mark.parametrize(("distance", "site_seed", "floor_met"), [(12.0, 1, True), (12.0, 2, True), (24.0, 2, False)])
+def test_3d_amplification_of_the_default_design_is_what_seeded_errors_do(distance, site_seed, floor_met):
+    """3D, the benchmark's other site shapes (1 missed the floor at D = 12 before the source-side
+    search: sampled 106 > 100; 2 is the hardest shape): the default design stays exact (the
+    response driven through numpy's SVD of C hits u_tgt to 1e-9, one nontrivial mode, no
+    self-stress), eight seeded fabrication errors re-solved from scratch agree with the reported
+    A (RMS within a factor 3, none above A_worst), and at D = 12 the worst of four meets the
+    issue's floor 100·√(D/12). At D = 24 shape 2 still misses it (docs/benchmarks/allostery.md):
+    there only the report is checked."""
+    x_src, u_src, x_tgt, u_tgt = sites(3, distance, site_seed)
+    result = design_allosteric(x_src, u_src, x_tgt, u_tgt)
+    x, edges = np.asarray(result.design.frame.positions), np.asarray(result.design.frame.edges)
+    check_frame_modes(x, edges, result.design.modes, use_pyrigi=len(x) <= 30)
+    response = driven_response(x, edges, result.source, u_src)[list(result.target)]
+    assert np.linalg.norm(response - u_tgt) <= TARGET_ERROR_MAX * np.linalg.norm(u_tgt)
+    f = result.figures
+    sampled = sampled_amplifications(result, u_src, 8)
+    assert sampled.max() <= f.amplification_worst * 1.01
+    rms = float(np.sqrt(np.mean(sampled**2)))
+    assert f.amplification / 3 <= rms <= 3 * f.amplification
+    if floor_met:
+        assert sampled[:4].max() <= 100 * np.sqrt(distance / 12)
+    print(f"\n3D D={distance} shape {site_seed}: A reported {f.amplification:.0f}, sampled RMS {rms:.0f}, "
+          f"worst of four {sampled[:4].max():.0f}, floor {100 * np.sqrt(distance / 12):.0f}")
 
 
 def test_economy_trades_amplification_for_nodes():

@@ -380,13 +380,15 @@ def test_examples_round_trip_into_design(client):
     names = {e["name"] for e in examples}
     assert {"outward_2d", "outward_2d_four_nodes", "cube_outward_3d", "five_node_3d"} <= names
     assert all(isinstance(e["description"], str) and e["description"] for e in examples)
+    endpoints = {e["name"]: e["endpoint"] for e in examples}
     for name in sorted(names):
         request = client.get(f"/v1/examples/{name}/request")
         assert request.status_code == 200
         body = request.json()
-        response = client.post("/v1/design", json=body)
+        response = client.post(endpoints[name], json=body)
         assert response.status_code == 200, (name, response.text)
-        check_design_body(response.json(), body)
+        if endpoints[name] == "/v1/design":  # the others' answers: their own tests (test_api_multistable)
+            check_design_body(response.json(), body)
 
 
 def test_five_node_example_is_the_papers(client):

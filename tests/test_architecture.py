@@ -107,8 +107,20 @@ TREES = {"solver": "zeromode.solver", "viz": "zeromode.viz", "export": "zeromode
 # The layers, lowest first: a module may import its own layer and those of lower ranks. A
 # module belongs to the layer whose longest prefix names it. Layers of one rank (the doors)
 # import each other in neither direction.
+# solver/ is mathematics (numpy in and out), one layer per stage of the paper in the order the
+# stages build on each other (docs/architecture.md): its foundations (errors, budget, progress,
+# tolerances; any new top-level module until it is placed), then the frame with analysis (the
+# frame scales itself with analysis/normalisation, and analysis reads frames), motion,
+# construction, applications, certificates, and the pipeline that chains them.
 LAYERS: list[dict[str, tuple[str, ...]]] = [
-    {"solver": ("zeromode.solver",)},               # mathematics: numpy in and out
+    {"solver": ("zeromode.solver",)},
+    {"analysis": ("zeromode.solver.frame", "zeromode.solver.analysis")},
+    {"motion": ("zeromode.solver.motion",)},
+    {"construction": ("zeromode.solver.construction",)},
+    {"applications": ("zeromode.solver.applications", "zeromode.solver.multistable"),  # multistable: a linkage by construction, springs on its motion
+     "sequential": ("zeromode.solver.sequential",)},  # modules as maps, chains (over motion)
+    {"certificates": ("zeromode.solver.certificates",)},
+    {"pipeline": ("zeromode.solver.pipeline",)},
     {"viz": ("zeromode.viz",)},                     # pictures of arrays
     {"export": ("zeromode.export",)},               # files of a Takeaway (animations via viz)
     {"wire": ("zeromode.service.wire",)},           # settings, schemas, error bodies, results → bodies
@@ -118,8 +130,9 @@ LAYERS: list[dict[str, tuple[str, ...]]] = [
      "facade": ("zeromode.__init__",)},
     {"cli": ("zeromode.service.cli",)},             # the command line, over all of them
 ]
-# Packages whose __init__ holds no code of a layer (a version string, a docstring).
-NEUTRAL = {"zeromode.service"}
+# Packages whose __init__ holds no code of a layer (a version string, a docstring; zeromode.solver's
+# re-exports the frame and analysis for ``from zeromode.solver import Frame``).
+NEUTRAL = {"zeromode.service", "zeromode.solver"}
 
 
 def module_files() -> dict[str, Path]:
@@ -218,9 +231,16 @@ def test_the_graph_is_read(tmp_path):
 def test_the_checks_catch_a_circle_and_an_upward_import():
     graph = {"zeromode.service.jobs.engine": {"zeromode.service.jobs.sweeps"},
              "zeromode.service.jobs.sweeps": {"zeromode.service.jobs.engine"},
-             "zeromode.solver.frame": {"zeromode.viz.picture"}, "zeromode.viz.picture": set()}
+             "zeromode.solver.frame": {"zeromode.viz.picture"}, "zeromode.viz.picture": set(),
+             # the solver's stages: motion/target once read the boundary sets from applications/lattice
+             "zeromode.solver.motion.target": {"zeromode.solver.applications.lattice", "zeromode.solver.analysis.rank"},
+             "zeromode.solver.tolerances": {"zeromode.solver.frame"}}
     assert set(circle(graph)) == {"zeromode.service.jobs.engine", "zeromode.service.jobs.sweeps"}
-    assert upward_imports(graph) == ["zeromode.solver.frame (solver) imports zeromode.viz.picture (viz)"]
+    assert upward_imports(graph) == [
+        "zeromode.solver.frame (analysis) imports zeromode.viz.picture (viz)",
+        "zeromode.solver.motion.target (motion) imports zeromode.solver.applications.lattice (applications)",
+        "zeromode.solver.tolerances (solver) imports zeromode.solver.frame (analysis)",
+    ]
 
 
 def test_no_import_circle():
@@ -260,3 +280,30 @@ def test_each_operation_has_one_route_that_only_calls_it():
         expected = f"return endpoints.{OPERATIONS[path].run.__name__}({function.args.args[0].arg}).body"
         assert [ast.unparse(s) for s in body] == [expected], f"{path}: {endpoint.__name__} does more than call its operation"
     assert RUNNABLE and all(RUNNABLE[p] is OPERATIONS[p] for p in RUNNABLE)
+
+
+# Thresholds are named once, with their reason, in solver/tolerances.py: a float literal in this
+# range anywhere else in solver/ is a threshold (or a small step) without a name.
+SMALL_FLOATS = (1e-16, 1e-4)
+
+
+def small_float_literals(source: str) -> list[tuple[int, float]]:
+    """(line, value) of every float constant with SMALL_FLOATS[0] ≤ |value| ≤ SMALL_FLOATS[1]."""
+    return sorted(
+        (node.lineno, node.value)
+        for node in ast.walk(ast.parse(source))
+        if isinstance(node, ast.Constant)
+        and isinstance(node.value, float)
+        and SMALL_FLOATS[0] <= abs(node.value) <= SMALL_FLOATS[1]
+    )
+
+
+def test_the_literal_scan_sees_thresholds():
+    source = "A = 1e-9\ndef f(x, tol=1e-6):\n    return x < -1e-12 * 2 or x > 1e-3 or x < 1e-300 or x == 0.0 or x < 1 / 3\n"
+    assert small_float_literals(source) == [(1, 1e-9), (2, 1e-6), (3, 1e-12)]
+
+
+@pytest.mark.parametrize("path", [p for p in SOLVER if p != ROOT / "solver" / "tolerances.py"], ids=lambda p: p.relative_to(ROOT / "solver").as_posix())
+def test_no_threshold_outside_tolerances(path):
+    found = small_float_literals(path.read_text(encoding="utf-8"))
+    assert not found, f"{path.relative_to(ROOT).as_posix()}: float literals {found} belong in solver/tolerances.py, named with their reason"

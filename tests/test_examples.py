@@ -1,10 +1,11 @@
 """The named examples (`zeromode example list`) reproduce the paper's counts.
 
-Every example is designed through POST /v1/design and its frame is re-analysed with the test
+Every /v1/design example is designed through POST /v1/design and its frame is re-analysed with the test
 suite's own reference rank (tests/oracles/rigidity.py): exactly d(d+1)/2 + M zero modes, no
 self-stress, every requested motion a zero mode, and the paper's node counts where it gives them.
 The examples are JSON files of the zeromode.service.wire.examples package: GET /v1/examples serves
-them, and a built wheel carries them.
+them, and a built wheel carries them. An example for another endpoint names it ("endpoint");
+its own test checks its answer (tests/test_api_multistable.py).
 """
 
 import json
@@ -17,7 +18,12 @@ import numpy as np
 import pytest
 from oracles.rigidity import compatibility_matrix, normalised, reference_counts
 
-from zeromode.service.wire.examples import example_description, example_names, example_request
+from zeromode.service.wire.examples import (
+    example_description,
+    example_endpoint,
+    example_names,
+    example_request,
+)
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -31,7 +37,7 @@ PAPER_NODES = {
 }
 
 
-@pytest.mark.parametrize("name", example_names())
+@pytest.mark.parametrize("name", [n for n in example_names() if example_endpoint(n) == "/v1/design"])
 def test_example_designs_as_in_the_paper(client, name):
     request = example_request(name)
     response = client.post("/v1/design", json=request)
@@ -59,7 +65,9 @@ def test_the_service_lists_and_serves_every_example_file(client):
     assert [e["name"] for e in listed] == files
     for name in files:
         on_disk = json.loads((REPO / "service" / "wire" / "examples" / f"{name}.json").read_text(encoding="utf-8"))
-        assert {"name": name, "description": on_disk["description"]} in listed
+        endpoint = on_disk.get("endpoint", "/v1/design")
+        assert {"name": name, "description": on_disk["description"], "endpoint": endpoint} in listed
+        assert endpoint in client.app.openapi()["paths"]
         assert client.get(f"/v1/examples/{name}/request").json() == on_disk["request"]
         assert example_description(name) == on_disk["description"]
     # A copy: changing it changes nothing served.

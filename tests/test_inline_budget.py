@@ -87,7 +87,7 @@ def test_the_largest_inline_request_of_each_class_stays_far_below_the_budget(end
 
 
 @pytest.mark.parametrize("endpoint", ["/v1/motion", "/v1/refine", "/v1/certify", "/v1/design/allosteric",
-                                      "/v1/design/two-configuration"])
+                                      "/v1/design/two-configuration", "/v1/design/multistable", "/v1/design/sequential"])
 def test_endpoints_without_a_cheap_class_are_always_heavy(endpoint):
     assert heavy(endpoint, {})
 

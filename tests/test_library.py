@@ -28,6 +28,7 @@ from oracles.rigidity import (
 
 import zeromode as zm
 from benchmarks.bench_adversarial import chain
+from zeromode.solver.errors import DomainError
 
 SQUARE = [[1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0], [1.0, -1.0]]  # Fig. 3b: u_S = x_S
 SQUARE_EDGES = [[0, 1], [1, 2], [2, 3], [3, 0]]
@@ -75,8 +76,8 @@ def svg_bars(result) -> int:
 def test_exported_members():
     # Like httpx's tests/test_exported_members.py: the public surface is this list, each name real.
     assert zm.__all__ == [
-        "Frame", "allosteric", "analyze", "auxetic", "certify", "design", "examples", "motion",
-        "refine", "sweep", "two_configuration",
+        "Frame", "allosteric", "analyze", "auxetic", "certify", "design", "examples", "module_map", "motion",
+        "multistable", "refine", "sequential", "sweep", "two_configuration",
     ]
     for name in zm.__all__:
         assert getattr(zm, name) is not None
@@ -246,6 +247,8 @@ def test_examples_are_the_services(client):
 
 
 NETWORK = chain(12)
+TWO_TRIANGLES = {"dim": 2, "positions": [[-1, 0], [1, 0], [-0.8, 1], [0.8, 1], [0.15, 0.45]],
+                 "edges": [[0, 2], [0, 4], [2, 4], [1, 3], [1, 4], [3, 4]]}
 CASES = [
     ("/v1/analyze", {"frame": {"dim": 2, "positions": SQUARE, "edges": SQUARE_EDGES}},
      lambda: zm.analyze({"dim": 2, "positions": SQUARE, "edges": SQUARE_EDGES})),
@@ -258,6 +261,10 @@ CASES = [
      lambda: zm.allosteric([0, 1], [10, 11], frame=NETWORK, strain_ratio=2.0)),
     ("/v1/design/two-configuration", {"dim": 2, "initial": SQUARE, "final": (1.5 * np.array(SQUARE)).tolist()},
      lambda: zm.two_configuration(SQUARE, 1.5 * np.array(SQUARE))),
+    ("/v1/map", {"frame": TWO_TRIANGLES, "input_pair": [0, 1], "output_pair": [2, 3], "at": [1.0, 1.5]},
+     lambda: zm.module_map(TWO_TRIANGLES, (0, 1), (2, 3), at=[1.0, 1.5])),
+    ("/v1/design/sequential", {"features": [{"kind": "period_two", "d1": 1.3, "d2": 1.7}], "chain": {"n_modules": 4}},
+     lambda: zm.sequential([{"kind": "period_two", "d1": 1.3, "d2": 1.7}], n_modules=4)),
 ]
 
 
@@ -296,6 +303,20 @@ def test_plot_is_a_matplotlib_figure(square_design):
 
     figure = square_design.plot()
     assert isinstance(figure, Figure) and figure.axes and figure.axes[0].collections + figure.axes[0].lines
+
+
+def test_sequential_results_plot_their_map():
+    from matplotlib.figure import Figure
+
+    s = zm.sequential([{"kind": "fixed_point", "d": 1.5, "slope": -0.5}], n_modules=6)
+    figure = s.plot()
+    assert isinstance(figure, Figure) and len(figure.axes) == 2
+    (graph,) = [line for line in figure.axes[0].lines if line.get_label() == "f (usable range)"]
+    assert graph.get_xydata()[:, 0] == pytest.approx(s.to_dict()["map"]["d_in"])
+    assert svg_bars(s) == s.frame.n_edges == 6 * 6  # the drawing is the chain's frame
+    with pytest.raises(DomainError) as far:
+        zm.sequential([{"kind": "fixed_point", "d": 1.2, "slope": 40.0}])
+    assert far.value.code == "feature_out_of_reach" and far.value.best.deviation > 1e-8
 
 
 def test_export_vtu_is_read_back_by_meshio(square_design, tmp_path):

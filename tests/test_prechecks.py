@@ -66,6 +66,13 @@ def nlp_counts(n: int, n_unspecified: int, n_bars: int, K: int, d: int = 2) -> t
 x_src, u_src, x_tgt, u_tgt = sites(2, 3.0)
 
 # (endpoint, request, code): each request's defect is named beside it.
+# The tristable triangle of docs/multistable.md (the named example).
+TRISTABLE = {
+    "dim": 2,
+    "conformations": [[[0.0, 0.0], [1.0, 0.0], [0.3, 0.8]], [[0.0, 0.0], [1.0, 0.0], [0.45, 1.0]],
+                      [[0.0, 0.0], [1.0, 0.0], [0.65, 1.15]]],
+}
+
 BAD = [
     # /v1/analyze: the frame itself.
     ("/v1/analyze", {"frame": {**TRIANGLE, "edges": [[0, 1], [1, 7]]}}, "edge_out_of_range"),
@@ -114,6 +121,11 @@ BAD = [
     ("/v1/design/allosteric", request_body(x_src, np.ones_like(u_src), x_tgt, u_tgt), "rigid_source"),
     ("/v1/design/allosteric", request_body(x_src, u_src, x_tgt, np.zeros_like(u_tgt)), "rigid_target"),
     ("/v1/design/allosteric", request_body(x_src, u_src[:-1], x_tgt, u_tgt), "invalid_shape"),
+    # /v1/design/multistable: the conformations.
+    ("/v1/design/multistable", {**TRISTABLE, "conformations": [TRISTABLE["conformations"][0]] * 2}, "rigid_target"),
+    ("/v1/design/multistable", {"dim": 2, "conformations": [[[0, 0], [1, 0]], [[0, 0], [2, 0]]]}, "too_few_nodes"),
+    ("/v1/design/multistable", {"dim": 2, "conformations": [[[i, i * i % 7] for i in range(17)],
+                                                             [[i, i * i % 5] for i in range(17)]]}, "too_expensive"),
     # /v1/motion.
     ("/v1/motion", {"frame": SQUARE, "boundary": {"left": [0], "right": [1], "bottom": [0], "top": [9]}}, "invalid_boundary"),
     ("/v1/motion", {"frame": {**SQUARE, "positions": [[0.0, 0.0], [1e160, 0.0], [1e160, 1e160], [0.0, 1e160]]}}, "out_of_range"),
@@ -149,6 +161,7 @@ GOOD = [
     ("/v1/design/auxetic", {"dim": 3, "cells": [2], "poisson_ratio": -0.5}, False),
     ("/v1/design/auxetic", {"dim": 3, "cells": [2], "poisson_ratio": -0.5, "tolerance": {}, "refine": {}}, False),
     ("/v1/design/allosteric", request_body(x_src, u_src, x_tgt, u_tgt), False),
+    ("/v1/design/multistable", TRISTABLE, False),  # answered in test_api_multistable
     ("/v1/motion", {"frame": SQUARE, "boundary": {"left": [0, 3], "right": [1, 2], "bottom": [0, 1], "top": [2, 3]}}, True),
     ("/v1/refine", {"frame": {**SQUARE, "specified": [0, 1]}, "motion": [[0.0, 1.0], [0.0, -1.0]]}, False),
     ("/v1/certify", {"frame": K4_PLANE}, True),

@@ -1,15 +1,16 @@
 """Progress of the long computations (solver/progress.py), recorded as a job would see it.
 
 Each case runs a real computation inside ``progress_scope`` with a callback that stamps every
-report with the wall clock, then checks what a user polling the job sees: the fractions never
+report with the process's CPU time, then checks what a user polling the job sees: the fractions never
 go back, stay in [0, 1] and end at ≥ 0.95, and between two successive reports either little
 time passed or little work was claimed — so a job never looks stuck for long and never jumps
 by much without having reported in between.
 
 The promise is a report at least every 1.0 s or every 5 % of the work; the assertion allows
-2 s for the time side because the tests share two cores with other processes (CI runners, the
-other suites): a stage measured at 0.6 s alone can take twice as long under that load, and the
-property tested is that the stage reports at all, not the machine's speed.
+2 s of CPU time for the time side (a numba compile in another thread can land between two
+reports), and it counts CPU time, not the wall clock, so other processes sharing the two cores
+cannot stretch a silence: the property tested is that the stage reports at all, not the
+machine's speed.
 """
 
 from __future__ import annotations
@@ -47,12 +48,14 @@ FRACTION_GAP = 0.05
 def recorded(run, job: bool = False):
     """``run()`` inside a progress scope (a job: ``run(callback)``, which opens its own): its
     result and the reports [(t, fraction, message)], the first stamped at the start (fraction
-    0) and t in seconds from it."""
-    t0 = time.perf_counter()
+    0) and t in seconds of the process's CPU time from it: the silence asserted is over work
+    done, so other processes on a shared machine do not stretch it (2.5 s of wall clock between
+    two reports was seen once at load 13)."""
+    t0 = time.process_time()
     reports = [(0.0, 0.0, "start")]
 
     def callback(fraction: float, message: str) -> None:
-        reports.append((time.perf_counter() - t0, fraction, message))
+        reports.append((time.process_time() - t0, fraction, message))
 
     if job:
         return run(callback), reports

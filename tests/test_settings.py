@@ -165,6 +165,10 @@ VALID_BODIES = {
         "final": [[1.1, 1.1], [-1.1, 1.1], [-1.1, -1.1], [1.1, -1.1]],
     },
     "/v1/design/auxetic": {"dim": 2, "cells": [2, 2], "poisson_ratio": -0.5},
+    "/v1/design/multistable": {
+        "dim": 2,
+        "conformations": [[[0.0, 0.0], [1.0, 0.0], [0.3, 0.8]], [[0.0, 0.0], [1.0, 0.0], [0.45, 1.0]]],
+    },
     "/v1/motion": {"frame": SQUARE_LINKAGE},
     "/v1/certify": {"frame": TRIANGLE},
     "/v1/plot": {"frame": TRIANGLE},
@@ -176,6 +180,7 @@ NESTED = {
     "/v1/analyze": "options",
     "/v1/design": "options",
     "/v1/design/two-configuration": "options",
+    "/v1/design/multistable": "options",
     "/v1/certify": "options",
     "/v1/motion": "frame",
     "/v1/plot": "frame",

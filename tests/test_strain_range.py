@@ -17,7 +17,7 @@ from oracles.rigidity import compatibility_matrix, normalised
 from scipy.spatial.distance import pdist, squareform
 
 from zeromode.solver.applications.lattice import auxetic_chain_3d, auxetic_sheet
-from zeromode.solver.applications.strain_range import PROXIMITY_FRACTION
+from zeromode.solver.tolerances import PROXIMITY_FRACTION
 
 
 def sheet_at(nx, ny, w, h, c0, eps):

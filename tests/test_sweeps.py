@@ -244,7 +244,13 @@ def zeromode_service(tmp_path: Path, env: dict[str, str], name: str) -> Iterator
     finally:
         if proc.poll() is None:
             proc.terminate()
-            proc.wait(timeout=30)
+            try:
+                proc.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                # A graceful stop closes the embedded Dask cluster's worker processes, which took
+                # over 30 s at load 12; the fixture's job is to leave nothing running, not to time it.
+                proc.kill()
+                proc.wait(timeout=30)
 
 
 def get_from(url: str):

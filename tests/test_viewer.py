@@ -1,4 +1,5 @@
-"""The viewer page (GET /) in a real headless Chromium against a live uvicorn on loopback.
+"""The page at GET / in a real headless Chromium against a live uvicorn on loopback, as a viewer
+of the named examples (tests/test_designer.py draws a design by hand).
 
 A user's path through the page: pick a named example, design it, see the frame, drag the slider
 along its finite motion (keyboard on the range input, as a user would), switch nothing else,
@@ -7,58 +8,25 @@ per bar, each bar's ends on its nodes' circles), moving the slider moves the nod
 bar stays on its nodes, the downloaded VTK file reads back with meshio, and the browser's console
 shows no error.
 
-The browser is Debian's ``chromium`` driven by Playwright's Python package (no browser download:
-``executable_path`` points at the system's binary). Without them the test is skipped with the
-way to get them — except under CI (``CI=true``), where it fails: CI must run it.
+The browser is Debian's ``chromium`` driven by Playwright (tests/browser.py).
 """
 
 from __future__ import annotations
 
-import shutil
 from pathlib import Path
 
 import meshio
 import numpy as np
 import pytest
-from required import missing
+from browser import browser, console_problems  # noqa: F401 (a fixture)
 
 from tests.client.conftest import served
 from zeromode.service.rest.app import create_app
 
-CHROMIUM_ARGS = [
-    "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-    "--disable-background-networking", "--disable-component-update", "--disable-sync",
-]
-HOW_TO_GET_ONE = (
-    "the viewer test needs a Chromium and Playwright's Python package: on Debian or Ubuntu "
-    "`apt-get install -y chromium` and `pip install playwright` (no `playwright install`: the "
-    "system's /usr/bin/chromium is used)"
-)
 # Waits for the page: a design plus its finite motion on a busy 2-core machine.
 DESIGN_TIMEOUT_MS = 120_000
-
-
-def chromium_path() -> str | None:
-    for name in ("chromium", "chromium-browser"):
-        path = shutil.which(name)
-        if path:
-            return path
-    return None
-
-
-@pytest.fixture(scope="module")
-def browser():
-    path = chromium_path()
-    try:
-        from playwright.sync_api import sync_playwright
-    except ImportError:
-        path = None
-    if path is None:
-        missing("the viewer test", HOW_TO_GET_ONE)
-    with sync_playwright() as playwright:
-        chromium = playwright.chromium.launch(executable_path=path, args=CHROMIUM_ARGS)
-        yield chromium
-        chromium.close()
+# The page and everything it loads (issue #40's floor).
+PAGE_WEIGHT_LIMIT = 400_000
 
 
 @pytest.fixture(scope="module")
@@ -72,10 +40,10 @@ def drawing(page) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Node centres (N, 2) in node order, bar ends (N_B, 2, 2) and bar nodes (N_B, 2) read
     from the page's SVG."""
     nodes = page.eval_on_selector_all(
-        "#frame circle.node", "cs => cs.map(c => [+c.dataset.node, +c.getAttribute('cx'), +c.getAttribute('cy')])"
+        "#canvas circle.node", "cs => cs.map(c => [+c.dataset.node, +c.getAttribute('cx'), +c.getAttribute('cy')])"
     )
     bars = page.eval_on_selector_all(
-        "#frame line.bar",
+        "#canvas line.bar",
         "ls => ls.map(l => [+l.dataset.edge, +l.getAttribute('x1'), +l.getAttribute('y1'), +l.getAttribute('x2'), +l.getAttribute('y2')])",
     )
     centres = np.array([c[1:] for c in sorted(nodes)])
@@ -83,19 +51,18 @@ def drawing(page) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return centres, ends, np.array(sorted(b[0] for b in bars))
 
 
-def test_design_play_and_download_in_a_real_browser(browser, live_url, tmp_path):
+def test_design_play_and_download_in_a_real_browser(browser, live_url, tmp_path):  # noqa: F811
     page = browser.new_page(viewport={"width": 1280, "height": 900}, accept_downloads=True)
-    problems: list[str] = []
-    page.on("console", lambda msg: problems.append(msg.text) if msg.type == "error" else None)
-    page.on("pageerror", lambda exc: problems.append(str(exc)))
+    problems = console_problems(page)
     page.goto(live_url + "/")
     page.wait_for_selector("#example option[value='example:outward_2d']", state="attached")
     page.select_option("#example", "example:outward_2d")
-    page.wait_for_function("document.getElementById('request').value.includes('positions')")
-    page.click("#design")
+    page.wait_for_function("designer.nodes.length === 4")
+    assert page.input_value("[data-testid=name]") == "outward_2d"
+    page.click("[data-testid=design]")
     page.wait_for_selector("#slider:not([disabled])", timeout=DESIGN_TIMEOUT_MS)
 
-    design = page.evaluate("state.response")
+    design = page.evaluate("designer.response")
     x = np.array(design["frame"]["positions"])
     edges = np.array(design["frame"]["edges"])
     before, ends, bar_ids = drawing(page)
@@ -105,8 +72,8 @@ def test_design_play_and_download_in_a_real_browser(browser, live_url, tmp_path)
     fit = np.column_stack([np.ones(len(x)), x[:, 0], -x[:, 1]])
     coef, *_ = np.linalg.lstsq(fit, before, rcond=None)
     assert np.allclose(fit @ coef, before, atol=1e-6)
-    assert "zero modes" in page.inner_text("#summary")
-    assert len(page.query_selector_all("#frame line.arrow")) == len(x)  # the mode, at the reference
+    assert "zero modes" in page.inner_text("[data-testid=report]")
+    assert len(page.query_selector_all("#canvas line.arrow")) == len(x)  # the mode, at the reference
 
     page.focus("#slider")
     page.keyboard.press("Home")  # to the start of the finite motion
@@ -117,11 +84,12 @@ def test_design_play_and_download_in_a_real_browser(browser, live_url, tmp_path)
     assert np.abs(start - before).max() > 0.01 * size and np.abs(end - start).max() > 0.01 * size
     for centres, bar_ends in ((start, ends_start), (end, ends_end)):
         assert np.allclose(bar_ends, centres[edges], atol=1e-6)
-    assert page.query_selector_all("#frame g.trajectories line")
+    assert page.query_selector_all("#canvas g.trajectories line")
 
-    page.wait_for_selector("#downloads button[data-format='vtk']")
+    page.wait_for_selector("[data-testid=download-vtk]")
     with page.expect_download() as info:
-        page.click("#downloads button[data-format='vtk']")
+        page.click("[data-testid=download-vtk]")
+    assert info.value.suggested_filename == "outward_2d.vtu"  # named after the design
     saved = Path(tmp_path) / "frame.vtu"
     info.value.save_as(saved)
     mesh = meshio.read(saved)
@@ -133,8 +101,12 @@ def test_design_play_and_download_in_a_real_browser(browser, live_url, tmp_path)
 def test_the_page_and_its_files_are_served(client):
     page = client.get("/")
     assert page.status_code == 200 and page.headers["content-type"].startswith("text/html")
-    for src in ("/viewer/viewer.js", "/viewer/viewer.css"):
+    weight = len(page.content)
+    for src in ("/viewer/designer.js", "/viewer/solution_space.js", "/viewer/designer.css"):
         assert src in page.text
-        assert client.get(src).status_code == 200
-    assert "http" not in client.get("/viewer/viewer.js").text.replace("http://www.w3.org/2000/svg", "")  # no CDN
+        asset = client.get(src)
+        assert asset.status_code == 200
+        assert "http" not in asset.text.replace("http://www.w3.org/2000/svg", "")  # no CDN
+        weight += len(asset.content)
+    assert weight <= PAGE_WEIGHT_LIMIT
     assert client.get("/viewer/app.py").status_code == 404

@@ -1,7 +1,7 @@
 """Pictures of zeromode's results, from their arrays: a design, a lattice, an allosteric frame.
 
 The mathematics comes from the solver: the rigid part of a mode is removed by
-``rigidity.non_rigid_part`` and a state's boundary strain is ``lattice.boundary_strains``.
+``rigidity.non_rigid_part`` and a state's boundary strain is ``boundary_strain.boundary_strains``.
 """
 
 from __future__ import annotations
@@ -11,8 +11,8 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 from zeromode.solver.analysis.rigidity import non_rigid_part
-from zeromode.solver.applications.lattice import boundary_strains
 from zeromode.solver.frame import Frame
+from zeromode.solver.motion.boundary_strain import boundary_strains
 from zeromode.viz.picture import Picture
 from zeromode.viz.style import MAX_ARROW_NODES
 

@@ -28,8 +28,11 @@ __all__ = [
     "certify",
     "design",
     "examples",
+    "module_map",
     "motion",
+    "multistable",
     "refine",
+    "sequential",
     "sweep",
     "two_configuration",
 ]
@@ -42,8 +45,8 @@ _HOMES: dict[str, tuple[str, str | None]] = {
     "sweep": ("zeromode.service.jobs.sweeps", "sweep"),
     **{
         name: ("zeromode._library", name)
-        for name in ("allosteric", "analyze", "auxetic", "certify", "design", "motion", "refine",
-                     "two_configuration")
+        for name in ("allosteric", "analyze", "auxetic", "certify", "design", "module_map", "motion", "multistable",
+                     "refine", "sequential", "two_configuration")
     },
 }
 
@@ -55,8 +58,11 @@ if TYPE_CHECKING:  # the names as a type checker sees them, without importing th
         auxetic,
         certify,
         design,
+        module_map,
         motion,
+        multistable,
         refine,
+        sequential,
         two_configuration,
     )
     from zeromode.service.jobs.sweeps import sweep

@@ -43,8 +43,11 @@ __all__ = [
     "auxetic",
     "certify",
     "design",
+    "module_map",
     "motion",
+    "multistable",
     "refine",
+    "sequential",
     "two_configuration",
 ]
 
@@ -273,11 +276,54 @@ class CertificateResult(Result):
         return np.asarray(self.request.modes or np.zeros((0, frame.n_nodes, frame.dim)), dtype=float)
 
 
+class MultistableResult(Result):
+    """``zm.multistable``: rods and springs whose conformations are energy minima (solution:
+    MultistableDesign). ``plot()`` draws the energy landscape under the motion; the picture
+    (``_repr_svg_``) is the rods in the first conformation."""
+
+    def plot(self, width: float = 6.4, height: float = 3.6) -> Figure:
+        """E(s) along the motion with each minimum, its curvature and the barriers (a matplotlib
+        Figure)."""
+        from zeromode.viz.landscape import landscape_figure
+
+        return landscape_figure(self.body, width, height)
+
+
 def _plot_modes() -> int:
     """How many modes a /v1/plot body draws at most (the first ones are drawn)."""
     from zeromode.service.wire.schemas.plot import MAX_PLOT_MODES
 
     return MAX_PLOT_MODES
+
+
+class MapResult(Result):
+    """``zm.module_map``: a module's map d_out = f(d_in) (solution: ModuleMap); ``plot()`` charts
+    f, the drawings are of the module's frame."""
+
+    def document(self) -> dict:
+        return {"frame": self.request.frame.model_dump()}
+
+    def plot(self, scale: float = 1.0, solution_space: bool = True) -> Figure:
+        """The graph of f on its usable range, the diagonal, fixed points and folds."""
+        from zeromode.viz.sequential import map_figure
+
+        return map_figure(self.body, scale)
+
+
+class SequentialResult(Result):
+    """``zm.sequential``: a module designed for map features and its verified chain (solution:
+    SequentialDesign); ``plot()`` charts the map with the chain's orbit and d_k along the chain;
+    the drawings are of the chained frame (or the module without a chain)."""
+
+    def document(self) -> dict:
+        chain = self.body["chain"]
+        return {"frame": (chain or self.body["module"])["frame"]}
+
+    def plot(self, scale: float = 1.0, solution_space: bool = True) -> Figure:
+        """The designed map (with the chain's cobweb) and the chain's distances."""
+        from zeromode.viz.sequential import sequential_figure
+
+        return sequential_figure(self.body, scale)
 
 
 # ----------------------------------------------------------------------------- helpers
@@ -523,6 +569,52 @@ def two_configuration(initial: Points, final: Points, *, dim: int | None = None,
     }, DesignResult)
 
 
+def multistable(conformations: Sequence[Points], *, barrier: float | None = None, max_stiffness: float = 1.0,
+                dim: int | None = None, seed: int = 0) -> MultistableResult:
+    """Rods and springs whose specified nodes rest in each of 2 or 3 conformations: a strict
+    local minimum of the elastic energy E = Σ_s k_s (|x_i − x_j| − L_s)²/2 along the rods'
+    one-degree-of-freedom motion, which passes through them in order (POST
+    /v1/design/multistable).
+
+    The linkage generalises the two-configuration design: for three conformations each new
+    node solves, per anchor, two linear equations in (p^a, p^b, p^c, s_ab, s_ac) and two
+    quadrics; the path is verified by continuation of the exact finite motion. The springs
+    solve a cone program (E′ = 0, E″ ≥ floor, barriers ≥ ``barrier``, least stored energy).
+    Every minimum is verified by the Hessian of the full energy (rods as stiff springs) and by
+    seeded relaxations before the result is returned.
+
+    Parameters
+    ----------
+    conformations : sequence of 2 or 3 (k, d) array_like
+        The specified nodes in each conformation, k ≥ d + 1, in the order of the motion.
+    barrier : float, optional
+        Smallest barrier between neighbouring minima (default: half the largest the springs can make).
+    max_stiffness : float
+        Largest spring stiffness.
+    dim : {2, 3}, optional
+        The dimension (by default the width of the first conformation).
+    seed : int
+        Seed of the placement and the relaxations.
+
+    Returns
+    -------
+    MultistableResult
+        ``solution`` is the solver's MultistableDesign; ``plot()`` the energy landscape.
+
+    Examples
+    --------
+    >>> import zeromode as zm
+    >>> apex = [[0.3, 0.8], [0.45, 1.0], [0.65, 1.15]]
+    >>> r = zm.multistable([[[0, 0], [1, 0], p] for p in apex])
+    >>> [m["curvature"] > 0 for m in r.to_dict()["minima"]]
+    [True, True, True]
+    """
+    return _run("/v1/design/multistable", {
+        "dim": _dim(conformations[0], dim), "conformations": conformations,
+        "options": {"barrier": barrier, "max_stiffness": max_stiffness, "seed": seed},
+    }, MultistableResult)
+
+
 # ----------------------------------------------------------------------------- beyond the linear design
 
 
@@ -638,3 +730,80 @@ def certify(frame: Frame | Result | Mapping, modes: Sequence[Points] = (), **opt
     0
     """
     return _run("/v1/certify", {"frame": _frame_body(frame), "modes": modes, "options": options}, CertificateResult)
+
+
+# ----------------------------------------------------------------------------- modules as maps
+
+
+def module_map(frame: Frame | Result | Mapping, input_pair: Sequence[int], output_pair: Sequence[int], *,
+               at: Sequence[float] = ()) -> MapResult:
+    """The map d_out = f(d_in) of a one-mode module between its input and output node pairs,
+    from its exact finite motion (POST /v1/map; arXiv 1906.08400's modules as maps).
+
+    Parameters
+    ----------
+    frame : Frame, result or Frame body
+        A frame with exactly one nontrivial zero mode.
+    input_pair, output_pair : (2,) node indices
+        d_in = |x_a − x_b|, d_out = |x_c − x_e| (neither pair a bar).
+    at : input distances
+        Where f and f′ are evaluated exactly (inside the usable range).
+
+    Returns
+    -------
+    MapResult
+        ``solution`` is the solver's ModuleMap; ``to_dict()`` the samples, the usable range
+        between folds, the fixed points and the values at ``at``; ``plot()`` the graph of f.
+
+    Examples
+    --------
+    >>> import zeromode as zm
+    >>> module = zm.Frame.build([[-1, 0], [1, 0], [-0.8, 1], [0.8, 1], [0.15, 0.45]],
+    ...                         [[0, 2], [0, 4], [2, 4], [1, 3], [1, 4], [3, 4]])
+    >>> m = zm.module_map(module, (0, 1), (2, 3), at=[1.0])
+    >>> m.to_dict()["lower"]["kind"], round(m.to_dict()["evaluated"][0]["d_out"], 6)
+    ('fold', 1.944466)
+    """
+    return _run("/v1/map", {
+        "frame": _frame_body(frame), "input_pair": input_pair, "output_pair": output_pair, "at": at,
+    }, MapResult)
+
+
+def sequential(features: Sequence[Mapping], *, n_modules: int | None = None, d0: float | None = None,
+               start: Mapping | None = None, reach: float = 3.0) -> SequentialResult:
+    """A module whose map has the requested features, and optionally a chain of ``n_modules``
+    copies verified by continuation against the map's iterates (POST /v1/design/sequential).
+
+    Parameters
+    ----------
+    features : list of dicts
+        ``{"kind": "fixed_point", "d": d*, "slope": f′(d*)}``,
+        ``{"kind": "period_two", "d1": …, "d2": …}`` or
+        ``{"kind": "range", "source": [a, b], "target": [c, e]}``; met together, to map_rtol.
+    n_modules : int, optional
+        Chain this many copies (the output pair of one is the input pair of the next).
+    d0 : float, optional
+        The first copy's input distance (default: the first feature's first input).
+    start : dict, optional
+        ``{"frame": …, "input_pair": …, "output_pair": …}``, the module optimised (default: the
+        two-triangle module).
+    reach : float
+        Nodes stay within this many RMS radii of the start's centre.
+
+    Returns
+    -------
+    SequentialResult
+        ``solution`` is the solver's SequentialDesign; a feature out of reach raises
+        DomainError ``feature_out_of_reach`` with ``best``.
+
+    Examples
+    --------
+    >>> import zeromode as zm
+    >>> s = zm.sequential([{"kind": "fixed_point", "d": 1.5, "slope": -0.5}])
+    >>> s.to_dict()["deviation"] <= s.to_dict()["map_rtol"]
+    True
+    """
+    chain = None if n_modules is None else {"n_modules": n_modules, "d0": d0}
+    return _run("/v1/design/sequential", {
+        "features": list(features), "start": start, "chain": chain, "reach": reach,
+    }, SequentialResult)

@@ -6,7 +6,8 @@ a loaded 2-core machine (load 5-8): every request left inline answers in a few s
 auxetic sheet of 400 cells 0.5 s, a design of 32 nodes × 2 motions 3 s, an analysis of 300 2D
 nodes 2.8 s at most; while an analysis of 1 000 floppy 2D nodes took 37 s, a 3D auxetic chain
 of 8 blocks 60 s, a two-configuration design of 64 nodes 60 s, a plot or a GraphML export of
-10⁵ nodes 20 s.
+10⁵ nodes 20 s, a multistable design 1.5–2.5 s CPU when it succeeds and up to ~20 s when every
+placement attempt is traced and fails (no_path).
 """
 
 from __future__ import annotations
@@ -14,7 +15,8 @@ from __future__ import annotations
 from typing import Any
 
 # Requests whose answer can take long, by endpoint: the rest are cheap enough to answer inline.
-ALWAYS = frozenset({"/v1/motion", "/v1/refine", "/v1/certify", "/v1/design/allosteric", "/v1/design/two-configuration"})
+ALWAYS = frozenset({"/v1/motion", "/v1/refine", "/v1/certify", "/v1/design/allosteric", "/v1/design/two-configuration",
+                    "/v1/design/multistable", "/v1/design/sequential"})
 # Above these sizes a frame's plot or export (nodes or bars), its analysis or a network's tuning
 # (degrees of freedom dN or bars: a floppy frame's null-space bases cost seconds, 300 2D nodes up
 # to 2.8 s, 1 000 up to 37 s), an auxetic sheet and a design (specified nodes × motions) are heavy.

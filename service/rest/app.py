@@ -34,7 +34,9 @@ from zeromode.service.rest.routes import (
     jobs,
     lattice,
     motion,
+    multistable,
     plot,
+    sequential,
     sweeps,
     viewer,
 )
@@ -195,7 +197,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.settings = settings  # the job store reads its database, limits and settings here
     app.state.jobs = None
     app.state.kernels_ready = threading.Event()  # set by the warm-up the lifespan starts
-    for module in (health, analyze, certify, design, examples, lattice, plot, export, motion, jobs, sweeps, viewer):
+    for module in (health, analyze, certify, design, multistable, examples, lattice, plot, export, motion, sequential, jobs,
+                   sweeps, viewer):
         app.include_router(module.router)
 
     app.add_middleware(Offload, settings=settings)  # inside the limits: sees checked bodies

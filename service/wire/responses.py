@@ -593,3 +593,126 @@ def sweep_body(sweep: dict, finished_points: list[dict], after: int) -> dict:
         "results": [sweep_point_body(p) for p in finished_points],
         "next": finished_points[-1]["seq"] if finished_points else after,
     }
+
+
+def multistable_body(result, timings_ms: dict) -> dict:
+    """/v1/design/multistable for a MultistableDesign: the rods, the springs, the energy along
+    the motion, each minimum with its verification, and the report."""
+    link, springs, land = result.linkage, result.springs, result.landscape
+    frame = link.frame
+    return {
+        "frame": frame_body(frame),
+        "conformations": link.conformations.tolist(),
+        "springs": {
+            "pairs": springs.pairs.tolist(),
+            "stiffness": springs.stiffness.tolist(),
+            "rest_length": springs.rest_length.tolist(),
+        },
+        "landscape": {
+            "arclength": land.arclength.tolist(),
+            "energy": land.energy.tolist(),
+            "conformation_samples": land.conformation_samples.tolist(),
+        },
+        "minima": [
+            {
+                "index": m.index,
+                "arclength": m.arclength,
+                "energy": m.energy,
+                "slope": m.slope,
+                "curvature": m.curvature,
+                "barrier_before": m.barrier_before,
+                "barrier_after": m.barrier_after,
+                "hessian_min_eigenvalue": c.hessian_min_eigenvalue,
+                "relaxed_shift": c.relaxed_shift,
+                "worst_landing": c.worst_landing,
+            }
+            for m, c in zip(land.minima, result.checks)
+        ],
+        "report": {
+            "construction": link.construction,
+            "analysis": counts_body(link.analysis),
+            "unspecified_nodes": frame.n_nodes - len(frame.specified),
+            "rods": frame.n_edges,
+            "springs": len(springs.pairs),
+            "parameters": link.parameters.tolist(),
+            "epsilons": link.epsilons.tolist(),
+            "gap": link.gap,
+            "max_length_mismatch": link.max_length_mismatch,
+            "barrier": result.barrier,
+            "max_stiffness": result.max_stiffness,
+            "rod_stiffness_ratio": result.rod_stiffness_ratio,
+            "relaxations": result.relaxations,
+            "timings_ms": timings_ms,
+        },
+    }
+
+def module_map_body(the_map, at=()) -> dict:
+    """/v1/map's body (without timings) for a solver ModuleMap: samples, range, fixed points and
+    the exact values at ``at``."""
+    end = lambda e: {"kind": e.kind, "d_in": e.d_in, "d_out": e.d_out}
+    values, slopes = the_map.evaluate(np.asarray(at, dtype=float)) if len(at) else ([], [])
+    module = the_map.module
+    return {
+        "input_pair": list(module.input_pair),
+        "output_pair": list(module.output_pair),
+        "d_in": the_map.d_in.tolist(),
+        "d_out": the_map.d_out.tolist(),
+        "slope": the_map.slope.tolist(),
+        "lower": end(the_map.lower),
+        "upper": end(the_map.upper),
+        "fixed_points": [{"d": d, "slope": s, "stable": bool(abs(s) < 1)} for d, s in the_map.fixed_points()],
+        "evaluated": [{"d_in": float(x), "d_out": float(v), "slope": float(s)} for x, v, s in zip(at, values, slopes)],
+        "max_relative_bar_error": the_map.path.max_relative_bar_error,
+    }
+
+
+def sequential_body(result, timings_ms: dict) -> dict:
+    """/v1/design/sequential's body for a solver SequentialDesign."""
+    from zeromode.solver.tolerances import MAP_RTOL
+
+    design, verified = result.design, result.chain
+    chain = None
+    if verified is not None:
+        chain = {
+            "frame": frame_body(verified.chain.frame),
+            "pairs": verified.chain.pairs.tolist(),
+            "iterates": verified.chain.iterates.tolist(),
+            "distances": verified.distances.tolist(),
+            "deviation": verified.deviation,
+            "iterate_deviation": verified.iterate_deviation,
+            "ends": list(verified.ends),
+        }
+    module = design.module
+    return {
+        "module": {"frame": frame_body(module.frame), "input_pair": list(module.input_pair),
+                   "output_pair": list(module.output_pair)},
+        "map": module_map_body(design.map),
+        "features": [
+            {"d_in": p.d_in, "d_out": p.d_out, "slope": p.slope, "achieved_d_out": float(v), "achieved_slope": float(s)}
+            for p, v, s in zip(design.points, design.achieved, design.slopes)
+        ],
+        "chain": chain,
+        "deviation": design.deviation,
+        "map_rtol": MAP_RTOL,
+        "solver_status": design.solver_status,
+        "timings_ms": timings_ms,
+    }
+
+
+def sequential_refusal_best(exc) -> dict | None:
+    """The best figures of a refused sequential design (FeatureOutOfReach: the features as met
+    and the module IPOPT ended with; chain_mismatch: the chain's deviation), else None."""
+    best = getattr(exc, "best", None)
+    if best is None:
+        return None
+    if hasattr(best, "points"):
+        return json_safe({
+            "features": [
+                {"d_in": p.d_in, "d_out": p.d_out, "slope": p.slope, "achieved_d_out": float(v), "achieved_slope": float(s)}
+                for p, v, s in zip(best.points, best.achieved, best.slopes)
+            ],
+            "deviation": best.deviation,
+            "solver_status": best.solver_status,
+            "positions": best.configurations[0].tolist(),
+        })
+    return json_safe({"deviation": best.deviation, "iterate_deviation": best.iterate_deviation})

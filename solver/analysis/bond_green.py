@@ -27,11 +27,8 @@ from zeromode.solver.analysis.factorisation import cholesky
 from zeromode.solver.analysis.rigidity import compatibility_matrix, rigid_motions
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame
+from zeromode.solver.tolerances import COINCIDENT_RTOL, FLOPPY_RTOL
 
-# A removal is refused when 1 − k_b G_bb falls to this: the new softest mode would be softer
-# than 1e-8 of the removed bond's own stiffness (singular value ≳ 1e-4 of the bond's), which
-# keeps it far above the 1e-9 singular-value threshold of the project's rank decisions.
-FLOPPY_RTOL = 1e-8
 # Bars removed between two factorisations (Woodbury updates in between, see SpringNetwork):
 # each adds one column to every solve, and 64 keep the refreshed inverse small and accurate.
 REFACTOR_AFTER = 64
@@ -67,7 +64,7 @@ def check_pair(frame: Frame, pair, name: str) -> tuple[int, int]:
     n = frame.n_nodes
     if not (0 <= i < n and 0 <= j < n):
         raise InvalidInput("invalid_pair", f"{name} {[i, j]} names a node outside 0..{n - 1}.")
-    if np.linalg.norm(frame.positions[i] - frame.positions[j]) <= 1e-12 * max(
+    if np.linalg.norm(frame.positions[i] - frame.positions[j]) <= COINCIDENT_RTOL * max(
         float(np.max(np.abs(frame.positions))), np.finfo(float).tiny
     ):
         raise InvalidInput("invalid_pair", f"{name} {[i, j]} joins two coincident nodes.")

@@ -10,7 +10,7 @@ Dense (n ≤ DENSE_MAX_DOF): eigh of H itself.
 Sparse: shift-invert Lanczos (ARPACK) on  Π (K + δI)⁻¹ Π,  Π = I − DDᵀ,  whose largest
 eigenvalues are 1/(λ_i + δ) when D is invariant under K (it spans eigenvectors of K: rigid
 motions and zero modes of C are in N(K)); one sparse Cholesky factorisation of the positive
-definite K + δI (factorisation.py) with δ = SHIFT_RTOL·mean diag K.
+definite K + δI (factorisation.py) with δ = EIGEN_SHIFT_RTOL·mean diag K.
 Whatever D, the returned pairs are then refined by Rayleigh–Ritz on their span ⟂ D, so each value
 is a Rayleigh quotient of H (an upper bound on the matching λ_i) and ``residuals`` bound the
 distance to an eigenvalue of H: |θ_i − λ| ≤ ‖H v_i − θ_i v_i‖ for some eigenvalue λ of H.
@@ -27,16 +27,10 @@ import scipy.sparse.linalg as spla
 from zeromode.solver.analysis.factorisation import cholesky
 from zeromode.solver.analysis.rank import nullspace
 from zeromode.solver.analysis.rigidity import DENSE_MAX_DOF
+from zeromode.solver.tolerances import ARPACK_TOL, EIGEN_SHIFT_RTOL
 
-# δ in K + δI, relative to the mean diagonal of K: below the wanted eigenvalues (down to ~1e-12
-# of the scale: the uniform margin of a chain of 64 blocks), so that they stay apart in the
-# inverse, and three decades above the round-off of a Cholesky factorisation (~1e-16), so that
-# K + δI is numerically positive definite; a factorisation that fails retries SHIFT_RETRY
-# times larger.
-SHIFT_RTOL = 1e-13
+# A factorisation of K + δI that fails retries with δ this many times larger.
 SHIFT_RETRY = 1e3
-# ARPACK's convergence tolerance (relative to the Ritz value of the inverse): machine level.
-ARPACK_TOL = 1e-14
 
 
 @dataclass(frozen=True, eq=False)
@@ -79,7 +73,7 @@ def smallest_eigenpairs(
 
 def _shift_invert(k: sp.csc_matrix, count: int, d: np.ndarray, guess, tol: float) -> np.ndarray:
     n = k.shape[0]
-    delta = SHIFT_RTOL * (float(np.mean(k.diagonal())) or 1.0)
+    delta = EIGEN_SHIFT_RTOL * (float(np.mean(k.diagonal())) or 1.0)
     try:
         factor = cholesky(k + delta * sp.identity(n, format="csc"))
     except ArithmeticError:  # not numerically positive definite at this shift

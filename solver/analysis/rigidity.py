@@ -40,6 +40,7 @@ from zeromode.solver.budget import check_budget
 from zeromode.solver.errors import DomainError
 from zeromode.solver.frame import Frame
 from zeromode.solver.progress import report_detail
+from zeromode.solver.tolerances import BASIS_ANGLE, BASIS_ROUNDOFF_RTOL, NULL_SHIFT_RTOL
 
 # Dense linear algebra up to this many degrees of freedom (dN) in the modules that share this
 # crossover (finite motion, eigenmodes, certificates, zero_mode_residual below).
@@ -259,20 +260,6 @@ def _dense_null_spaces(c: np.ndarray, rigid: np.ndarray, rtol: float, want_bases
     return complement_within(vt[rank:].T, rigid), u[:, rank:], rank, gap
 
 
-# δ = SHIFT·σ_max² in CᵀC + δI: 10³ times the round-off of forming CᵀC (≈ 1e-16 σ_max²), so
-# the factorisation sees a positive definite matrix (up to 10⁶ nodes, 2D and 3D lattices and
-# near-isostatic networks), and below σ² of the singular values of designed frames and lattice
-# patches (σ ≳ 1e-4 σ_max), so a shift-invert step damps such a direction by δ/(σ² + δ) relative
-# to the null space. Directions with σ² below δ (σ ≲ 3e-7 σ_max, yet above the rank threshold
-# RTOL·σ_max) are damped by less than half per step: the iteration cannot tell them from the
-# null space, and a block narrower than all of them converges to a mixture whose Ritz value
-# stalls above the threshold, a zero mode missed. So the block is widened until its largest
-# Ritz value is one the shift damps (θ² ≥ δ); Rayleigh–Ritz on C then separates the null space
-# from those singular values. Near-degenerate frames have such directions (disordered
-# near-isostatic networks of 10⁴ nodes reach σ_r ≈ 2e-7 – 6e-5 σ_max). A larger shift leaves
-# more of them undamped (δ = 1e-10 σ_max² with a second factorisation at 1e-13 when needed:
-# 1.5–1.8× slower counts on those networks at 10⁴ nodes; the same on lattices).
-SHIFT = 1e-13
 # Columns of the iterated block beyond the lower bound on the null space being found: they
 # carry the smallest nonzero singular values, whose Ritz value the rank's gap reports as σ_r and
 # whose settling ends the iteration (a block that fills with null vectors is doubled, see
@@ -325,14 +312,6 @@ MAX_WIDENING_STEPS = 60
 # … and at most this many numbers in the widened space and its image under the counted side's
 # matrix A (n + m per step: 10⁶-node frames 2·10⁶ + 3·10⁶, 40 steps within 1.6 GB).
 WIDENING_MAX_NUMBERS = 200_000_000
-# Bases are iterated until ‖C v‖ ≤ BASIS_ANGLE·σ_r for every basis vector v, which bounds
-# the angle between the returned and the exact null space by BASIS_ANGLE (round-off allowing).
-BASIS_ANGLE = 1e-10
-# … or until ‖C v‖ ≤ ROUNDOFF·σ_max, the level round-off in C·v (≈ 1e-16 σ_max per entry,
-# summed over a node's bars) keeps it above; or, where a singular value below the rank's
-# threshold lies above both (a near-degenerate frame), until ‖C v‖ is at most the largest Ritz
-# value counted as zero, which its singular vector cannot go below.
-ROUNDOFF = 1e-13
 # A block of dim columns projected from random ones is about as ill-conditioned as a random
 # dim × dim matrix (condition ~ dim), and orthonormalising it raises its residual by up to
 # that much (a 900-column block: 1.2e-13 to 3.4e-11), so the quick steps orthonormalise only
@@ -474,7 +453,7 @@ def _sparse_null_spaces(x: np.ndarray, edges: np.ndarray, rigid: np.ndarray, rto
     c = _Sparse(*rows, *columns, (nb, ndof))
     a, b = (c, c.T) if count_modes else (c.T, c)  # the counted side's matrix, the other's
     tol = rtol * sigma_max
-    shift = SHIFT * sigma_max**2
+    shift = NULL_SHIFT_RTOL * sigma_max**2
     factor = cholesky_csr(*gram, _elimination_order(x, edges, count_modes), shift=shift)
     report_detail(0.3, "factorised the Gram matrix")
     floor = max(surplus, rho)
@@ -497,7 +476,7 @@ def _sparse_null_spaces(x: np.ndarray, edges: np.ndarray, rigid: np.ndarray, rto
         return None, None, rank, gap
     # The counted side's vectors take one more step together (polish); the other side's
     # dimension is now known.
-    target = max(BASIS_ANGLE * kept, ROUNDOFF * sigma_max)
+    target = max(BASIS_ANGLE * kept, BASIS_ROUNDOFF_RTOL * sigma_max)
     found = _null_basis(counted, target, found.shape[1], shift, start=found, floor=dropped)
     rest = _null_basis(other, target, n_stresses if count_modes else n_modes, shift, floor=dropped)
     return (found, rest, rank, gap) if count_modes else (rest, found, rank, gap)

@@ -58,6 +58,7 @@ from __future__ import annotations
 import numpy as np
 
 from zeromode.solver.analysis.compiled import compiled
+from zeromode.solver.tolerances import JACOBI_TOL, RITZ_SPACE_RTOL
 
 _u = np.uint64
 # null_space_rounds' requests to its caller
@@ -66,14 +67,8 @@ SOLVE, ORTHONORMALISE, ROUND, TOO_MANY, DONE = range(5)
 # columns: LAPACK's gesdd costs a few microseconds of set-up at any size (measured, one core,
 # inside numba: k = 5 1.7 µs against 4.2 µs, 8 4.4 against 7.1, level at 12, 16 24 against 18).
 JACOBI_MAX_COLUMNS = 8
-# A column pair counts as orthogonal once |r_jᵀ r_l| ≤ JACOBI_TOL ‖r_j‖ ‖r_l‖: a few units of
-# round-off, the accuracy the rotations themselves reach; Jacobi converges quadratically, and
-# past JACOBI_MAX_SWEEPS sweeps (never seen) the SVD falls back to LAPACK's.
-JACOBI_TOL = 1e-15
+# Sweeps of the one-sided Jacobi SVD before it falls back to LAPACK's (never seen).
 JACOBI_MAX_SWEEPS = 30
-# A vector that keeps at most this fraction of its norm after its parts along the null vectors and
-# the Ritz space are removed lies in that space (round-off after two Gram–Schmidt passes).
-INVARIANT_TOL = 1e-12
 
 
 @compiled
@@ -445,7 +440,7 @@ def extend_ritz_space(indptr, indices, data, null, q, qa, b, w, x):
         x = x - null @ (null.T @ x)
         x = x - q @ (q.T @ x)
     norm = np.sqrt(x @ x)
-    if norm <= INVARIANT_TOL * size:
+    if norm <= RITZ_SPACE_RTOL * size:
         return q, qa, b, w, False
     x = x / norm
     ax = times(indptr, indices, data, x.reshape(-1, 1)).ravel()

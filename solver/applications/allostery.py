@@ -30,8 +30,9 @@ Every answer carries its accuracy (target error, from the frame's own zero modes
 relative singular-value gap of the designed mode, the linear sensitivity of the response and
 the amplification of fabrication errors a builder feels (``ResponseFigures``). An answer with
 target error above TARGET_ERROR_MAX or gap below GAP_FLOOR is not returned: by default the
-chains of ROBUST_CHAINS are all designed and the acceptable one with the smallest amplification
-is kept; then (or with robustness="economy" first) other port sizes, growths, module lengths and
+chains of ROBUST_CHAINS are all designed, the best of them is rebuilt with the source site's
+first port at each of SOURCE_SIDES, and the acceptable one with the smallest amplification is
+kept; then (or with robustness="economy" first) other port sizes, growths, module lengths and
 seeds are tried (``ALTERNATIVES``) and, if none meets both, DomainError ``inaccurate_design``
 reports the best.
 """
@@ -72,19 +73,14 @@ from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame, check_positions
 from zeromode.solver.motion.finite_motion import bar_lengths
 from zeromode.solver.progress import progress_scope, progress_stage, report_progress
-from zeromode.solver.tolerances import DISTINCT_RTOL
+from zeromode.solver.tolerances import (
+    AXES_RTOL,
+    DISTINCT_RTOL,
+    GAP_FLOOR,
+    SENSITIVITY_PERTURBATION,
+    TARGET_ERROR_MAX,
+)
 
-# An answer's target error ‖achieved − u_tgt‖/‖u_tgt‖ must not exceed this (the issue's floor);
-# an exact construction reaches ~1e-13, so this leaves four decades for the frame's conditioning.
-TARGET_ERROR_MAX = 1e-9
-# The relative singular-value gap σ_min/σ_max of the unit compatibility matrix past the designed
-# zero modes must reach this: well-built chains have 1e-3 … 1e-2 (measured, benchmarks/
-# bench_allostery.py); below 1e-6 a second soft mode is six decades from being a zero mode and
-# the frame's own rank decisions (RANK_RTOL = 1e-9 of C) are no longer safely away from it.
-GAP_FLOOR = 1e-6
-# The stated perturbation of the sensitivity figure: node displacements of Euclidean norm
-# PERTURBATION × the site size (all nodes together, worst direction).
-PERTURBATION = 1e-6
 # A chain of more modules is refused before any work (too_expensive): ~1 ms per module copy, but
 # the frame's analysis and figures grow with it; 400 modules is ~1600 nodes in 2D.
 MAX_MODULES = 400
@@ -111,13 +107,16 @@ class ChainOptions:
     """port: size of the first port next to each site (site units); growth g ≥ 1; aspect λ:
     module length per smaller-port size; seed of the module placements; amplitude: every port's
     motion amplitude (canonical units; relays of gain 1), or None for motions growing with the
-    port's size (constant strain)."""
+    port's size (constant strain); source_side: where the source site's first port sits, a
+    (twist, offset) of SOURCE_SIDES (as SIDE_VARIANTS: see Side), or None for the variant of
+    SIDE_VARIANTS with the best gap."""
 
     port: float = DEFAULT_PORT
     growth: float = DEFAULT_GROWTH
     aspect: float = DEFAULT_ASPECT
     seed: int = 0
     amplitude: float | None = None
+    source_side: tuple[float, float] | None = None
 
 
 # The alternatives tried, in order, when an answer misses the floors (fields a caller fixed
@@ -161,6 +160,18 @@ ROBUST_CHAINS = (
 # distance: hundreds of nodes, each relay adding to the lever; 3D designs of 200 nodes took 20 s).
 ROBUST_MAX_MODULES = 16
 ROBUSTNESS = ("robust", "economy")
+# Then the acceptable chain of smallest A is rebuilt with the source site's first
+# port at each of SOURCE_SIDES (ChainOptions.source_side) and the smallest A is kept. Measured
+# (docs/benchmarks/allostery.md, profile of ∂w_T/∂x by node): in 3D almost all of A (95–99 %) is
+# the target's rigid motion driven by node errors in the source site's module — the angle at which
+# the chain leaves the source, carried to the target by a lever of length D — and where that
+# module's port sits decides it: over these placements A of one chain spread from 37 to 620
+# (3D, D = 12) and from 350 to 70 000 (D = 48), while the best gap (the old choice) picked 151
+# and 583. In 2D a port has no twist; only the offsets differ. Only the best chain: then the
+# chain an answer reports (port, growth, seed) designs that answer again, since among the chains
+# with its port and growth the same one is best. Refining the best two did better on some sites
+# (3D, D = 48, shape 2: A 357 against 414) but then a re-posted chain could pick another answer.
+SOURCE_SIDES = tuple((turn, shift) for turn in (0.0, 1 / 6, 1 / 3, 1 / 2, 2 / 3, 5 / 6) for shift in (0.0, 0.25, -0.25))
 
 
 @dataclass(frozen=True, eq=False)
@@ -188,7 +199,7 @@ class ResponseFigures:
     motion_sensitivity: float
     amplification: float
     amplification_worst: float
-    perturbation: float = PERTURBATION
+    perturbation: float = SENSITIVITY_PERTURBATION
 
     def acceptable(self) -> bool:
         return self.target_error <= TARGET_ERROR_MAX and self.gap >= GAP_FLOOR
@@ -290,7 +301,7 @@ def _axes(axis: np.ndarray, *clouds: np.ndarray) -> np.ndarray:
     for cloud in clouds:
         p = (cloud - cloud.mean(axis=0)) @ across
         values, vectors = np.linalg.eigh(p.T @ p)
-        if values[2] - values[1] > 1e-6 * max(values[2], 1e-300):
+        if values[2] - values[1] > AXES_RTOL * max(values[2], 1e-300):
             e2 = vectors[:, 2]
             skew = float(np.sum((p @ e2) ** 3))
             e2 = -e2 if skew < 0 else e2
@@ -473,14 +484,18 @@ class _Assembly:
 
 
 def _site_module(y, v, ports, mirrored: bool, options: ChainOptions):
-    """The module from a site (free) to its first port (free), over SIDE_VARIANTS: (Side,
-    module, gap) of the best one."""
+    """The module from a site (free) to its first port (free): (Side, module, gap) of the best
+    of SIDE_VARIANTS, or of the source side ``options.source_side`` when it is set."""
     d = y.shape[1]
     t, size = ports[0]
     x_unit, u_unit = port(d, 0.0, 1.0, amplitude=options.amplitude)
     gain_one = options.amplitude is not None
     best = None
-    for turn, shift in SIDE_VARIANTS if d == 3 else [v for v in SIDE_VARIANTS if v[0] == 0.0]:
+    if options.source_side is not None and not mirrored:
+        variants = [options.source_side]
+    else:
+        variants = SIDE_VARIANTS if d == 3 else [v for v in SIDE_VARIANTS if v[0] == 0.0]
+    for turn, shift in variants:
         side = Side(mirrored, turn * 2 * math.pi / 3, shift * size)
         x_p, u_p = side.place(x_unit, u_unit, t, size, gain_one)
         try:
@@ -771,11 +786,11 @@ def design_allosteric(
 
     relay_spacing: size of the first ports next to the sites, in the caller's units (default
     DEFAULT_PORT site sizes); relay_growth: g ≥ 1 (1: equal relays); robustness: "robust"
-    designs every chain of ROBUST_CHAINS and returns the acceptable one with the smallest
-    amplification A (ResponseFigures), "economy" the first acceptable of ALTERNATIVES (fewest
-    nodes; its A grows faster with the distance); either falls back to ALTERNATIVES when no
-    robust chain is acceptable. Raises InvalidInput for
-    bad shapes or options; DomainError ``overlapping_sites``, ``degenerate_specified``,
+    designs every chain of ROBUST_CHAINS, rebuilds the best with the source site's first
+    port at each of SOURCE_SIDES (``_refined``) and returns the acceptable one
+    with the smallest amplification A (ResponseFigures), "economy" the first acceptable of
+    ALTERNATIVES (fewest nodes; its A grows faster with the distance); either falls back to
+    ALTERNATIVES when no robust chain is acceptable. Raises InvalidInput for bad shapes or options; DomainError ``overlapping_sites``, ``degenerate_specified``,
     ``rigid_source``, ``rigid_target``, ``underdetermined_source``, ``too_expensive`` (more than MAX_MODULES modules,
     refused before any work), or InaccurateDesign (``inaccurate_design``, with the best figures).
     """
@@ -791,17 +806,17 @@ def design_allosteric(
         robust = [c for c in ROBUST_CHAINS if estimated_modules(gap, replace(first, **{**c, **fixed})) <= ROBUST_MAX_MODULES]
     candidates = [(change, True) for change in robust] + [(change, False) for change in ALTERNATIVES]
     best: AllostericDesign | None = None
-    robust_best: AllostericDesign | None = None
+    accepted: list[AllostericDesign] = []
     failures = []
     tried = set()
     for i, (change, searched) in enumerate(candidates):
         options = replace(first, **{**change, **fixed}) if change else first
-        if options in tried or (not searched and robust_best is not None):
+        if options in tried or (not searched and accepted):
             continue
         tried.add(options)
         check_budget()
         try:
-            with progress_stage(i / len(candidates), (i + 1) / len(candidates), f"chain options {i + 1}"):
+            with progress_stage(0.8 * i / len(candidates), 0.8 * (i + 1) / len(candidates), f"chain options {i + 1}"):
                 result = _attempt(sim, (x_src, u_src), (x_tgt, u_tgt), options, distance)
         except DomainError as exc:
             if exc.code == "too_expensive":
@@ -812,13 +827,14 @@ def design_allosteric(
             report_progress(1.0, "designed")
             return result
         if result.figures.acceptable():
-            if robust_best is None or result.figures.amplification < robust_best.figures.amplification:
-                robust_best = result
+            accepted.append(result)
         elif best is None or result.figures.rank() < best.figures.rank():
             best = result
-    if robust_best is not None:
+    if accepted:
+        with progress_stage(0.8, 1.0, "source sides"):
+            result = _refined(sim, (x_src, u_src), (x_tgt, u_tgt), accepted, distance)
         report_progress(1.0, "designed")
-        return robust_best
+        return result
     if best is None:
         raise InaccurateDesign(
             f"no chain of modules could be built ({len(failures)} attempts; first: {failures[0]})",
@@ -835,6 +851,27 @@ def design_allosteric(
         best.options,
         sim.length,
     )
+
+
+def _refined(sim: Similarity, src, tgt, accepted: list[AllostericDesign], distance: float) -> AllostericDesign:
+    """The acceptable design of smallest amplification among ``accepted`` and the best chain of
+    them rebuilt with the source site's first port at each of SOURCE_SIDES (in 2D those without
+    twist: a 2D port has none)."""
+    accepted = sorted(accepted, key=lambda r: r.figures.amplification)
+    best = accepted[0]
+    chain = next((r.options for r in accepted if r.modules > 1), None)
+    sides = SOURCE_SIDES if len(sim.rotation) == 3 else [s for s in SOURCE_SIDES if s[0] == 0.0]
+    for side in sides if chain is not None else ():
+        check_budget()
+        try:
+            result = _attempt(sim, src, tgt, replace(chain, source_side=side), distance)
+        except DomainError as exc:
+            if exc.code == "too_expensive":
+                raise
+            continue
+        if result.figures.acceptable() and result.figures.amplification < best.figures.amplification:
+            best = result
+    return best
 
 
 def _attempt(sim: Similarity, src, tgt, options: ChainOptions, distance: float) -> AllostericDesign:
@@ -874,7 +911,7 @@ def _attempt(sim: Similarity, src, tgt, options: ChainOptions, distance: float) 
     achieved = response(frame, source, u_src)[target]
     error = float(np.linalg.norm(achieved - u_tgt) / np.linalg.norm(u_tgt))
     gap, shape, motion_k, amplification, worst = linear_figures(frame, u, source, target, sim.length)
-    figures = ResponseFigures(achieved, error, gap, shape * PERTURBATION, motion_k * PERTURBATION, amplification, worst)
+    figures = ResponseFigures(achieved, error, gap, shape * SENSITIVITY_PERTURBATION, motion_k * SENSITIVITY_PERTURBATION, amplification, worst)
     return AllostericDesign(
         design=result,
         source=tuple(source.tolist()),

@@ -52,22 +52,18 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from zeromode.solver.analysis.bond_green import FLOPPY_RTOL, SpringNetwork, check_pair, pair_row
+from zeromode.solver.analysis.bond_green import SpringNetwork, check_pair, pair_row
 from zeromode.solver.analysis.eigen import smallest_eigenpairs
 from zeromode.solver.analysis.normalisation import rms_radius
 from zeromode.solver.analysis.rigidity import analyze, rigid_motions
-from zeromode.solver.applications.network_allostery import TARGET_ERROR_MAX
 from zeromode.solver.budget import check_budget
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame
+from zeromode.solver.tolerances import FLOPPY_RTOL, SOFTEST_MODE_RTOL, TARGET_ERROR_MAX
 
 # The tuned bar's stiffness may be set anywhere in [0, MAX_STIFFNESS·k_b]: ten times a bar's own
 # stiffness is what one can make from the same material (thicker bar), 0 is a removal.
 MAX_STIFFNESS = 10.0
-# An edit is refused when it softens the network's softest nontrivial mode below this fraction
-# of the given network's: pruned networks lose a few decades of it (the modes spread over the
-# removed bars' neighbourhoods), a new zero mode loses all of it (≲ 1e-12 relative, round-off).
-SOFTEST_MODE_RTOL = 1e-4
 # Landing bars verified at one step before the search moves on (least sensitive first).
 MAX_VERIFIED = 4
 # A verification slightly outside TARGET_ERROR_MAX (round-off of the search's Woodbury solves

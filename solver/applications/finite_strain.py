@@ -46,7 +46,6 @@ from zeromode.solver.analysis.rigidity import analyze
 from zeromode.solver.applications.lattice import (
     MAX_SHEET_CELLS,
     Lattice,
-    boundary_strains,
     closest_unjoined,
     measured_lattice,
 )
@@ -60,7 +59,6 @@ from zeromode.solver.applications.sheet_module import (
     trammel_module,
 )
 from zeromode.solver.applications.strain_range import (
-    PROXIMITY_FRACTION,
     Patch,
     StrainRange,
     module_range,
@@ -69,8 +67,18 @@ from zeromode.solver.applications.strain_range import (
 from zeromode.solver.budget import check_budget, remaining
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame
+from zeromode.solver.motion.boundary_strain import boundary_strains
 from zeromode.solver.motion.refine import ipopt_solver
 from zeromode.solver.progress import progress_stage, report_steps
+from zeromode.solver.tolerances import (
+    BOX_SHRINK_RTOL,
+    COVER_XTOL,
+    IPOPT_TOL,
+    MODULE_REFINE_REGULARISER,
+    PROXIMITY_FRACTION,
+    SAMPLE_ROUNDOFF,
+    SHEET_BAR_RTOL,
+)
 
 # The stretches s searched (geometric grid: the deviation falls like 1/s², the size grows like s).
 STRETCHES = np.geomspace(0.5, 20.0, 48)
@@ -84,9 +92,6 @@ WINDOW_EVALUATIONS = 16
 WINDOW_SEARCHES = 3
 # The Cardan trammels searched: c = f·(w + h²/w) for f on this grid (e = h + w(w − c)/h > 0).
 CARDAN_FRACTIONS = np.linspace(0.05, 0.95, 19)
-# The search compares candidates' ranges: their events are located to this strain (the chosen
-# module's range is then scanned to round-off).
-COVER_XTOL = 1e-5
 # Modules whose nodes reach past this many neighbours (in x or y) at the reference are not
 # considered: their axis nodes lie among the bars of modules three cells away, and the range
 # scan (whose patch grows with the reach) would make the cost grow with the sheet up to that size.
@@ -95,14 +100,10 @@ MAX_REACH = 3
 ESTIMATE_STEP = 0.01
 # Strains at which the tiled sheet is verified (the ends of the requested range included).
 VERIFY_SAMPLES = 9
-# A bar of the verified sheet may change its length by at most this much (relative).
-BAR_RTOL = 1e-9
 # IPOPT refinement of a module (refine_module): samples of the motion over the requested range,
-# the weight of the reference's departure from the warm start, IPOPT's tol and iterations per
-# solve, and the rounds of watched pairs.
+# the weight of the reference's departure from the warm start (MODULE_REFINE_REGULARISER), IPOPT's
+# tol (IPOPT_TOL) and iterations per solve, and the rounds of watched pairs.
 REFINE_SAMPLES = 20
-REFINE_REGULARISER = 1e-4
-REFINE_TOL = 1e-8
 REFINE_MAX_ITER = 300
 REFINE_ROUNDS = 4
 # Weight of the separations' slacks (their shortfall, in squared fractions of the shortest bar)
@@ -419,7 +420,7 @@ def _verified_sheet(module, nx, ny, poisson, requested, tolerance, usable: Strai
     ratios.sort()
     secant = np.array([r for _, r in ratios])
     deviation = float(np.max(np.abs(secant - poisson)))
-    if deviation > tolerance or bar_error > BAR_RTOL or closest < PROXIMITY_FRACTION:
+    if deviation > tolerance or bar_error > SHEET_BAR_RTOL or closest < PROXIMITY_FRACTION:
         raise DomainError(
             "inaccurate_design",
             f"the tiled sheet misses the module's figures: secant deviation {deviation:.3g} (tolerance {tolerance:g}), "
@@ -523,7 +524,7 @@ def refine_module(
     At K = REFINE_SAMPLES strains ε_k (evenly over [lo, hi], 0 left out) the unknowns are the
     configurations q_k = (w(1 + ε_k), b_k, orbit coordinates), the reference's orbit coordinates
     (a = w, b = h fixed: the cell), the deviation t and a slack s_j ≥ 0 per watched pair:
-        minimise    t + REFINE_SLACK_WEIGHT·Σ s_j + REFINE_REGULARISER·‖q₀ − q₀⁰‖²/‖q₀⁰‖²
+        minimise    t + REFINE_SLACK_WEIGHT·Σ s_j + MODULE_REFINE_REGULARISER·‖q₀ − q₀⁰‖²/‖q₀⁰‖²
         subject to  |X_i(q_k) − X_j(q_k)|² = |X_i(q₀) − X_j(q₀)|²   for every bar orbit, every k
                     |(b_k/h − 1)/ε_k + ν| ≤ t                        (secant ratio at each sample)
                     ℓ_*(q₀)² = ℓ_*⁰², ℓ_o(q₀)² ≥ ℓ_*⁰²               (the warm start's shortest
@@ -547,11 +548,11 @@ def refine_module(
     samples."""
     w, h = module.cell
     strains = np.linspace(lo, hi, REFINE_SAMPLES + 1)
-    strains = strains[np.abs(strains) > 1e-12 * (hi - lo)]
+    strains = strains[np.abs(strains) > SAMPLE_ROUNDOFF * (hi - lo)]
     equalities, unknowns = refinement_counts(module, len(strains))
     if equalities > unknowns:  # a module with more bar orbits than n_q − 1 has no motion to shape
         raise DomainError("too_few_unknowns", f"{module.name}: {equalities} equations for {unknowns} unknowns.")
-    fine = np.concatenate([[0.0], np.arange(ESTIMATE_STEP, hi + 1e-12, ESTIMATE_STEP), -np.arange(ESTIMATE_STEP, -lo + 1e-12, ESTIMATE_STEP)])
+    fine = np.concatenate([[0.0], np.arange(ESTIMATE_STEP, hi + SAMPLE_ROUNDOFF, ESTIMATE_STEP), -np.arange(ESTIMATE_STEP, -lo + SAMPLE_ROUNDOFF, ESTIMATE_STEP)])
     fine = np.unique(np.concatenate([fine, [lo, hi]]))
     start = _motion_configs(module, strains)
     watch = _motion_configs(module, fine)
@@ -563,7 +564,7 @@ def refine_module(
     # the module are those of the patch watched (needed_reach's rule for that box at the
     # smallest cell of the range).
     smallest = np.min(watch[:, :2], axis=0)
-    widest = (2 * (MAX_REACH + 1) * smallest - PROXIMITY_FRACTION * shortest) / 2 * (1 - 1e-9)
+    widest = (2 * (MAX_REACH + 1) * smallest - PROXIMITY_FRACTION * shortest) / 2 * (1 - BOX_SHRINK_RTOL)
     box = np.minimum(BOX_GROWTH * np.max(np.abs(module.positions(watch)[:, 4:]), axis=(0, 1)), widest)
     reach = np.floor((2 * box + PROXIMITY_FRACTION * shortest) / (2 * smallest)).astype(int)
     patch = Patch.of(module, tuple(int(min(r, c - 1, MAX_REACH)) for r, c in zip(reach, cells)), cells)
@@ -584,7 +585,7 @@ def refine_module(
         left = left if remaining() is None else min(left, remaining())
         if left <= 0:
             break
-        solver = ipopt_solver("finite_strain", nlp, REFINE_TOL, REFINE_MAX_ITER, left)
+        solver = ipopt_solver("finite_strain", nlp, IPOPT_TOL, REFINE_MAX_ITER, left)
         sol = solver(x0=np.concatenate([x_init, slack_start]), lbg=lbg, ubg=ubg, lbx=lbx)
         stats = solver.stats()
         solution = np.asarray(sol["x"]).ravel()
@@ -667,7 +668,7 @@ def _module_nlp(module: SymmetricModule, patch, poisson: float, strains: np.ndar
     z_start = module.reference[2:]
     objective = (
         t + REFINE_SLACK_WEIGHT * ca.sum1(slack)
-        + REFINE_REGULARISER * ca.sumsqr(z_ref - ca.DM(z_start)) / float(np.sum(z_start**2))
+        + MODULE_REFINE_REGULARISER * ca.sumsqr(z_ref - ca.DM(z_start)) / float(np.sum(z_start**2))
     )
     g_box = ca.vertcat(*[ca.vec(box[k] ** 2 - ca.mtimes(ca.DM(module.basis[4:, k, :]), q_all) ** 2) / scale for k in (0, 1)])
     g = ca.vertcat(g_bars, g_short[shortest], g_nu, g_short, g_apart, g_box)
@@ -677,5 +678,5 @@ def _module_nlp(module: SymmetricModule, patch, poisson: float, strains: np.ndar
     lbx = np.concatenate([np.full(n_main, -np.inf), np.zeros(n_slack)])
     # Slacks at the start: the largest shortfall of each pair over the samples (0 if none).
     values = np.asarray(ca.Function("apart", [z], [apart])(np.concatenate([start, np.zeros(n_slack)])))
-    slack_start = np.maximum(-values.min(axis=1), 0.0) + REFINE_TOL if n_slack else np.zeros(0)
+    slack_start = np.maximum(-values.min(axis=1), 0.0) + IPOPT_TOL if n_slack else np.zeros(0)
     return {"x": z, "f": objective, "g": g}, lbg, ubg, lbx, slack_start

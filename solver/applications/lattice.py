@@ -16,8 +16,8 @@ c' = (L₂² − L₁²)/(4a) and b = √(L₁² − (c' − a)²).  The sheet a
 bar lengths hold to round-off at every size.
 
 Poisson ratio (sign convention): pulled along x, ν = −ε_y / ε_x, with ε the strain of the
-boundary — the relative change of the distance between the mean positions of the opposite
-boundary corner rows.  The linear (mode) value is −β; ν < 0 is auxetic.
+boundary — the relative change of the extent between the mean positions of the opposite
+boundary corner rows (motion/boundary_strain.py).  The linear (mode) value is −β; ν < 0 is auxetic.
 
 3D chains.  Blocks (ports (±w, ±h, 0), apexes (0, 0, ±l)) moving with u = diag(1, β, γ)·x are
 designed by judicious placement, then chained along x: each coupling merges the two right
@@ -41,7 +41,6 @@ from zeromode.solver.applications.sheet_module import (
     two_node_module,
 )
 from zeromode.solver.applications.strain_range import (
-    PROXIMITY_FRACTION,
     ModuleMotion,
     StrainRange,
     chain_range,
@@ -54,8 +53,9 @@ from zeromode.solver.construction.multimode import spatial_quadric
 from zeromode.solver.construction.solution_space import solution_space
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame, check_extent
+from zeromode.solver.motion.boundary_strain import boundary_strains, poisson_ratio
 from zeromode.solver.progress import progress_stage, report_progress
-from zeromode.solver.tolerances import ROOT_IMAG_RTOL
+from zeromode.solver.tolerances import PROXIMITY_FRACTION, ROOT_IMAG_RTOL
 
 MAX_SHEET_CELLS = 2500
 # The chain's range is traced by sparse continuation; 64 blocks (≈ 2100 degrees of freedom) are
@@ -110,51 +110,6 @@ def module_nodes(w: float, h: float, beta: float) -> tuple[np.ndarray, np.ndarra
     local = np.column_stack([real[::-1], np.zeros(2)])
     nodes = space.norm.positions_out(local)
     return corners, motion, nodes, quadric.motions_at(local)
-
-
-def boundary_strains(positions: np.ndarray, motion: np.ndarray, boundary: dict) -> tuple[float, float]:
-    """(ε_x, ε_y) of a displacement (finite, or a mode as a rate): the change of the extent
-    x̄_right − x̄_left (resp. ȳ_top − ȳ_bottom) of the mean positions of the opposite boundary
-    node sets, relative to that extent at ``positions``.  The extent is the coordinate
-    difference along the axis, not the distance between the means, so the displacement must be
-    free of rigid rotation (configurations aligned to the reference, as trace_motion returns)."""
-    eps = []
-    for lo, hi, axis in ((boundary["left"], boundary["right"], 0), (boundary["bottom"], boundary["top"], 1)):
-        span = positions[hi, axis].mean() - positions[lo, axis].mean()
-        eps.append((motion[hi, axis].mean() - motion[lo, axis].mean()) / span)
-    return eps[0], eps[1]
-
-
-def boundary_sets(boundary: dict, n: int) -> dict[str, np.ndarray]:
-    """The node sets "left", "right", "bottom", "top" of ``boundary`` as index arrays
-    (InvalidInput ``invalid_boundary`` if one is missing, empty or names no node of 0..n − 1)."""
-    sets = {}
-    for key in ("left", "right", "bottom", "top"):
-        nodes = np.asarray(boundary.get(key, []), dtype=int)
-        if nodes.size == 0 or nodes.min() < 0 or nodes.max() >= n:
-            raise InvalidInput("invalid_boundary", f"boundary '{key}' must list node indices in [0, {n}).")
-        sets[key] = nodes
-    return sets
-
-
-def path_strains(positions: np.ndarray, path: np.ndarray, boundary: dict) -> tuple[np.ndarray, np.ndarray]:
-    """Strains (P, 2) = (ε_x, ε_y) and secant Poisson ratios (P,) (−ε_y/ε_x, NaN where ε_x = 0)
-    of aligned configurations ``path`` (P, N, d) relative to ``positions`` (N, d); boundary: the
-    node sets "left", "right", "bottom", "top" (InvalidInput ``invalid_boundary`` if one is
-    missing, empty or names no node of the frame)."""
-    sets = boundary_sets(boundary, len(positions))
-    strains = np.array([boundary_strains(positions, x - positions, sets) for x in path])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        nu = np.where(strains[:, 0] != 0, -strains[:, 1] / strains[:, 0], np.nan)
-    return strains, nu
-
-
-def poisson_ratio(positions: np.ndarray, motion: np.ndarray, boundary: dict) -> float:
-    """ν = −ε_y / ε_x of a motion (pulled along x)."""
-    ex, ey = boundary_strains(positions, motion, boundary)
-    if abs(ex) <= 1e-14 * (abs(ey) + 1e-300):
-        raise DomainError("no_solution", "the mode does not stretch the lattice along x.")
-    return -ey / ex
 
 
 def auxetic_sheet(

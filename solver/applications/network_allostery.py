@@ -57,11 +57,14 @@ from zeromode.solver.construction.placement import target_zero_modes
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame, check_positions
 from zeromode.solver.progress import progress_stage, report_progress
-from zeromode.solver.tolerances import DESIGN_MODE_RTOL
+from zeromode.solver.tolerances import (
+    DESIGN_MODE_RTOL,
+    LOOSE_RTOL,
+    SWING_RTOL,
+    TARGET_ERROR_MAX,
+    UNSTRAINED_RTOL,
+)
 
-# A bar is left unstrained by the response when |(x_i − x_j)·(u_i − u_j)| ≤ this × |x_i − x_j|
-# × max|u|: exact data give zero or O(1); round-off of the products is ~1e-16.
-STRAIN_RTOL = 1e-12
 # Ground neighbours offered to the coupler, per site (it takes d − 1 of them).
 COUPLER_GROUND = 2
 # Pair nodes × kept-bar choices tried for a strain ratio before giving up.
@@ -69,11 +72,6 @@ MAX_PLANS = 12
 # Counts and null spaces dense up to this many degrees of freedom, sparse above (rigidity's
 # measurements: counts alone are 2–70× faster sparse from dN = 200).
 COUNTS_DENSE_MAX_DOF = 200
-# A node is loose when it moves by more than this fraction of the largest amplitude in a zero
-# mode of the frame without the strained bars (exact zeros elsewhere are ~1e-15).
-LOOSE_RTOL = 1e-8
-# An answer's response must be this exact (as allostery.TARGET_ERROR_MAX).
-TARGET_ERROR_MAX = 1e-9
 
 
 @dataclass(frozen=True, eq=False)
@@ -247,7 +245,7 @@ def _pair_plans(frame: Frame, src: np.ndarray, tgt: np.ndarray, ratio: float):
                     continue
                 n = direction[:, 0]
                 along = float(axis @ n)
-                if abs(along) <= 1e-6 * np.linalg.norm(axis):
+                if abs(along) <= SWING_RTOL * np.linalg.norm(axis):
                     continue  # the swing does not strain the pair
                 motion = (strain * (axis @ axis) / along) * n
                 removed = len(near[node]) - (d - 1)
@@ -266,7 +264,7 @@ def _strained(frame: Frame, motion: np.ndarray) -> np.ndarray:
     x, e = frame.positions, frame.edges
     dx = x[e[:, 0]] - x[e[:, 1]]
     du = motion[e[:, 0]] - motion[e[:, 1]]
-    scale = STRAIN_RTOL * np.linalg.norm(dx, axis=1) * float(np.max(np.abs(motion)))
+    scale = UNSTRAINED_RTOL * np.linalg.norm(dx, axis=1) * float(np.max(np.abs(motion)))
     return np.abs(np.einsum("ij,ij->i", dx, du)) > scale
 
 

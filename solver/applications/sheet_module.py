@@ -44,15 +44,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from zeromode.solver.errors import DomainError
+from zeromode.solver.tolerances import MODULE_NEWTON_RTOL, TRAMMEL_DEGENERATE_RTOL
 
 # The mirror images of a point, as sign patterns; the corners are node 0..3 in this order (the
 # order lattice.py has always used: (w, h), (−w, h), (−w, −h), (w, −h)).
 MIRRORS = np.array([[1, 1], [-1, 1], [-1, -1], [1, -1]], dtype=float)
 # Coordinates of each orbit kind, and which mirror signs tell its nodes apart.
 _KIND_COORDS = {"corner": 2, "x": 1, "y": 1, "generic": 2}
-# Newton on g(q) = 0 stops when every bar orbit is within this relative error of its squared
-# length (the lattice promises ≤ 1e-9 on bar lengths; round-off is ~1e-15).
-NEWTON_RTOL = 1e-13
+# Newton iterations on g(q) = 0 (to MODULE_NEWTON_RTOL).
 NEWTON_MAX_ITER = 30
 # A Newton step larger than this fraction of the module's size has left the configuration's
 # neighbourhood (another branch, or no configuration at this strain).
@@ -171,7 +170,7 @@ class SymmetricModule:
         for _ in range(NEWTON_MAX_ITER):
             r = self.residual(q)
             error = float(np.max(np.abs(r)))
-            if error <= NEWTON_RTOL:
+            if error <= MODULE_NEWTON_RTOL:
                 return q
             if error >= previous:  # Newton contracts near a regular solution; this one does not
                 return None
@@ -242,7 +241,7 @@ def trammel_coordinates(w: float, h: float, beta: float, stretch: float, sign: f
     pq = np.column_stack([p, stretch * np.array([w, beta * h])])
     mu, v = np.linalg.eigh(pq @ pq.T)
     m = v @ np.diag(np.sqrt(np.maximum(mu, 0.0)) * np.array([sign, 1.0])) @ v.T
-    if abs(np.linalg.det(m)) <= 1e-12 * float(np.sum(mu)):
+    if abs(np.linalg.det(m)) <= TRAMMEL_DEGENERATE_RTOL * float(np.sum(mu)):
         raise DomainError("no_solution", "the trammel for this Poisson ratio is degenerate.")
     rod = float(np.trace(m))
     cos_sin = np.linalg.solve(m, p)

@@ -59,19 +59,13 @@ from zeromode.solver.errors import DomainError
 from zeromode.solver.frame import Frame
 from zeromode.solver.motion.finite_motion import trace_motion
 from zeromode.solver.progress import report_detail
+from zeromode.solver.tolerances import FOLD_XTOL, PROXIMITY_FRACTION, STRAIN_XTOL
 
-# Two nodes without a bar between them closer than this fraction of the shortest bar collide.
-PROXIMITY_FRACTION = 0.1
 # The scan examines strains up to this magnitude (a sheet stretched by 90 % or compressed to a
 # tenth of its length is far beyond any design here); beyond, the range is "search_limit".
 MAX_SCAN_STRAIN = 0.9
 # Step of the 2D scan in strain; events are bracketed between steps and located to STRAIN_XTOL.
 SCAN_STEP = 0.01
-STRAIN_XTOL = 1e-13
-# Where Newton stops converging (a fold of the symmetric curve: the strain turns back), the end is
-# located by bisection on Newton's success; Newton's basin shrinks like √|ε − ε*| there, so the
-# fold is located to about this much.
-FOLD_XTOL = 1e-9
 # Patches by (module topology, reach, cells seen): see Patch.of.
 _PATCHES: dict = {}
 # Step of the 3D chain's continuation (finite_motion's path parameter) while the range is scanned.

@@ -35,7 +35,7 @@ Quantities (each relative; J its Jacobian with respect to the normalised δx):
                    divided by √Σ‖u_D‖²);
   poisson_ratio    a lattice's ν = −ε_y/ε_x = −(A_y u · A_x x)/(A_x u · A_y x), A_x, A_y the
                    boundary functionals (mean over right minus left of the x components, top
-                   minus bottom of the y components; lattice.boundary_strains), u the soft
+                   minus bottom of the y components; boundary_strain.boundary_strains), u the soft
                    subspace's part ⟂ the rigid motions R(x') = span G(x'); to first order
                    δ(P⊥u) = δu − G(GᵀG)⁻¹ H δx with H's rows 0 (translations) and −g_ab(u)ᵀ
                    (rotations g_ab(x)_i = E_ab x_i), and δν/ν = A_yδu/A_yu − A_xδu/A_xu
@@ -68,12 +68,18 @@ import numpy as np
 
 from zeromode.solver.analysis.normalisation import Normalisation
 from zeromode.solver.analysis.rigidity import compatibility_matrix, rigid_motions
-from zeromode.solver.applications.lattice import poisson_ratio
 from zeromode.solver.budget import check_budget
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame
+from zeromode.solver.motion.boundary_strain import poisson_ratio
 from zeromode.solver.progress import progress_stage, report_progress
-from zeromode.solver.tolerances import GIVEN_MODE_RTOL, RANK_RTOL, RIGID_RTOL
+from zeromode.solver.tolerances import (
+    ASSEMBLY_TOL,
+    GIVEN_MODE_RTOL,
+    INSENSITIVE,
+    RANK_RTOL,
+    RIGID_RTOL,
+)
 
 # The linear estimate agrees with the Monte Carlo when their statistics are within this factor:
 # the Monte Carlo's own sampling error at 64 samples is ~10 %, so a factor 2 separates a wrong
@@ -84,11 +90,8 @@ MAX_ERROR = 0.1
 # One dense eigen-decomposition of CᵀC per Monte Carlo frame (about 30 ms at dN = 400 on one
 # core; 8 quantity–error pairs × 64 frames): frames up to this many degrees of freedom.
 MAX_DOF = 400
-# Gauss–Newton assembly of a frame with perturbed lengths: steps and the relative size of the
-# last step (normalised units) at which it has converged.
-ASSEMBLY_STEPS, ASSEMBLY_TOL = 50, 1e-12
-# A statistic below this per unit error does not change to first order (round-off is ~1e-15).
-INSENSITIVE = 1e-12
+# Gauss–Newton steps of the assembly of a frame with perturbed lengths (to ASSEMBLY_TOL).
+ASSEMBLY_STEPS = 50
 ERRORS = ("bar_lengths", "pin_positions")
 
 

@@ -77,7 +77,7 @@ from zeromode.solver.certificates.stiffness import optimal_stiffness
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame
 from zeromode.solver.progress import progress_heartbeat, progress_stage, report_progress
-from zeromode.solver.tolerances import GIVEN_MODE_RTOL
+from zeromode.solver.tolerances import GIVEN_MODE_RTOL, MARGIN_GAP_RTOL, PRESTRESS_TOL, SCS_EPS
 
 SOLVERS = ("clarabel", "scs")
 # Largest LMI (f or p) handed to a solver. Measured with Clarabel on the shared 2-core machine:
@@ -97,11 +97,6 @@ MAX_DOF = 60_000
 # each iteration costs Σ_χ (m² p_χ + m p_χ² + p_χ³) for m bar orbits and blocks p_χ; the
 # 20 × 20 auxetic sheet, p = 2478, reduces to 4 blocks of 620 and 800 orbits).
 OPTIMAL_MAX_DIM = 2_500
-# t* ≤ PRESTRESS_TOL counts as zero. t* is dimensionless (unit stress, unit flexes); Clarabel
-# brackets it to ~1e-9, SCS to ~1e-6, stable frames of interest have t* ≳ 1e-4.
-PRESTRESS_TOL = 1e-6
-# A solved margin SDP must close its bracket to this relative gap (else the fallback runs).
-MARGIN_GAP_RTOL = 1e-4
 
 
 # ----------------------------------------------------------------------------- modelling
@@ -244,8 +239,7 @@ def _solve_once(program: LmiProgram, solver: str, time_limit: float | None, max_
         options = {}
     else:
         name, limits = cp.SCS, {"time_limit_secs": time_limit, "max_iters": max_iters}
-        # SCS's default 1e-4 leaves the prestress bracket straddling PRESTRESS_TOL.
-        options = {"eps_abs": 1e-7, "eps_rel": 1e-7}
+        options = {"eps_abs": SCS_EPS, "eps_rel": SCS_EPS}
     options.update({key: value for key, value in limits.items() if value is not None})
     try:
         with warnings.catch_warnings():

@@ -75,6 +75,14 @@ from zeromode.solver.analysis.eigen import smallest_eigenpairs
 from zeromode.solver.analysis.rank import nullspace, orthonormal_range
 from zeromode.solver.budget import check_budget, remaining
 from zeromode.solver.progress import report_progress
+from zeromode.solver.tolerances import (
+    AXES_RTOL,
+    BUNDLE_RANK_RTOL,
+    LANCZOS_RTOL,
+    STEP_PRODUCT_MIN,
+    SYMMETRY_ATOL,
+    SYMMETRY_INVARIANT_RTOL,
+)
 
 # Relative gap (U − L)/U at which the bracket is closed.
 GAP_RTOL = 1e-3
@@ -85,13 +93,8 @@ TIME_S = 60.0
 BUNDLE_TIME_S = 40.0
 # Smallest eigenpairs evaluated for the verified lower bound (the optimum's λ_min is multiple).
 EIGENPAIRS = 6
-# A node maps onto a node when their normalised positions agree to this (exact symmetry only:
-# the sheets zeromode builds are symmetric to round-off); a motion subspace is invariant when
-# its image leaves it by at most this fraction.
-SYMMETRY_ATOL = 1e-9
-INVARIANT_RTOL = 1e-7
-# Second moments of the nodes closer than this (relative) leave their principal axes undecided.
-AXES_RTOL = 1e-6
+# Blocks larger than this take their step lengths from a Lanczos Ritz value (to LANCZOS_RTOL).
+DENSE_STEP = 50
 # The interior-point iteration verifies its bracket once its own duality gap is below this
 # fraction of GAP_RTOL, stops after MAX_ITERATIONS, and steps this fraction of the way to the
 # boundary of the cones; a step whose Cholesky factor fails is shortened by BACKTRACK.
@@ -99,10 +102,6 @@ INNER_FRACTION = 0.5
 MAX_ITERATIONS = 80
 STEP_FRACTION = 0.95
 BACKTRACK = 0.5
-# Step lengths of blocks larger than DENSE_STEP come from a Lanczos Ritz value to LANCZOS_RTOL
-# (13 % faster on the 20 × 20 sheet than LAPACK's partial eigen-solver).
-DENSE_STEP = 50
-LANCZOS_RTOL = 1e-4
 # The interior-point route runs when one iteration costs at most this many flops, so that its
 # 15–20 iterations fit in TIME_S on a loaded core (the 20 × 20 sheet reduced: 3e10 flops,
 # 1.6 s at load 2, 16 iterations); beyond it, the spectral bundle route.
@@ -217,7 +216,7 @@ def sign_symmetries(positions: np.ndarray, edges: np.ndarray, span: np.ndarray):
         image = np.empty_like(span.reshape(n, d, -1))
         image[perm] = np.einsum("ab,nbq->naq", (axes * s) @ axes.T, span.reshape(n, d, -1))
         image = image.reshape(n * d, -1)
-        if np.linalg.norm(image - span @ (span.T @ image)) > INVARIANT_RTOL * max(np.linalg.norm(span), 1.0):
+        if np.linalg.norm(image - span @ (span.T @ image)) > SYMMETRY_INVARIANT_RTOL * max(np.linalg.norm(span), 1.0):
             continue
         signs.append(s)
         perms.append(perm)
@@ -437,7 +436,7 @@ def _newton_step(rows, y, x, x_lp, s, total):
         if all(_definite(a) for a in new_x + new_s):
             return y + alpha_d * dy, new_x, x_lp + alpha_p * dx_lp, new_s
         alpha_p, alpha_d = BACKTRACK * alpha_p, BACKTRACK * alpha_d
-        if alpha_p * alpha_d < 1e-12:
+        if alpha_p * alpha_d < STEP_PRODUCT_MIN:
             return None
 
 
@@ -613,7 +612,7 @@ def _model_bound(scaled, bundle, aggregate, at_hat, span) -> float:
     """U from the best Y on the bundle, the aggregate and k̂'s smallest eigenvectors: the dual of
     the master without proximal term or trust region."""
     vectors = np.column_stack([bundle, at_hat.vectors])
-    vectors = orthonormal_range(vectors - span @ (span.T @ vectors), 1e-8)
+    vectors = orthonormal_range(vectors - span @ (span.T @ vectors), BUNDLE_RANK_RTOL)
     a_v = scaled @ vectors
     _, _, z, alpha = _master(a_v, aggregate, np.ones(a_v.shape[0]), 0.0, trust=False)
     return upper_bound(a_v, z, alpha, aggregate)
@@ -643,4 +642,4 @@ def _next_bundle(bundle, a_v, z, alpha, aggregate, new_vectors, span):
     kept = bundle @ u[:, keep][:, ::-1]
     stacked = np.column_stack([kept, new_vectors])[:, :BUNDLE_MAX]
     stacked = stacked - span @ (span.T @ stacked)
-    return orthonormal_range(stacked, 1e-8), aggregate
+    return orthonormal_range(stacked, BUNDLE_RANK_RTOL), aggregate

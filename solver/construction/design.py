@@ -32,12 +32,7 @@ from zeromode.solver.construction.placement import (
 from zeromode.solver.construction.solution_space import check_targets, solution_space
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame, check_positions
-from zeromode.solver.tolerances import DESIGN_MODE_RTOL, DISTINCT_RTOL, RIGID_RTOL
-
-# A design's report states σ_r of its frame (its conditioning): converged to this relative bound,
-# as a full SVD would give it (designs are small: the sparse route's few extra solves cost
-# microseconds), and reported with the bound reached when round-off keeps it coarser.
-REPORT_GAP_RTOL = 1e-9
+from zeromode.solver.tolerances import DESIGN_MODE_RTOL, DISTINCT_RTOL, REPORT_GAP_RTOL, RIGID_RTOL
 
 
 @dataclass(frozen=True, eq=False)

@@ -45,22 +45,24 @@ from zeromode.solver.construction.placement import (
 )
 from zeromode.solver.errors import DomainError
 from zeromode.solver.progress import report_progress
-from zeromode.solver.tolerances import CONSTRAINT_ATOL, PLACEMENT_RTOL
+from zeromode.solver.tolerances import (
+    CONSTRAINT_ATOL,
+    PAIR_JACOBIAN_STEP,
+    PAIR_NEWTON_ATOL,
+    PLACEMENT_RTOL,
+)
 
 # Seeded starts per group; the best conditioned solution among them is placed.
 GROUP_TRIES = 24
 # Helpers per group: one (a pair) first, two when no pair is found.
 HELPERS = (1, 2)
-# Gauss–Newton: steps, and the residual (normalised units) at which a pair is solved.
+# Gauss–Newton steps per pair (solved at PAIR_NEWTON_ATOL).
 NEWTON_STEPS = 40
-NEWTON_ATOL = 1e-13
 # Rounds whose pair tries are drawn and solved in one batch (no more than the rounds left: each
 # group removes exactly one degree of freedom); the tries are the seeded ones of those rounds, so
 # only the fixed cost of each batched step is shared (5 300 batched steps for the 182 rounds of a
 # 3D k = 64, M = 4 design, 0.35 ms each, one round at a time).
 LOOKAHEAD_ROUNDS = 8
-# Finite-difference step of the Jacobian (normalised units, 2d ≤ 6 unknowns).
-JACOBIAN_STEP = 1e-7
 # Minimum-norm steps drop singular values of the Jacobian below this times max(M, (h + 1)d)
 # times the largest: numpy's lstsq default (rcond=None), one batched pseudo-inverse for all starts.
 LSTSQ_RTOL = float(np.finfo(float).eps)
@@ -142,11 +144,11 @@ def _consistency(x, u, anchors_h, anchors_v, z) -> np.ndarray:
 def _solve_groups(x, u, anchors_h, anchors_v, z) -> tuple[np.ndarray, np.ndarray]:
     """Gauss–Newton with minimum-norm steps on f(z) = 0 (M equations, (h + 1)d unknowns) from B
     starts z (B, (h + 1)d) at once, each with its anchors, the Jacobian by central differences:
-    the last iterates (B, (h + 1)d) and which of them solve f = 0 to NEWTON_ATOL (B,).  A start
+    the last iterates (B, (h + 1)d) and which of them solve f = 0 to PAIR_NEWTON_ATOL (B,).  A start
     fails where f or its Jacobian does not exist or is not finite, or past MAX_RADIUS."""
     z = np.array(z, dtype=float)
     b, n = z.shape
-    offsets = np.vstack([np.zeros(n), JACOBIAN_STEP * np.eye(n), -JACOBIAN_STEP * np.eye(n)])
+    offsets = np.vstack([np.zeros(n), PAIR_JACOBIAN_STEP * np.eye(n), -PAIR_JACOBIAN_STEP * np.eye(n)])
     active, solved = np.ones(b, dtype=bool), np.zeros(b, dtype=bool)
     for _ in range(NEWTON_STEPS):
         idx = np.flatnonzero(active)
@@ -157,9 +159,9 @@ def _solve_groups(x, u, anchors_h, anchors_v, z) -> tuple[np.ndarray, np.ndarray
             x, u, np.repeat(anchors_h[idx], len(offsets), axis=0), np.repeat(anchors_v[idx], len(offsets), axis=0), points
         ).reshape(len(idx), len(offsets), -1)
         f = f_all[:, 0]
-        jac = (f_all[:, 1 : n + 1] - f_all[:, n + 1 :]).transpose(0, 2, 1) / (2 * JACOBIAN_STEP)  # (A, M, n)
+        jac = (f_all[:, 1 : n + 1] - f_all[:, n + 1 :]).transpose(0, 2, 1) / (2 * PAIR_JACOBIAN_STEP)  # (A, M, n)
         finite = np.all(np.isfinite(f), axis=1)
-        done = finite & (np.linalg.norm(np.where(finite[:, None], f, 0.0), axis=1) <= NEWTON_ATOL)
+        done = finite & (np.linalg.norm(np.where(finite[:, None], f, 0.0), axis=1) <= PAIR_NEWTON_ATOL)
         solved[idx[done]] = True
         step = finite & ~done & np.all(np.isfinite(jac), axis=(1, 2))
         active[idx[~step]] = False

@@ -26,7 +26,16 @@ from numpy.polynomial import polynomial as poly
 from zeromode.solver.construction.placement import CandidatePool, candidate_levels
 from zeromode.solver.construction.solution_space import SolutionSpace, solution_space
 from zeromode.solver.errors import DomainError
-from zeromode.solver.tolerances import CONSTRAINT_ATOL, RANK_RTOL
+from zeromode.solver.tolerances import (
+    COMMON_POSITION_ATOL,
+    CONSTRAINT_ATOL,
+    QUADRIC_STEP_ATOL,
+    RANK_RTOL,
+    RESULTANT_PIVOT_ATOL,
+    RESULTANT_ROOT_IMAG_RTOL,
+    ROOT_IMAG_RTOL,
+    SAME_SOLUTION_ATOL,
+)
 
 
 @dataclass(frozen=True, eq=False)
@@ -127,15 +136,15 @@ def conic_intersections(q1: np.ndarray, q2: np.ndarray, rng: np.random.Generator
     if resultant.size < 2:
         return np.zeros((0, 2))
     roots = poly.polyroots(resultant)
-    xs = roots[np.abs(roots.imag) <= 1e-7 * (1 + np.abs(roots.real))].real
+    xs = roots[np.abs(roots.imag) <= RESULTANT_ROOT_IMAG_RTOL * (1 + np.abs(roots.real))].real
     points = []
     for x in xs:
         den = poly.polyval(x, m1)
-        if abs(den) > 1e-12:
+        if abs(den) > RESULTANT_PIVOT_ATOL:
             ys = [-poly.polyval(x, m0) / den]
         else:  # tangency or a shared vertical: take f's roots that also solve g
             ys = np.roots([poly.polyval(x, a2), poly.polyval(x, a1), poly.polyval(x, a0)])
-            ys = ys[np.abs(ys.imag) <= 1e-9].real
+            ys = ys[np.abs(ys.imag) <= ROOT_IMAG_RTOL].real  # |y| ≲ 1: normalised
         points.extend([x, y] for y in ys)
     if not points:
         return np.zeros((0, 2))
@@ -172,14 +181,15 @@ def common_positions(
         jac = np.concatenate([q.jacobian(x) for q in quadrics], axis=1)
         step = np.einsum("nde,ne->nd", np.linalg.pinv(jac), f)
         x = x - step
-        if np.max(np.abs(step), initial=0.0) < 1e-14:
+        if np.max(np.abs(step), initial=0.0) < QUADRIC_STEP_ATOL:
             break
     f = np.concatenate([q.values(x) for q in quadrics], axis=1)
-    good = np.all(np.isfinite(x), axis=1) & (np.max(np.abs(f), axis=1) <= 1e-10)
+    good = np.all(np.isfinite(x), axis=1) & (np.max(np.abs(f), axis=1) <= COMMON_POSITION_ATOL)
     return _distinct(x[good])[:n]
 
 
-def _distinct(x: np.ndarray, tol: float = 1e-6) -> np.ndarray:
+def _distinct(x: np.ndarray, tol: float = SAME_SOLUTION_ATOL) -> np.ndarray:
+    """The rows of x (n, d) with no earlier row within ``tol``."""
     keep: list[np.ndarray] = []
     for p in x:
         if all(np.linalg.norm(p - q) > tol for q in keep):

@@ -52,7 +52,7 @@ Singular points.
     by counting the zero modes of C there (rigidity.analyze with the relative threshold
     SINGULAR_RTOL: a branch point is located to about √ε ≈ 1e-8).  A confirmed point ends the
     path in that direction and is reported; it is never stepped over.  A step that cannot be
-    completed even at MIN_STEP is reported as a "stalled" singularity.
+    completed even at CONTINUATION_MIN_STEP is reported as a "stalled" singularity.
 
 Linear algebra.  Up to rigidity.DENSE_MAX_DOF degrees of freedom C is dense and M is factorised
 by dense LU; above, C is sparse and M by a sparse LU of its pinned interior (bordered.py), so a
@@ -89,7 +89,20 @@ from zeromode.solver.budget import check_budget
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame, check_positions
 from zeromode.solver.progress import progress_stage, report_progress
-from zeromode.solver.tolerances import GIVEN_MODE_RTOL, SIGN_TIE_RTOL
+from zeromode.solver.tolerances import (
+    AMPLITUDE_RTOL,
+    BRACKET_ROUNDOFF,
+    CONTINUATION_MIN_STEP,
+    CURVE_MINIMUM_XATOL,
+    GIVEN_MODE_RTOL,
+    LOCATED_RTOL,
+    MEASURED_WIDTH,
+    NEWTON_RTOL,
+    SIGN_TIE_RTOL,
+    SINGULAR_RTOL,
+    TANGENT_RTOL,
+    TIGHT_STEP_ATOL,
+)
 
 # Largest frame traced (d·N). A sparse step costs a few factorisations of a dN × dN stiffness
 # pattern: about 0.1 s each at dN = 15 000 (the 50 × 50 auxetic sheet), so a path of a few dozen
@@ -97,8 +110,7 @@ from zeromode.solver.tolerances import GIVEN_MODE_RTOL, SIGN_TIE_RTOL
 MAX_DOF = 60_000
 # Nontrivial modes handled at once: each one is a column of the border W (a solve per factor).
 MAX_MODES = 64
-# Newton stops when every bar is within this relative length error (the API promises ≤ 1e-9).
-NEWTON_RTOL = 1e-12
+# Newton iterations of a corrector (to NEWTON_RTOL) before the step is refused.
 NEWTON_MAX_ITER = 12
 # Locating a singular point, Newton goes on while each correction is below this fraction of the
 # previous one (rate 1/2 next to a singular root, where a bar error δ² leaves δ in position),
@@ -109,19 +121,11 @@ TIGHT_MAX_ITER = 40
 EASY_ITERATIONS = 3
 # A correction larger than this (normalised units: a fraction of the RMS radius) has diverged.
 MAX_CORRECTION = 0.5
-# A step is accepted only if the tangent turns by less than this (radians) ...
+# A step is accepted only if the tangent turns by less than this (radians); a refused step is
+# halved down to CONTINUATION_MIN_STEP before the continuation gives up.
 MAX_TURN = 0.15
-# ... and it is halved down to this before the continuation gives up ("stalled").
-MIN_STEP = 1e-9
-# Zero modes at a located singular point are counted with this relative threshold: a branch
-# point can be located only to about √(machine ε) ≈ 1e-8, and σ vanishes linearly there.
-SINGULAR_RTOL = 1e-6
+# Steps of the Illinois bisection that locates a singular point (to LOCATED_RTOL).
 BISECTION_STEPS = 60
-# A singular point counts as located once the vanishing singular value is this far below the
-# counting threshold (two decades of margin for the count at SINGULAR_RTOL).
-LOCATED_RTOL = 1e-2 * SINGULAR_RTOL
-# ... measured only once the bracket on the step length is this narrow (relative).
-MEASURED_WIDTH = 1e-5
 # Inverse iterations for the smallest singular value of C(Y) on W^⊥ (evidence, not a decision:
 # the count at a located point is always taken by rigidity.analyze).
 INVERSE_ITERATIONS = 3
@@ -141,7 +145,7 @@ class Singularity:
     """A point of the path where C loses rank: ``extra_zero_modes`` more zero modes than at the
     start of the step.  ``step`` indexes ``MotionPath.positions``; ``sigma`` is σ/σ_max of the
     singular value that vanished (evidence of the decision); ``kind`` is "rank_drop" (located
-    and confirmed) or "stalled" (the corrector failed at MIN_STEP)."""
+    and confirmed) or "stalled" (the corrector failed at CONTINUATION_MIN_STEP)."""
 
     step: int
     parameter: float
@@ -339,7 +343,7 @@ def _tangent_frame(cons, x: np.ndarray, null: np.ndarray, direction: np.ndarray)
     modes = complement_within(null, rigid)
     t = modes @ (modes.T @ direction)
     norm = np.linalg.norm(t)
-    if modes.shape[1] == 0 or norm <= 1e-8 * np.linalg.norm(direction):
+    if modes.shape[1] == 0 or norm <= TANGENT_RTOL * np.linalg.norm(direction):
         return None
     t /= norm
     return np.column_stack([t, rigid, complement_within(modes, t[:, None])])
@@ -384,7 +388,7 @@ def _correct(cons, point: _Point, pred, start=None, tight=False):
         step = factor.solve(-(point.c.T @ cons.residual(y)), gauge - point.w.T @ y.ravel())[0]
         size = float(np.max(np.abs(step)))
         # At a singular root Newton converges linearly with rate 1/2: go on while it contracts.
-        if converged and (size >= TIGHT_CONTRACTION * last or size <= 1e-15):
+        if converged and (size >= TIGHT_CONTRACTION * last or size <= TIGHT_STEP_ATOL):
             return y, it, factor, c_y
         if not size <= MAX_CORRECTION:  # diverging (also catches NaN)
             return None
@@ -414,11 +418,11 @@ def _trace_one_way(cons, start: _Point, amplitude, max_step, max_steps, stop=Non
 
     for _ in range(max_steps):
         check_budget()
-        if tau >= amplitude * (1 - 1e-12):
+        if tau >= amplitude * (1 - AMPLITUDE_RTOL):
             return xs, taus, None
         h = min(h, amplitude - tau)
         accepted = None
-        while h >= MIN_STEP:
+        while h >= CONTINUATION_MIN_STEP:
             got = _correct(cons, point, point.x + h * sqrt_n * point.t.reshape(point.x.shape))
             if got is not None:
                 y, iters, f_y, c_y = got
@@ -519,7 +523,7 @@ def bracket_sign_change(evaluate, measure, h: float, d_end: float, state_end, re
     widths = [h, h]  # the bracket two steps ago must have been at least twice as wide
     best = None
     for step in range(BISECTION_STEPS if d_hi < 0 else 0):
-        if hi - lo <= 1e-15 * max(h, 1.0) or best is not None and best[0] <= LOCATED_RTOL:
+        if hi - lo <= BRACKET_ROUNDOFF * max(h, 1.0) or best is not None and best[0] <= LOCATED_RTOL:
             break
         check_budget()
         mid = (lo * d_hi - hi * d_lo) / (d_hi - d_lo) if d_lo > d_hi else lo
@@ -656,7 +660,7 @@ def aimed_correction(cons: BarConstraints, point: _Point, start: np.ndarray, qua
             return y if converged else None
         step = d0 + ((value - q) - float(grad.ravel() @ d0)) / slope * v
         size = float(np.max(np.abs(step)))
-        if converged and (size >= TIGHT_CONTRACTION * last or size <= 1e-15):
+        if converged and (size >= TIGHT_CONTRACTION * last or size <= TIGHT_STEP_ATOL):
             return y
         if not size <= MAX_CORRECTION:  # diverging (also catches NaN)
             return None
@@ -969,7 +973,7 @@ def curve_minimum(path: MotionPath, k: int, distance):
         got = _correct(cons, point, pred, tight=True)
         return fallback if got is None else distance(norm.positions_out(got[0]))
 
-    res = minimize_scalar(along, bounds=bounds, method="bounded", options={"xatol": 1e-12})
+    res = minimize_scalar(along, bounds=bounds, method="bounded", options={"xatol": CURVE_MINIMUM_XATOL})
     return float(path.parameter[k] + res.x), float(res.fun)
 
 

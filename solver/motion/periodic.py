@@ -53,7 +53,6 @@ from zeromode.solver.analysis.rigidity import DENSE_MAX_DOF, rigid_motions
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame
 from zeromode.solver.motion.finite_motion import (
-    SINGULAR_RTOL,
     BarConstraints,
     MotionPath,
     Singularity,
@@ -72,12 +71,14 @@ from zeromode.solver.motion.finite_motion import (
     trace_motion,
 )
 from zeromode.solver.progress import progress_stage, report_progress
-from zeromode.solver.tolerances import DESIGN_MODE_RTOL, GIVEN_MODE_RTOL
+from zeromode.solver.tolerances import (
+    DESIGN_MODE_RTOL,
+    GIVEN_MODE_RTOL,
+    PERIOD_INDEPENDENT_RTOL,
+    SINGULAR_RTOL,
+    TILING_RTOL,
+)
 
-# A tiled configuration whose bars are off by more than this (relative) is not a translate of
-# the cell's: the frame is not the tiling it was said to be.  Also the tolerance (relative to
-# the frame's size) within which find_tiling matches a translated node to a node.
-TILING_RTOL = 1e-9
 # find_tiling tries the vectors to this many nodes of the central node's degree as periods (a
 # 2D sheet has about 25 such nodes within two periods of any node).
 CANDIDATE_PERIODS = 32
@@ -86,9 +87,6 @@ CANDIDATE_PERIODS = 32
 # wide), then by length; below MIN_LOCAL_SHARE of them a candidate is no period worth a cell.
 LOCAL_NODES = 256
 MIN_LOCAL_SHARE = 0.5
-# Periods are independent when the smallest singular value of their rows is above this
-# fraction of the largest.
-INDEPENDENT_RTOL = 1e-6
 # The cell's continuation is cheap: where ``stop`` turns true, its last step is shortened by
 # this many bisections (to 2⁻³⁰ of a step), so the patch's path ends where the predicate does
 # (e.g. at the end of a strain range) rather than up to a step past it.
@@ -597,9 +595,9 @@ def find_tiling(frame: Frame) -> tuple[np.ndarray, np.ndarray] | None:
 
 def _independent(rows: np.ndarray) -> bool:
     """Whether the rows are linearly independent (smallest singular value above
-    INDEPENDENT_RTOL of the largest)."""
+    PERIOD_INDEPENDENT_RTOL of the largest)."""
     s = np.linalg.svd(rows, compute_uv=False)
-    return bool(s[-1] > INDEPENDENT_RTOL * s[0])
+    return bool(s[-1] > PERIOD_INDEPENDENT_RTOL * s[0])
 
 
 def trace_motion_through_cell(

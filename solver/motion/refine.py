@@ -57,7 +57,7 @@ from zeromode.solver.motion.finite_motion import (
     relative_bar_error,
 )
 from zeromode.solver.progress import progress_heartbeat, progress_stage, report_progress
-from zeromode.solver.tolerances import REACHED_EPS
+from zeromode.solver.tolerances import IPOPT_TOL, REACHED_EPS, REPORT_MIN_TIME_S
 
 # Weight of ‖x_U − x_U⁰‖² relative to the straight-path term (see the module docstring).
 DESIGN_WEIGHT = 1e-3
@@ -243,7 +243,7 @@ def refine(
     amplitude: float | None = 0.1,
     targets=None,
     K: int = 8,
-    tol: float = 1e-8,
+    tol: float = IPOPT_TOL,
     max_iter: int = 500,
     max_time_s: float = 5.0,
     stay_on_solution_space: bool = False,
@@ -474,7 +474,7 @@ class _IterationReport(ca.Callback):
     def __init__(self, nx: int, ng: int, max_iter: int, time_limit: float):
         ca.Callback.__init__(self)
         self._sizes = {"x": nx, "lam_x": nx, "g": ng, "lam_g": ng, "f": 1}
-        self._max_iter, self._time_limit = max(int(max_iter), 1), max(float(time_limit), 1e-9)
+        self._max_iter, self._time_limit = max(int(max_iter), 1), max(float(time_limit), REPORT_MIN_TIME_S)
         self._count, self._t0 = 0, None
         self.construct("refine_progress", {})
 

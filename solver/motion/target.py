@@ -9,7 +9,7 @@ their gradients ∇q (N, d):
     along the path (its value in (−π, π] at the reference, then unwrapped: a full turn adds
     2π), ∂θ/∂b = b^⊥/|b|², ∂θ/∂a = −a^⊥/|a|² (v^⊥ = (−v_y, v_x)).  In 3D the unsigned angle
     θ = atan2(|a × b|, a·b) ∈ [0, π], ∂θ/∂a = (cos θ â − b̂)/(|a| sin θ) (and a ↔ b).
-  * ``strain`` ε_x or ε_y of a lattice (lattice.boundary_strains): the change of the extent
+  * ``strain`` ε_x or ε_y of a lattice (boundary_strain.boundary_strains): the change of the extent
     between the mean positions of two opposite boundary sets of the configuration aligned to
     the reference (Kabsch, as /v1/motion returns it), over the reference's extent.  It is
     linear in the aligned configuration, ε = ⟨G, A(X)⟩ − 1, A(X) = (X − X̄)R + x̄ with R the
@@ -19,7 +19,7 @@ their gradients ∇q (N, d):
     SΩ + ΩS = Rᵀ δH − δHᵀ R that keeps Rᵀ H symmetric).
   * ``fraction`` f ∈ [−1, 1] \\ {0} of the usable range of the motion in the direction sign(f)
     of the mode: the range ends at the first singular point, where two nodes without a bar come
-    closer than strain_range.PROXIMITY_FRACTION of the shortest bar (located by bisection), or
+    closer than PROXIMITY_FRACTION of the shortest bar (located by bisection), or
     at the search horizon TARGET_HORIZON of the path parameter; the path ends at the parameter
     f·τ_end (pseudo-arclength, finite_motion's units), exactly by the definition of τ.
 
@@ -49,10 +49,9 @@ from scipy.spatial import cKDTree
 
 from zeromode.solver.analysis.normalisation import Normalisation
 from zeromode.solver.analysis.rigidity import DENSE_MAX_DOF
-from zeromode.solver.applications.lattice import boundary_sets
-from zeromode.solver.applications.strain_range import PROXIMITY_FRACTION
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame
+from zeromode.solver.motion.boundary_strain import boundary_sets
 from zeromode.solver.motion.finite_motion import (
     BarConstraints,
     MotionPath,
@@ -66,14 +65,16 @@ from zeromode.solver.motion.finite_motion import (
     trace_motion,
 )
 from zeromode.solver.motion.periodic import STOP_BISECTIONS, trace_motion_through_cell
-from zeromode.solver.tolerances import DISTINCT_RTOL, TARGET_RTOL
+from zeromode.solver.tolerances import (
+    DISTINCT_RTOL,
+    PROXIMITY_FRACTION,
+    TARGET_BRACKET_RTOL,
+    TARGET_RTOL,
+)
 
 # The search horizon: the largest path parameter (/v1/motion's largest amplitude) up to which a
 # target is looked for, and the end of the usable range when nothing ends it before.
 TARGET_HORIZON = 10.0
-# Brent's method brackets the crossing on the curve to this fraction of the samples' spacing
-# before Newton on the augmented system finishes it (Newton's basin is far wider).
-BRACKET_RTOL = 1e-6
 
 KINDS = ("distance", "angle", "strain", "fraction")
 REASONS = {
@@ -447,7 +448,7 @@ class _Lander:
         try:
             ends = miss(lo), miss(hi)
             if ends[0] * ends[1] < 0:
-                s = brentq(miss, lo, hi, xtol=BRACKET_RTOL * abs(hi - lo))
+                s = brentq(miss, lo, hi, xtol=TARGET_BRACKET_RTOL * abs(hi - lo))
             else:  # a sample within round-off of the goal: Newton starts from it
                 s = hi if abs(ends[1]) <= abs(ends[0]) else lo
             start = chart_at(self.cons, point, s)

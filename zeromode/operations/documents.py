@@ -1,8 +1,8 @@
 """The service's documents, recognised by their fields: what ``zeromode plot``, ``zeromode export``,
 POST /v1/plot and POST /v1/export accept besides their own bodies.
 
-A document is a request or response body of /v1/design, /v1/design/auxetic or
-/v1/design/allosteric — a request is designed first (``endpoints.respond``), so a request and its response
+A document is a request or response body of /v1/design, /v1/design/auxetic,
+/v1/design/allosteric or /v1/design/multistable — a request is designed first (``endpoints.respond``), so a request and its response
 give the same document — a /v1/refine response, a /v1/motion response (which has no frame: the
 frame it moved comes with it), or any other body with a ``frame``.
 """
@@ -18,6 +18,7 @@ from zeromode.service.wire.schemas.allostery import AllostericRequest
 from zeromode.service.wire.schemas.common import FrameModel, Points
 from zeromode.service.wire.schemas.design import DesignRequest
 from zeromode.service.wire.schemas.lattice import AuxeticRequest, LatticeState
+from zeromode.service.wire.schemas.multistable import MultistableRequest
 from zeromode.solver.errors import InvalidInput
 from zeromode.solver.pipeline import RefineStage, ToleranceStage
 
@@ -91,6 +92,15 @@ def design_arguments(r: DesignRequest) -> dict:
         "refine_stage": None if o.refine is None else RefineStage(**o.refine.model_dump()),
         "certify_stage": o.certify,
         "tolerance_stage": None if o.tolerance is None else ToleranceStage(**o.tolerance.model_dump()),
+    }
+
+
+def multistable_arguments(r: MultistableRequest) -> dict:
+    """design_multistable's arguments for a /v1/design/multistable request."""
+    o = r.options
+    return {
+        "conformations": r.conformations, "barrier": o.barrier, "max_stiffness": o.max_stiffness,
+        "dim": r.dim, "seed": o.seed,
     }
 
 

@@ -23,10 +23,11 @@ from zeromode.operations.documents import (
     allosteric_arguments,
     auxetic_arguments,
     design_arguments,
+    multistable_arguments,
     validated,
 )
 from zeromode.operations.prechecks import motion_frame
-from zeromode.service.wire.convert import frame_from_model
+from zeromode.service.wire.convert import feature_points, frame_from_model, module_from_model
 from zeromode.service.wire.errors import with_best
 from zeromode.service.wire.responses import (
     allosteric_body,
@@ -37,9 +38,13 @@ from zeromode.service.wire.responses import (
     elastic_allosteric_body,
     inaccurate_design_best,
     json_safe,
+    module_map_body,
     motion_body,
+    multistable_body,
     network_allosteric_body,
     refinement_body,
+    sequential_body,
+    sequential_refusal_best,
     solution_space_body,
     two_configuration_body,
 )
@@ -66,6 +71,13 @@ from zeromode.service.wire.schemas.motion import (
     RefineRequest,
     RefineResponse,
 )
+from zeromode.service.wire.schemas.multistable import MultistableRequest, MultistableResponse
+from zeromode.service.wire.schemas.sequential import (
+    MapRequest,
+    MapResponse,
+    SequentialRequest,
+    SequentialResponse,
+)
 from zeromode.service.wire.settings import current_settings
 from zeromode.solver.applications.allostery import InaccurateDesign, design_allosteric
 from zeromode.solver.applications.elastic_allostery import (
@@ -74,11 +86,11 @@ from zeromode.solver.applications.elastic_allostery import (
     tune_elastic,
 )
 from zeromode.solver.applications.finite_strain import FiniteStrainUnreachable
-from zeromode.solver.applications.lattice import path_strains
 from zeromode.solver.applications.network_allostery import tune_network
 from zeromode.solver.certificates.fabrication import tolerance_report
-from zeromode.solver.errors import InvalidInput
+from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame
+from zeromode.solver.motion.boundary_strain import path_strains
 from zeromode.solver.motion.finite_motion import SingularPath, trace_motion
 from zeromode.solver.motion.periodic import trace_motion_through_cell
 from zeromode.solver.motion.refine import RefinementFailed
@@ -146,6 +158,18 @@ def two_configuration(r: TwoConfigurationRequest) -> Outcome:
     t0 = time.perf_counter()
     result = design_two_configurations(r.initial, r.final, dim=r.dim, seed=r.options.seed)
     return Outcome(result, two_configuration_body(result, _ms_since(t0)))
+
+
+def multistable(r: MultistableRequest) -> Outcome:
+    """POST /v1/design/multistable: a one-freedom linkage through the 2 or 3 conformations
+    (verified by continuation), springs making each a strict minimum of the elastic energy
+    along its motion with barriers between neighbours, every minimum verified by the full
+    energy's Hessian and seeded relaxations (solver.multistable)."""
+    from zeromode.solver.multistable.design import design_multistable
+
+    t0 = time.perf_counter()
+    result = design_multistable(**multistable_arguments(r))
+    return Outcome(result, multistable_body(result, _ms_since(t0)))
 
 
 def auxetic(r: AuxeticRequest) -> Outcome:
@@ -224,6 +248,7 @@ def respond(doc: dict) -> tuple[dict, BaseModel]:
         (("cells",), AuxeticRequest, auxetic),
         (("poisson_ratio",), AuxeticRequest, auxetic),
         (("positions", "motions"), DesignRequest, design),
+        (("conformations",), MultistableRequest, multistable),
     ):
         if all(f in doc for f in fields):
             r = validated(doc, model)
@@ -231,7 +256,7 @@ def respond(doc: dict) -> tuple[dict, BaseModel]:
     raise InvalidInput(
         "invalid_document",
         "the document is neither a body with a frame nor a request or response of /v1/design, "
-        "/v1/design/auxetic or /v1/design/allosteric.",
+        "/v1/design/auxetic, /v1/design/allosteric or /v1/design/multistable.",
     )
 
 
@@ -296,6 +321,43 @@ def certify(r: CertifyRequest) -> Outcome:
     return Outcome(result, certificate_body(result))
 
 
+# ----------------------------------------------------------------------------- modules as maps
+
+
+def module_map(r: MapRequest) -> Outcome:
+    """POST /v1/map: a module's map d_out = f(d_in) from its finite motion (solver.sequential:
+    samples, usable range between folds, fixed points, f and f′ exactly at ``at``)."""
+    from zeromode.solver.sequential.module_map import module_map as map_of
+
+    t0 = time.perf_counter()
+    result = map_of(module_from_model(r))
+    return Outcome(result, {**module_map_body(result, r.at), "timings_ms": _ms_since(t0)})
+
+
+def sequential(r: SequentialRequest) -> Outcome:
+    """POST /v1/design/sequential: a module designed for the features (IPOPT, verified by
+    continuation) and, with ``chain``, its chain verified against the map's iterates; a refusal
+    carries its best figures (``feature_out_of_reach``, ``chain_mismatch``)."""
+    from zeromode.solver.sequential.chain import design_sequential
+
+    t0 = time.perf_counter()
+    chain = r.chain
+    try:
+        result = design_sequential(
+            feature_points(r.features),
+            None if r.start is None else module_from_model(r.start),
+            r.reach,
+            None if chain is None else chain.n_modules,
+            None if chain is None else chain.d0,
+        )
+    except DomainError as exc:
+        best = sequential_refusal_best(exc)
+        if best is None:
+            raise
+        raise with_best(exc, best) from None
+    return Outcome(result, sequential_body(result, _ms_since(t0)))
+
+
 # ----------------------------------------------------------------------------- the registry
 
 
@@ -314,12 +376,15 @@ OPERATIONS: dict[str, Operation] = {
     "/v1/solution-space": Operation(solution_space, SolutionSpaceRequest, SolutionSpaceResponse),
     "/v1/design": Operation(design, DesignRequest, DesignResponse),
     "/v1/design/two-configuration": Operation(two_configuration, TwoConfigurationRequest, TwoConfigurationResponse),
+    "/v1/design/multistable": Operation(multistable, MultistableRequest, MultistableResponse),
     "/v1/design/auxetic": Operation(auxetic, AuxeticRequest, AuxeticResponse),
     "/v1/design/allosteric": Operation(allosteric, AllostericRequest, AllostericResponse),
     "/v1/design/allosteric/network": Operation(network_allosteric, NetworkAllostericRequest, NetworkAllostericAnswer),
     "/v1/motion": Operation(motion, MotionRequest, MotionResponse),
     "/v1/refine": Operation(refine, RefineRequest, RefineResponse),
     "/v1/certify": Operation(certify, CertifyRequest, CertifyResponse),
+    "/v1/map": Operation(module_map, MapRequest, MapResponse),
+    "/v1/design/sequential": Operation(sequential, SequentialRequest, SequentialResponse),
 }
 
 

@@ -27,6 +27,10 @@ What is decided here, and what only the run can decide:
   /v1/design/allosteric  shapes, options, the sites (overlap, rigid or zero motions, a source
                          that does not pin the rigid motions), the relays' module count
                          (too_expensive).  Run time: inaccurate_design, the tolerance stage.
+  /v1/design/multistable the conformations (2 or 3, equal shapes, k ≥ d + 1 distinct nodes,
+                         at most MAX_SPECIFIED: too_expensive; none a rigid motion of another:
+                         rigid_target).  Run time: no_linkage, no_path, no_springs,
+                         not_verified.
   /v1/motion             the frame, its extent, direction / amplitude / max_step, the size
                          (too_expensive), the given mode's shape, the boundary sets.  Run time:
                          everything about the frame's modes (no_motion, ambiguous_mode,
@@ -45,7 +49,12 @@ from collections.abc import Callable
 
 from pydantic import BaseModel
 
-from zeromode.operations.documents import allosteric_arguments, auxetic_arguments, design_arguments
+from zeromode.operations.documents import (
+    allosteric_arguments,
+    auxetic_arguments,
+    design_arguments,
+    multistable_arguments,
+)
 from zeromode.service.wire.convert import frame_from_model
 from zeromode.service.wire.schemas.allostery import AllostericRequest
 from zeromode.service.wire.schemas.analyze import AnalyzeRequest
@@ -53,13 +62,15 @@ from zeromode.service.wire.schemas.certify import CertifyRequest
 from zeromode.service.wire.schemas.design import DesignRequest
 from zeromode.service.wire.schemas.lattice import AuxeticRequest
 from zeromode.service.wire.schemas.motion import MotionRequest, RefineRequest
+from zeromode.service.wire.schemas.multistable import MultistableRequest
 from zeromode.solver.analysis.rigidity import check_dense_size
 from zeromode.solver.applications.allostery import allosteric_inputs
-from zeromode.solver.applications.lattice import boundary_sets
 from zeromode.solver.certificates.prestress import check_certify_request
 from zeromode.solver.frame import Frame, check_extent
+from zeromode.solver.motion.boundary_strain import boundary_sets
 from zeromode.solver.motion.finite_motion import check_trace_arguments, given_mode
 from zeromode.solver.motion.refine import refinement_target
+from zeromode.solver.multistable.linkage import check_conformations
 from zeromode.solver.pipeline import check_auxetic_request, check_design_request
 
 
@@ -93,6 +104,11 @@ def _allosteric(r: AllostericRequest) -> None:
     allosteric_inputs(**allosteric_arguments(r))
 
 
+def _multistable(r: MultistableRequest) -> None:
+    a = multistable_arguments(r)
+    check_conformations(a["conformations"], a["dim"])
+
+
 def _motion(r: MotionRequest) -> None:
     motion_frame(r)
 
@@ -112,6 +128,7 @@ PRECHECKS: dict[str, Callable] = {
     "/v1/design": _design,
     "/v1/design/auxetic": _auxetic,
     "/v1/design/allosteric": _allosteric,
+    "/v1/design/multistable": _multistable,
     "/v1/motion": _motion,
     "/v1/refine": _refine,
     "/v1/certify": _certify,

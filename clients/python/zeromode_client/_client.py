@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import time
-from collections.abc import AsyncIterator, Callable, Iterator, Mapping
+from collections.abc import AsyncIterator, Callable, Iterator, Mapping, Sequence
 from types import TracebackType
 from typing import Any, Literal, Self, TypeVar
 
@@ -204,13 +204,29 @@ class Client(_BaseClient):
         """POST /v1/design/two-configuration with ``fields`` (dim, initial, final, options)."""
         return self._send(ep.capability("/v1/design/two-configuration", fields))
 
+    def design_multistable(self, **fields: Any) -> Result:
+        """POST /v1/design/multistable with ``fields`` (dim, conformations, options: barrier,
+        max_stiffness, seed): rods and springs whose 2 or 3 conformations are energy minima."""
+        return self._send(ep.capability("/v1/design/multistable", fields))
+
+    def module_map(self, frame: FrameLike, input_pair: Sequence[int], output_pair: Sequence[int],
+                   **fields: Any) -> Result:
+        """POST /v1/map: the module's map d_out = f(d_in) between the pairs (``fields``: at)."""
+        return self._send(ep.capability("/v1/map", {"input_pair": list(input_pair),
+                                                    "output_pair": list(output_pair), **fields}, frame))
+
+    def design_sequential(self, **fields: Any) -> Result:
+        """POST /v1/design/sequential with ``fields`` (features, start, chain, reach)."""
+        return self._send(ep.capability("/v1/design/sequential", fields))
+
     def plot(self, frame: FrameLike, **fields: Any) -> str:
         """POST /v1/plot with ``{"frame": frame, **fields}`` (modes, targets, solution_space, …):
         the picture as SVG text."""
         return self._send(ep.plot(frame, fields))
 
     def examples(self) -> list[dict[str, str]]:
-        """GET /v1/examples: the named examples, each ``{"name", "description"}``."""
+        """GET /v1/examples: the named examples, each ``{"name", "description", "endpoint"}`` (the
+        path its request is for)."""
         return self._send(ep.examples())
 
     def example(self, name: str) -> dict[str, Any]:
@@ -421,6 +437,17 @@ class AsyncClient(_BaseClient):
 
     async def design_two_configuration(self, **fields: Any) -> Result:
         return await self._send(ep.capability("/v1/design/two-configuration", fields))
+
+    async def design_multistable(self, **fields: Any) -> Result:
+        return await self._send(ep.capability("/v1/design/multistable", fields))
+
+    async def module_map(self, frame: FrameLike, input_pair: Sequence[int], output_pair: Sequence[int],
+                         **fields: Any) -> Result:
+        return await self._send(ep.capability("/v1/map", {"input_pair": list(input_pair),
+                                                          "output_pair": list(output_pair), **fields}, frame))
+
+    async def design_sequential(self, **fields: Any) -> Result:
+        return await self._send(ep.capability("/v1/design/sequential", fields))
 
     async def plot(self, frame: FrameLike, **fields: Any) -> str:
         return await self._send(ep.plot(frame, fields))

@@ -2,7 +2,12 @@
 
 from fastapi import APIRouter, HTTPException
 
-from zeromode.service.wire.examples import example_description, example_names, example_request
+from zeromode.service.wire.examples import (
+    example_description,
+    example_endpoint,
+    example_names,
+    example_request,
+)
 from zeromode.service.wire.schemas.common import ErrorResponse
 from zeromode.solver.errors import InvalidInput
 
@@ -11,8 +16,8 @@ router = APIRouter(prefix="/v1", tags=["examples"])
 
 @router.get("/examples")
 def list_examples() -> list[dict]:
-    """Names and descriptions of the built-in examples."""
-    return [{"name": n, "description": example_description(n)} for n in example_names()]
+    """Names, descriptions and endpoints (the path each request is for) of the built-in examples."""
+    return [{"name": n, "description": example_description(n), "endpoint": example_endpoint(n)} for n in example_names()]
 
 
 @router.get(
@@ -20,7 +25,8 @@ def list_examples() -> list[dict]:
     responses={404: {"model": ErrorResponse, "description": "No example of that name."}},
 )
 def get_example_request(name: str) -> dict:
-    """The request body of a named example, ready to POST to /v1/design."""
+    """The request body of a named example, ready to POST to its endpoint (/v1/design unless
+    GET /v1/examples names another)."""
     try:
         return example_request(name)
     except InvalidInput as exc:

@@ -1,6 +1,8 @@
-"""GET / — the viewer page: pick an example or paste a request, design it, see the frame, play
-its finite motion, read the report, download every export. Plain static files shipped in the
-package (service/rest/static: HTML, CSS, vanilla JavaScript drawing SVG); no CDN, no build step."""
+"""GET / — the designer page: draw specified nodes and their motions and watch the solution space
+of an unspecified node (computed in the browser, Eqs. 4–6), or pick an auxetic sheet, an
+allosteric pair or a named example; design, play the finite motion, refine and certify as jobs,
+read the report, download every export. Plain static files shipped in the package
+(service/rest/static: HTML, CSS, vanilla JavaScript drawing SVG); no CDN, no build step."""
 
 from __future__ import annotations
 
@@ -13,7 +15,7 @@ router = APIRouter(tags=["viewer"], include_in_schema=False)
 
 STATIC = files("zeromode.service.rest") / "static"
 # The files the page loads, with their media types; nothing else is served from the folder.
-ASSETS = {"viewer.js": "text/javascript", "viewer.css": "text/css"}
+ASSETS = {"designer.js": "text/javascript", "solution_space.js": "text/javascript", "designer.css": "text/css"}
 
 
 @router.get("/", response_class=HTMLResponse)

@@ -1,7 +1,8 @@
-"""The paper's named cases as ready request bodies for POST /v1/design (GET /v1/examples,
-``zeromode example``).
+"""The paper's named cases as ready request bodies (GET /v1/examples, ``zeromode example``), for
+POST /v1/design unless a case names another endpoint.
 
-Each case is one JSON file beside this module, ``<name>.json`` = {"description", "request"}.
+Each case is one JSON file beside this module, ``<name>.json`` = {"description", "request"} and
+optionally "endpoint" (the path the request is for; default /v1/design).
 Coordinates are the paper's where it gives them (Supplementary "Avoiding States of Self Stress
 in 3 Dimensions": five_node_3d); the Fig. 3 cases follow its figures: outward motion u_S = x_S
 of nodes on a square (2D) or a cube (3D). For Fig. 4 (two motions) and the supplement's
@@ -18,6 +19,8 @@ from functools import cache
 from importlib.resources import files
 
 from zeromode.solver.errors import InvalidInput
+
+DEFAULT_ENDPOINT = "/v1/design"
 
 
 @cache
@@ -46,3 +49,8 @@ def example_request(name: str) -> dict:
 
 def example_description(name: str) -> str:
     return _example(name)["description"]
+
+
+def example_endpoint(name: str) -> str:
+    """The path the named request is for: /v1/design unless the case names another."""
+    return _example(name).get("endpoint", DEFAULT_ENDPOINT)

@@ -11,11 +11,10 @@ from zeromode.service.wire.schemas.limits import Limited
 from zeromode.solver.certificates.prestress import (
     MAX_DOF,
     OPTIMAL_MAX_DIM,
-    PRESTRESS_TOL,
     SDP_MAX_DIM,
 )
 from zeromode.solver.certificates.stiffness import GAP_RTOL
-from zeromode.solver.tolerances import GIVEN_MODE_RTOL
+from zeromode.solver.tolerances import GIVEN_MODE_RTOL, PRESTRESS_TOL
 
 
 class CertifyOptions(RequestModel):

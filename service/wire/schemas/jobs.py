@@ -12,6 +12,7 @@ JobEndpoint = Literal[
     "/v1/design/auxetic",
     "/v1/design",
     "/v1/design/allosteric",
+    "/v1/design/multistable",
     "/v1/refine",
     "/v1/motion",
     "/v1/certify",

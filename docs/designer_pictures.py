@@ -1,0 +1,86 @@
+"""Screenshots of the designer page at work for docs/designer.md (docs/img/designer*.png).
+
+Starts `zeromode serve` on loopback, drives Debian's chromium with Playwright as a user would:
+
+- designer_draw.png: the outward square being drawn — the third arrow dragged, the conic live;
+- designer.png: the square designed by judicious placement, refined and certified, with the
+  linear and refined paths and ε(a) side by side and the report;
+- designer_two_motions.png: the two-motion example (Fig. 4): both conics and where they cross;
+- designer_3d.png: the 3D tab's five nodes designed, with the planar curve of their space.
+
+    python -m docs.designer_pictures
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+
+from benchmarks.bench_designer import (
+    ARROW,
+    CHROMIUM_ARGS,
+    CORNERS,
+    drag_arrow,
+    goto_designer,
+    screen,
+)
+from benchmarks.bench_sweeps import start_service_with
+
+OUT = Path(__file__).parent / "img"
+TIMEOUT_MS = 300_000
+
+
+def main() -> None:
+    proc, url = start_service_with({"ZEROMODE_OFFLOAD": "false"})
+    try:
+        shoot(url)
+    finally:
+        proc.terminate()
+        proc.wait(timeout=30)
+
+
+def shoot(url: str) -> None:
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as pw:
+        browser = pw.chromium.launch(executable_path=shutil.which("chromium"), args=CHROMIUM_ARGS)
+        page = goto_designer(browser.new_page(viewport={"width": 1440, "height": 960}), url)
+        page.fill("[data-testid=name]", "outward_2d")
+        for c in CORNERS[:2]:
+            drag_arrow(page, c, np.multiply(c, 1 + ARROW))
+        # The third arrow held mid-drag: the conic of a node joined to three specified nodes.
+        start = np.array(CORNERS[2])
+        page.mouse.move(*screen(page, start))
+        page.mouse.down()
+        page.mouse.move(*screen(page, start + [-0.3, -0.6]))
+        page.screenshot(path=OUT / "designer_draw.png")
+        page.mouse.move(*screen(page, start * (1 + ARROW)))
+        page.mouse.up()
+        drag_arrow(page, CORNERS[3], np.multiply(CORNERS[3], 1 + ARROW))
+        page.click("[data-testid=design]")
+        page.wait_for_selector("[data-testid=play]:not([disabled])", timeout=TIMEOUT_MS)
+        page.click("[data-testid=refine]")
+        page.wait_for_function("designer.refined && designer.refinedPath", timeout=TIMEOUT_MS)
+        page.click("[data-testid=certify]")
+        page.wait_for_function("designer.certificate", timeout=TIMEOUT_MS)
+        page.wait_for_timeout(800)  # the progress bar's last transition
+        page.screenshot(path=OUT / "designer.png", full_page=True)
+
+        page.select_option("[data-testid=example]", "example:two_mode_2d")
+        page.wait_for_function("designer.spaces.length === 2")
+        page.click("[data-testid=design]")
+        page.wait_for_selector("[data-testid=play]:not([disabled])", timeout=TIMEOUT_MS)
+        page.locator("[data-testid=canvas]").screenshot(path=OUT / "designer_two_motions.png")
+
+        page.click("[data-testid=tab-3d]")
+        page.wait_for_function("designer.spaces.length === 1")
+        page.click("[data-testid=design]")
+        page.wait_for_selector("[data-testid=play]:not([disabled])", timeout=TIMEOUT_MS)
+        page.locator("#view").screenshot(path=OUT / "designer_3d.png")
+        browser.close()
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,1128 @@
+// zeromode designer: draw specified nodes and their motions, watch the solution space of an
+// unspecified node (solution_space.js, computed here while you drag), design through the REST
+// API, play the finite motion, refine and certify as jobs, read the report, take the files away.
+// Plain JavaScript and SVG, no dependencies: the page talks to the service that serves it.
+"use strict";
+
+const SVG_NS = "http://www.w3.org/2000/svg";
+const WIDTH = 800, HEIGHT = 600, PAD = 40;
+// The drawing's window in world units (x from −3 to 3); positions snap to 1/8, motions to 1/16
+// (binary fractions: a snapped drawing is exact, so symmetric targets stay exactly symmetric).
+const WINDOW = { lo: [-3, -2.25], hi: [3, 2.25] };
+const SNAP_POSITION = 1 / 8, SNAP_MOTION = 1 / 16;
+// Crossings of two spaces closer than this fraction of the drawing's spread to a specified node
+// are that node (every space passes through the specified nodes), not a place for a new one.
+const CROSSING_GAP = 0.01;
+// ε(a) above this is worth a word: the finite path visibly leaves the drawn arrows.
+const DEPARTS = 0.05;
+const COLOURS = {
+  specified: ["#d7301f", "#8c1d12"], unspecified: ["#2c7fb8", "#1b4f72"], bar: "#a3a3a3",
+  source: "#6a3d9a", target: "#ff7f00", crossing: "#000000",
+  motions: ["#31a354", "#e7298a", "#d95f02", "#7570b3"],   // arrows of motion 1, 2, …
+  spaces: ["#2c7fb8", "#e6550d", "#8c6bb1", "#41ab5d"],    // their solution spaces
+  progress: ["#352a87", "#1283d4", "#33b7a0", "#f9fb0e"],  // trajectories, start → end
+};
+const VIEW_3D = [-60, 25];  // azimuth, elevation of 3D frames (as zeromode.viz); drag to turn
+const PRESETS = {
+  auxetic_3x3: { kind: "auxetic", description: "Auxetic sheet, 3 × 3 modules, ν = −0.5 (Fig. 5c–d)." },
+  allostery_2d: {
+    kind: "allostery", description: "Allosteric source (left) drives a prescribed target motion (right) (Fig. 5e).",
+    source: { positions: [[-2, 0], [-1.5, 0], [-2, 0.5]], motion: [[-0.25, 0], [0.25, 0], [0, 0.25]] },
+    target: { positions: [[1.5, 0], [2, 0], [1.5, 0.5]], motion: [[0, -0.25], [0.25, 0.25], [-0.25, 0]] },
+  },
+};
+// The 3D tab's first target: five specified nodes, one motion (the example five_node_3d): the
+// space of a node joined to all five is a curve in a plane.
+const DEFAULT_3D = {
+  positions: [[2, 0, 1], [1, 0, 2], [3, 0, 3], [3.5, -1, 2.5], [3.5, 1, 2.5]],
+  motion: [[-0.8, 0, 0.8], [0.8, 0, -0.8], [-0.8, 0, 0], [0, -0.8, 0], [0, 0.8, 0]],
+};
+// The drawn network of the Allostery tab: a triangulated sheet, NETWORK columns × rows, rigid.
+const NETWORK = [9, 7], NETWORK_SPACING = 0.5;
+// Human names of the export formats (GET /v1/export/formats); the service's description is the tooltip.
+const FORMAT_LABELS = {
+  vtk: "ParaView (.vtu)", node_link_json: "Graph, JSON", kit_csv: "Build kit, CSV", cut_svg: "Cutting plan, SVG",
+  stl: "3D print (.stl)", gltf: "glTF model", graphml: "GraphML", json: "Design, JSON", csv: "Tables, CSV",
+};
+
+const $ = (id) => document.getElementById(id);
+const state = {
+  kind: "draw", network: null, nodes: [], motions: [[]], motion: 0, placed: [], spaces: [], crossings: [],
+  example: null, response: null, frame: null, modes: [], mode: 0, sites: {}, motionPath: null,
+  refined: null, refinedPath: null, certificate: null, timer: null, drag: null, view: VIEW_3D.slice(),
+  formats: null, jobs: 0, timings: { live: [], design: [] }, progressLog: [], map: null, fresh: true,
+};
+window.designer = state;  // for outside tests and the curious
+
+// ----------------------------------------------------------------------------- service
+
+function headers() {
+  const h = { "content-type": "application/json" };
+  if ($("apikey").value) h["x-api-key"] = $("apikey").value;
+  return h;
+}
+
+async function api(method, path, body) {
+  const r = await fetch(path, { method, headers: headers(), body: body === undefined ? undefined : JSON.stringify(body) });
+  if (!r.ok) {
+    let message = `HTTP ${r.status}`;
+    try {
+      const detail = (await r.json()).detail;
+      message = Array.isArray(detail) ? detail.map((e) => `${e.loc.join(".")}: ${e.msg}`).join("; ") : `${detail.code}: ${detail.message}`;
+    } catch (e) { /* not JSON */ }
+    throw new Error(message);
+  }
+  return r;
+}
+const post = async (path, body) => (await api("POST", path, body)).json();
+const sleep = (ms) => new Promise((done) => setTimeout(done, ms));
+
+// A long request as a job (POST /v1/jobs), its progress on the bar until it is done.
+async function runJob(endpoint, request, label) {
+  const seq = ++state.jobs;
+  const accepted = await post("/v1/jobs", { endpoint, request });
+  showProgress(0, `${label}: queued`);
+  try {
+    for (;;) {
+      await sleep(200);
+      const job = await (await api("GET", `/v1/jobs/${accepted.id}`)).json();
+      showProgress(job.progress, `${label}: ${job.message || job.status}`);
+      if (job.status === "done") return job.result;
+      if (["failed", "cancelled", "interrupted"].includes(job.status)) {
+        throw new Error(job.error ? `${job.error.code}: ${job.error.message}` : `the job was ${job.status}.`);
+      }
+    }
+  } finally {
+    setTimeout(() => { if (state.jobs === seq) $("progress-box").hidden = true; }, 600);
+  }
+}
+
+function showProgress(fraction, text) {
+  const bar = document.querySelector("[data-testid=progress]");
+  $("progress-box").hidden = false;
+  bar.firstElementChild.style.width = `${(100 * fraction).toFixed(1)}%`;
+  bar.dataset.value = String(fraction);
+  bar.setAttribute("aria-valuenow", String(fraction));
+  $("progress-text").textContent = text;
+  state.progressLog.push(fraction);
+}
+
+function say(text, error = false) {
+  $("status").textContent = text;
+  $("status").className = error ? "error" : "";
+}
+
+// ----------------------------------------------------------------------------- geometry
+
+function viewBasis([azimuth, elevation]) {
+  const a = azimuth * Math.PI / 180, e = elevation * Math.PI / 180;
+  const right = [-Math.sin(a), Math.cos(a), 0];
+  const toward = [Math.cos(e) * Math.cos(a), Math.cos(e) * Math.sin(a), Math.sin(e)];
+  const up = [toward[1] * right[2] - toward[2] * right[1], toward[2] * right[0] - toward[0] * right[2],
+              toward[0] * right[1] - toward[1] * right[0]];
+  return [right, up];
+}
+
+function projector(dim) {
+  if (dim !== 3) return (p) => [p[0], p[1]];
+  const [r, u] = viewBasis(state.view);
+  return (p) => [p[0] * r[0] + p[1] * r[1] + p[2] * r[2], p[0] * u[0] + p[1] * u[1] + p[2] * u[2]];
+}
+
+// One map from world to page for everything drawn: the drawing's window, grown (never shrunk)
+// to hold the frame along its whole motion, so a design drawn in the window stays in place.
+function makeMap() {
+  const dim = state.frame ? state.frame.dim : sketchDim(), project = projector(dim);
+  let lo = dim === 2 ? WINDOW.lo.slice() : [Infinity, Infinity], hi = dim === 2 ? WINDOW.hi.slice() : [-Infinity, -Infinity];
+  const tips = state.nodes.map((n, i) => n.x.map((v, a) => v + (state.motions[0][i] || [0, 0, 0])[a]));
+  const configs = state.frame ? (state.motionPath ? state.motionPath.path : [state.frame.positions])
+    : dim === 3 ? [state.nodes.map((n) => n.x), tips] : state.network ? [state.network.positions] : [];
+  for (const points of configs) for (const p of points) {
+    const s = project(p);
+    lo = [Math.min(lo[0], s[0]), Math.min(lo[1], s[1])];
+    hi = [Math.max(hi[0], s[0]), Math.max(hi[1], s[1])];
+  }
+  if (!Number.isFinite(lo[0])) { lo = WINDOW.lo.slice(); hi = WINDOW.hi.slice(); }
+  const inWindow = dim === 2 && lo[0] >= WINDOW.lo[0] && hi[0] <= WINDOW.hi[0] && lo[1] >= WINDOW.lo[1] && hi[1] <= WINDOW.hi[1];
+  const pad = inWindow ? 0 : PAD;
+  const scale = Math.min((WIDTH - 2 * pad) / ((hi[0] - lo[0]) || 1), (HEIGHT - 2 * pad) / ((hi[1] - lo[1]) || 1));
+  const ox = (WIDTH - (hi[0] - lo[0]) * scale) / 2, oy = (HEIGHT - (hi[1] - lo[1]) * scale) / 2;
+  const toPage = (p) => { const s = project(p); return [ox + (s[0] - lo[0]) * scale, HEIGHT - oy - (s[1] - lo[1]) * scale]; };
+  const toWorld = ([px, py]) => [lo[0] + (px - ox) / scale, lo[1] + (HEIGHT - oy - py) / scale];
+  return { toPage, toWorld, scale };
+}
+
+function mix(colours, t) {
+  const s = Math.min(Math.max(t, 0), 1) * (colours.length - 1), k = Math.min(Math.floor(s), colours.length - 2);
+  const a = colours[k], b = colours[k + 1], f = s - k;
+  const c = [1, 3, 5].map((i) => Math.round(parseInt(a.slice(i, i + 2), 16) * (1 - f) + parseInt(b.slice(i, i + 2), 16) * f));
+  return "#" + c.map((v) => v.toString(16).padStart(2, "0")).join("");
+}
+
+const snap = (v, step) => ($("snap").checked ? Math.round(v / step) * step : v);
+const fmt = (v, digits = 3) => (v === null || v === undefined ? "—" : typeof v !== "number" ? String(v)
+  : v !== 0 && (Math.abs(v) < 1e-3 || Math.abs(v) >= 1e5) ? v.toExponential(2) : Number(v.toFixed(digits)).toString());
+
+// ----------------------------------------------------------------------------- the drawing
+
+const specifiedNodes = () => state.nodes.filter((n) => n.role === "specified");
+// The drawing (or the 3D table) is the target, and its solution space is shown.
+const sketching = () => (state.kind === "draw" || state.kind === "space3d") && !state.example;
+const sketchDim = () => (state.kind === "space3d" ? 3 : 2);
+
+// Solution spaces of the drawn motions (one per motion) and where they cross (Fig. 4).
+function updateSpaces() {
+  state.spaces = [];
+  state.crossings = [];
+  const spec = state.nodes.map((n, i) => [n, i]).filter(([n]) => n.role === "specified");
+  if (!sketching() || !spec.length) return;
+  const x = spec.map(([n]) => n.x);
+  const spread = Math.max(...[0, 1].map((a) => Math.max(...x.map((p) => p[a])) - Math.min(...x.map((p) => p[a])))) || 1;
+  state.spaces = state.motions.map((motion) => SolutionSpace.compute(x, spec.map(([, i]) => motion[i])));
+  for (let a = 0; a < state.spaces.length && x[0].length === 2; a++) {
+    for (let b = a + 1; b < state.spaces.length; b++) {
+      // Every space passes through the specified nodes themselves: those crossings are no place for a node.
+      state.crossings.push(...SolutionSpace.intersections(state.spaces[a].curves, state.spaces[b].curves)
+        .filter((p) => x.every((q) => Math.hypot(p[0] - q[0], p[1] - q[1]) > CROSSING_GAP * spread)));
+    }
+  }
+}
+
+function describeSpaces() {
+  const box = $("space-text");
+  box.className = "space";
+  if (!sketching()) { box.textContent = ""; return; }
+  if (!state.spaces.length) { box.textContent = "The solution space of an unspecified node appears once you place specified nodes."; return; }
+  const words = state.spaces.map((s, m) => {
+    const tag = state.spaces.length > 1 ? `motion ${m + 1}: ` : "";
+    if (s.kind === "none") return `${tag}no real solution — ${s.reason}`;
+    if (s.kind === "points") return `${tag}${s.points.length} point${s.points.length === 1 ? "" : "s"} (m = ${s.nullity}); click one to place an unspecified node.`;
+    if (s.kind === "conic" && s.dim === 3) return `${tag}a curve (m = ${s.nullity}), a conic in a plane of space (Fig. 2e).`;
+    if (s.kind === "conic") return `${tag}a ${s.degenerate ? "degenerate " : ""}conic (m = ${s.nullity}); click on it to place an unspecified node.`;
+    if (s.kind === "line") return `${tag}a line of positions (m = ${s.nullity}).`;
+    return `${tag}${s.reason}`;
+  });
+  if (state.spaces.length > 1) words.push(`${state.crossings.length} crossing${state.crossings.length === 1 ? "" : "s"}: a node there moves with every motion.`);
+  box.textContent = words.join(" ");
+  if (state.spaces.every((s) => s.kind === "none")) box.className = "space none";
+}
+
+// The SVG path of a space: polylines for curves, small circles for points.
+function spacePath(space, toPage) {
+  const parts = space.curves.map((c) => c.map((p, i) => { const q = toPage(p); return `${i ? "L" : "M"}${q[0].toFixed(2)} ${q[1].toFixed(2)}`; }).join(""));
+  for (const { position } of space.points) {
+    const [x, y] = toPage(position);
+    parts.push(`M${(x - 6).toFixed(2)} ${y.toFixed(2)}a6 6 0 1 0 12 0a6 6 0 1 0 -12 0`);
+  }
+  return parts.join("");
+}
+
+// ----------------------------------------------------------------------------- drawing
+
+function el(tag, attrs, parent, html = false) {
+  const node = html ? document.createElement(tag) : document.createElementNS(SVG_NS, tag);
+  for (const [k, v] of Object.entries(attrs)) node.setAttribute(k, v);
+  if (parent) parent.appendChild(node);
+  return node;
+}
+
+function arrowHeads(defs, colours) {
+  colours.forEach((colour, m) => {
+    const head = el("marker", { id: `head-${m}`, viewBox: "0 0 10 10", refX: 8, refY: 5, markerWidth: 5, markerHeight: 5, orient: "auto-start-reverse" }, defs);
+    el("path", { d: "M 0 0 L 10 5 L 0 10 z", fill: colour }, head);
+  });
+}
+
+function currentPositions() {
+  const m = state.motionPath;
+  return m ? m.path[Number($("slider").value)] : state.frame.positions;
+}
+
+function draw() {
+  const svg = $("canvas");
+  svg.replaceChildren();
+  state.map = makeMap();
+  const { toPage } = state.map;
+  const defs = el("defs", {}, svg);
+  arrowHeads(defs, COLOURS.motions);
+  const shown = new Set();
+  if (!state.frame && !state.nodes.length && !state.example) {
+    const t = el("text", { x: WIDTH / 2, y: HEIGHT / 2, "text-anchor": "middle", fill: "#999", "font-size": 18 }, svg);
+    t.textContent = state.kind === "auxetic" ? "Set the sheet on the left, then press Design."
+      : "Click to place a node; drag from it to set its motion.";
+  }
+  drawSpaces(svg, toPage, shown);
+  if (state.frame) drawFrame(svg, toPage, shown);
+  else drawSketch(svg, toPage, shown);
+  legend(shown);
+}
+
+function drawSpaces(svg, toPage, shown) {
+  if (!state.spaces.length) return;
+  const g = el("g", { class: "spaces" }, svg);
+  state.spaces.forEach((space, m) => {
+    const colour = COLOURS.spaces[m % COLOURS.spaces.length];
+    const d = spacePath(space, toPage);
+    el("path", {
+      class: `space ${space.kind}`, "data-testid": m ? `solution-space-${m + 1}` : "solution-space", "data-kind": space.kind,
+      "data-motion": m, d, stroke: colour, "stroke-width": 2.2, fill: space.kind === "points" ? colour : "none",
+      "fill-opacity": 0.25, "pointer-events": "none",
+    }, g);
+    if (space.curves.length || space.points.length) shown.add(`space-${m}`);
+  });
+  for (const [i, p] of state.crossings.entries()) {
+    const [x, y] = toPage(p);
+    el("circle", { class: "crossing", "data-crossing": i, cx: x, cy: y, r: 7, fill: "none", stroke: COLOURS.crossing, "stroke-width": 2 }, g);
+    shown.add("crossing");
+  }
+}
+
+// Before a design: the drawn nodes, their arrows (every motion) and nodes placed by hand.
+function drawSketch(svg, toPage, shown) {
+  const spec = state.nodes.map((n, i) => [n, i]).filter(([n]) => n.role === "specified");
+  const bars = el("g", { class: "bars" }, svg);
+  if (state.network) {
+    const p = state.network.positions.map(toPage);
+    for (const [i, j] of state.network.edges) {
+      el("line", { class: "bar network", x1: p[i][0], y1: p[i][1], x2: p[j][0], y2: p[j][1], stroke: COLOURS.bar, "stroke-width": 1.5 }, bars);
+    }
+    p.forEach(([x, y], i) => el("circle", { class: "network-node", "data-network": i, cx: x, cy: y, r: 6,
+                                            fill: COLOURS.unspecified[0], stroke: COLOURS.unspecified[1] }, bars));
+    shown.add("bar"); shown.add("unspecified");
+  }
+  for (const node of state.placed) {
+    for (const [n] of spec) {
+      const [a, b] = [toPage(node.x), toPage(n.x)];
+      el("line", { class: "bar", x1: a[0], y1: a[1], x2: b[0], y2: b[1], stroke: COLOURS.bar, "stroke-width": 2 }, bars);
+      shown.add("bar");
+    }
+  }
+  const arrows = el("g", { class: "arrows" }, svg);
+  state.motions.forEach((motion, m) => {
+    state.nodes.forEach((n, i) => {
+      const u = motion[i];
+      if (!u || Math.hypot(...u) === 0) return;
+      const [a, b] = [toPage(n.x), toPage(n.x.map((v, c) => v + u[c]))];
+      el("line", { class: "arrow drawn", "data-node": i, "data-motion": m, x1: a[0], y1: a[1], x2: b[0], y2: b[1],
+                   stroke: COLOURS.motions[m % 4], "stroke-width": 2.5, opacity: m === state.motion ? 1 : 0.45,
+                   "marker-end": `url(#head-${m % 4})` }, arrows);
+      shown.add(`motion-${m}`);
+    });
+  });
+  const nodes = el("g", { class: "nodes" }, svg);
+  state.nodes.forEach((n, i) => {
+    const [x, y] = toPage(n.x);
+    const [fill, line] = n.role === "specified" ? COLOURS.specified : COLOURS.unspecified;
+    if (n.role === "specified") {
+      el("circle", { class: "node drawn specified", "data-drawn": i, cx: x, cy: y, r: 7, fill, stroke: line, "stroke-width": 1 }, nodes);
+      shown.add("specified");
+    } else {
+      marker(nodes, n.role, x, y);
+      shown.add(n.role);
+      el("circle", { class: "node drawn", "data-drawn": i, cx: x, cy: y, r: 6, fill: "#fff", stroke: COLOURS[n.role], "stroke-width": 2 }, nodes);
+    }
+  });
+  for (const node of state.placed) {
+    const [x, y] = toPage(node.x);
+    el("circle", { class: "node placed unspecified", cx: x, cy: y, r: 6, fill: COLOURS.unspecified[0], stroke: COLOURS.unspecified[1] }, nodes);
+    shown.add("unspecified");
+  }
+}
+
+function marker(parent, kind, cx, cy) {
+  const r = 10;
+  const shape = kind === "source" ? `${cx - r},${cy - r} ${cx + r},${cy - r} ${cx + r},${cy + r} ${cx - r},${cy + r}`
+    : `${cx},${cy - r * 1.3} ${cx + r * 1.3},${cy} ${cx},${cy + r * 1.3} ${cx - r * 1.3},${cy}`;
+  el("polygon", { class: "marker " + kind, points: shape, fill: "none", stroke: COLOURS[kind], "stroke-width": 2 }, parent);
+}
+
+// After a design: the frame at the slider's configuration, its trajectories and its mode.
+function drawFrame(svg, toPage, shown) {
+  const x = state.frame.positions, edges = state.frame.edges;
+  const mode = state.modes[state.mode];
+  if (state.motionPath) {
+    const g = el("g", { class: "trajectories" }, svg);
+    const path = state.motionPath.path, steps = path.length - 1;
+    for (let i = 0; i < x.length; i++) {
+      for (let k = 0; k < steps; k++) {
+        const [a, b] = [toPage(path[k][i]), toPage(path[k + 1][i])];
+        el("line", { x1: a[0], y1: a[1], x2: b[0], y2: b[1], stroke: mix(COLOURS.progress, (k + 0.5) / steps), "stroke-width": 1.2 }, g);
+      }
+    }
+    shown.add("path");
+  }
+  const p = currentPositions().map(toPage);
+  const bars = el("g", { class: "bars" }, svg);
+  edges.forEach(([i, j], b) => el("line", {
+    class: "bar", "data-edge": b, x1: p[i][0], y1: p[i][1], x2: p[j][0], y2: p[j][1],
+    stroke: COLOURS.bar, "stroke-width": 2, "stroke-linecap": "round",
+  }, bars));
+  shown.add("bar");
+  const atReference = !state.motionPath || Number($("slider").value) === state.motionPath.reference_index;
+  if (mode && atReference) {
+    const size = Math.max(...[0, 1, 2].slice(0, state.frame.dim).map((a) => {
+      const v = x.map((q) => q[a]); return Math.max(...v) - Math.min(...v);
+    })) || 1;
+    const longest = Math.max(...mode.map((u) => Math.hypot(...u))) || 1;
+    const spec = new Set(state.frame.specified);
+    // Arrows at the drawing's own length where the user drew them; else the longest a fifth of the frame.
+    const drawnScale = state.fromDrawing ? 1 : 0.2 * size / longest;
+    const arrows = el("g", { class: "arrows" }, svg);
+    x.forEach((q, i) => {
+      const tip = toPage(q.map((v, a) => v + drawnScale * mode[i][a]));
+      if (Math.hypot(tip[0] - p[i][0], tip[1] - p[i][1]) < 3) return;
+      el("line", { class: "arrow", "data-node": i, x1: p[i][0], y1: p[i][1], x2: tip[0], y2: tip[1],
+                   stroke: COLOURS.motions[0], "stroke-width": 2.2, opacity: spec.has(i) ? 1 : 0.8, "marker-end": "url(#head-0)" }, arrows);
+    });
+    shown.add("mode");
+  }
+  const spec = new Set(state.frame.specified);
+  const nodes = el("g", { class: "nodes" }, svg);
+  let round = 0;
+  p.forEach((q, i) => {
+    const isSpec = spec.has(i);
+    const [fill, line] = isSpec ? COLOURS.specified : COLOURS.unspecified;
+    const attrs = { class: "node " + (isSpec ? "specified" : "unspecified"), "data-node": i, cx: q[0], cy: q[1], r: 5.5, fill, stroke: line, "stroke-width": 1 };
+    if (!isSpec && state.fresh) { attrs.class += " node-new"; attrs.style = `animation-delay: ${(0.15 * round++).toFixed(2)}s`; }
+    el("circle", attrs, nodes);
+    shown.add(isSpec ? "specified" : "unspecified");
+  });
+  for (const kind of ["source", "target"]) {
+    for (const i of state.sites[kind] || []) { marker(nodes, kind, p[i][0], p[i][1]); shown.add(kind); }
+  }
+  if (state.motionPath) {
+    const k = Number($("slider").value), m = state.motionPath;
+    const signed = (v) => `${v >= 0 ? "+" : "−"}${Math.abs(v).toFixed(3)}`;
+    $("where").textContent = `t ${signed(m.parameter[k])}${m.strains ? ` · ε_x ${signed(m.strains[k][0])}` : ""}`;
+  }
+}
+
+// Legend entries for what is on the canvas, nothing else.
+function legend(shown) {
+  const box = $("legend");
+  box.replaceChildren();
+  const entry = (key, text, svgKey) => {
+    if (!shown.has(key)) return;
+    const span = el("span", { "data-key": key }, box, true);
+    const icon = el("svg", { class: "key", width: 22, height: 12, viewBox: "0 0 22 12" }, span);
+    svgKey(icon);
+    span.appendChild(document.createTextNode(text));
+  };
+  const dot = (colours) => (s) => el("circle", { cx: 11, cy: 6, r: 5, fill: colours[0], stroke: colours[1] }, s);
+  const line = (colour, width = 3) => (s) => el("line", { x1: 1, y1: 6, x2: 21, y2: 6, stroke: colour, "stroke-width": width }, s);
+  entry("specified", "specified node", dot(COLOURS.specified));
+  entry("unspecified", "unspecified node", dot(COLOURS.unspecified));
+  entry("source", "source site", (s) => el("rect", { x: 6, y: 1, width: 10, height: 10, fill: "none", stroke: COLOURS.source, "stroke-width": 2 }, s));
+  entry("target", "target site", (s) => el("polygon", { points: "11,0 17,6 11,12 5,6", fill: "none", stroke: COLOURS.target, "stroke-width": 2 }, s));
+  entry("bar", "bar", line(COLOURS.bar));
+  state.motions.forEach((_, m) => entry(`motion-${m}`, `motion ${m + 1}`, line(COLOURS.motions[m % 4])));
+  entry("mode", "zero mode", line(COLOURS.motions[0]));
+  state.spaces.forEach((_, m) => entry(`space-${m}`, `solution space${state.spaces.length > 1 ? " " + (m + 1) : ""}`, line(COLOURS.spaces[m % 4], 2)));
+  entry("crossing", "crossing", (s) => el("circle", { cx: 11, cy: 6, r: 4, fill: "none", stroke: "#000", "stroke-width": 2 }, s));
+  entry("path", "trajectory, start → end", (s) => {
+    COLOURS.progress.forEach((c, i) => el("line", { x1: 1 + 5 * i, y1: 6, x2: 6 + 5 * i, y2: 6, stroke: c, "stroke-width": 3 }, s));
+  });
+}
+
+// ----------------------------------------------------------------------------- pointer
+
+function pointerWorld(event) {
+  const svg = $("canvas"), box = svg.getBoundingClientRect();
+  const px = (event.clientX - box.left) * WIDTH / box.width, py = (event.clientY - box.top) * HEIGHT / box.height;
+  return state.map.toWorld([px, py]);
+}
+
+function onPointerDown(event) {
+  if ((state.frame && state.frame.dim === 3) || (!state.frame && sketchDim() === 3) || (state.example && state.example.dim === 3)) {
+    state.drag = { rotate: true, x: event.clientX, y: event.clientY };
+    $("canvas").setPointerCapture(event.pointerId);
+    return;
+  }
+  if (state.kind === "auxetic" || state.example) return;
+  const w = pointerWorld(event), target = event.target;
+  if (state.kind === "draw" && document.querySelector("input[name=place]:checked").value === "unspecified") {
+    if (!state.frame) placeUnspecified(w, target.classList.contains("crossing") ? Number(target.dataset.crossing) : null);
+    return;
+  }
+  let i;
+  if (target.dataset.drawn !== undefined) i = Number(target.dataset.drawn);
+  else if (state.network) {
+    if (target.dataset.network === undefined) return;  // sites sit on the network's nodes
+    const index = Number(target.dataset.network), x = state.network.positions[index];
+    state.nodes.push({ x, role: document.querySelector("input[name=role]:checked").value, index });
+    state.motions.forEach((m) => m.push([0, 0]));
+    i = state.nodes.length - 1;
+  } else {
+    if (state.frame && !state.fromDrawing) return;
+    const x = [snap(w[0], SNAP_POSITION), snap(w[1], SNAP_POSITION)];
+    if (state.nodes.some((n) => Math.hypot(n.x[0] - x[0], n.x[1] - x[1]) < 1e-9)) return;
+    const role = state.kind === "allostery" ? document.querySelector("input[name=role]:checked").value : "specified";
+    state.nodes.push({ x, role });
+    state.motions.forEach((m) => m.push([0, 0]));
+    i = state.nodes.length - 1;
+  }
+  state.drag = { node: i };
+  $("canvas").setPointerCapture(event.pointerId);
+  edited();
+}
+
+function onPointerMove(event) {
+  if (!state.drag) return;
+  if (state.drag.rotate) {
+    state.view[0] -= (event.clientX - state.drag.x) * 0.5;
+    state.view[1] = Math.max(-89, Math.min(89, state.view[1] + (event.clientY - state.drag.y) * 0.5));
+    state.drag.x = event.clientX; state.drag.y = event.clientY;
+    draw();
+    return;
+  }
+  const n = state.nodes[state.drag.node], w = pointerWorld(event);
+  const m = state.kind === "draw" ? state.motion : 0;
+  state.motions[m][state.drag.node] = [snap(w[0] - n.x[0], SNAP_MOTION), snap(w[1] - n.x[1], SNAP_MOTION)];
+  edited();
+  // From the pointer event to the space recomputed and redrawn (queueing included).
+  state.timings.live.push(performance.now() - event.timeStamp);
+}
+
+function onPointerUp() { state.drag = null; }
+
+// A drawing changed: the old design no longer belongs to it.
+function edited() {
+  if (state.response) clearDesign();
+  state.placed = [];
+  updateSpaces();
+  describeSpaces();
+  draw();
+}
+
+// An unspecified node on the space nearest the click (or at a crossing of two spaces), joined to
+// every specified node; a click farther than 20 px from every space places nothing.
+function placeUnspecified(w, crossing) {
+  let best = null;
+  if (crossing !== null) best = state.crossings[crossing];
+  else if (state.spaces.length > 1) {
+    for (const q of state.crossings) if (!best || Math.hypot(q[0] - w[0], q[1] - w[1]) < Math.hypot(best[0] - w[0], best[1] - w[1])) best = q;
+  } else {
+    for (const s of state.spaces) {
+      for (const q of [...s.curves.flat(), ...s.points.map((p) => p.position)]) {
+        if (!best || Math.hypot(q[0] - w[0], q[1] - w[1]) < Math.hypot(best[0] - w[0], best[1] - w[1])) best = q;
+      }
+    }
+  }
+  if (!best || Math.hypot(best[0] - w[0], best[1] - w[1]) * state.map.scale > 20) {
+    say(state.spaces.length > 1 ? "click at a crossing of the solution spaces." : "click on the solution space.", true);
+    return;
+  }
+  state.placed.push({ x: best });
+  draw();
+  checkPlaced().catch((e) => say(e.message, true));
+}
+
+// The frame built by hand (specified nodes, placed nodes, a bar from each placed node to every
+// specified node) analysed by the service: does it leave only the drawn motions?
+async function checkPlaced() {
+  const spec = specifiedNodes(), k = spec.length;
+  const positions = [...spec.map((n) => n.x), ...state.placed.map((n) => n.x)];
+  const edges = state.placed.flatMap((_, j) => spec.map((__, i) => [i, k + j]));
+  const a = await post("/v1/analyze", { frame: { dim: 2, positions, edges, specified: spec.map((_, i) => i) } });
+  say(`built by hand: ${a.nodes} nodes, ${a.edges} bars, ${a.nontrivial_zero_modes} non-rigid zero mode${a.nontrivial_zero_modes === 1 ? "" : "s"}, ${a.self_stresses} self-stress${a.self_stresses === 1 ? "" : "es"} (Design places nodes judiciously instead).`);
+}
+
+// ----------------------------------------------------------------------------- design
+
+function drawnRequest() {
+  if (state.kind === "auxetic") {
+    const request = { dim: 2, cells: [Number($("cells-x").value), Number($("cells-y").value)], poisson_ratio: Number($("nu").value) };
+    const range = $("strain-range").value.trim();
+    if (range) {
+      const ends = range.split(/[ ,;]+/).map(Number);
+      if (ends.length !== 2 || ends.some((v) => !Number.isFinite(v))) throw new Error("finite strain: give two numbers, e.g. -0.05, 0.05.");
+      request.finite_strain = { strain_range: ends };
+    }
+    if ($("tolerance").checked) request.tolerance = {};
+    return ["/v1/design/auxetic", request];
+  }
+  const options = $("tolerance").checked ? { tolerance: {} } : {};
+  if (state.example) return ["/v1/design", { ...state.example, options: { ...state.example.options, ...options } }];
+  if (state.kind === "allostery") {
+    const site = (role) => {
+      const idx = state.nodes.map((n, i) => [n, i]).filter(([n]) => n.role === role);
+      return { positions: idx.map(([n]) => n.x), motion: idx.map(([, i]) => state.motions[0][i]) };
+    };
+    const source = site("source"), target = site("target");
+    if (!source.positions.length || !target.positions.length) throw new Error("place at least one source and one target node.");
+    if (state.network) {
+      const indices = (role) => state.nodes.filter((n) => n.role === role).map((n) => n.index);
+      return ["/v1/design/allosteric/network", {
+        frame: state.network, source: indices("source"), target: indices("target"),
+        source_motion: source.motion, target_motion: target.motion,
+      }];
+    }
+    return ["/v1/design/allosteric", { dim: 2, source, target, options }];
+  }
+  const spec = state.nodes.map((n, i) => [n, i]).filter(([n]) => n.role === "specified");
+  if (state.kind === "space3d") {
+    return ["/v1/design", { dim: 3, positions: spec.map(([n]) => n.x), motions: [spec.map(([, i]) => state.motions[0][i])], options: { seed: 0, ...options } }];
+  }
+  if (spec.length < 2) throw new Error("place at least two specified nodes and drag their motions.");
+  const motions = state.motions.map((m) => spec.map(([, i]) => m[i])).filter((m) => m.some((u) => u[0] || u[1]));
+  if (!motions.length) throw new Error("drag from a node to give it a motion.");
+  return ["/v1/design", { dim: 2, positions: spec.map(([n]) => n.x), motions, options: { seed: 0, ...options } }];
+}
+
+async function design(event) {
+  const t0 = event && event.timeStamp ? event.timeStamp : performance.now();
+  let endpoint, request;
+  try { [endpoint, request] = drawnRequest(); } catch (e) { clearDesign(); say(e.message, true); return; }
+  clearDesign();
+  state.placed = [];
+  say(`designing (${endpoint}) …`);
+  // A drawn 2D design answers in milliseconds; the rest may take seconds: a job with progress.
+  // (Allostery in a given network has no job endpoint: it is asked directly too.)
+  const direct = (endpoint === "/v1/design" && request.dim === 2) || endpoint === "/v1/design/allosteric/network";
+  try {
+    const response = direct ? await post(endpoint, request) : await runJob(endpoint, request, "designing");
+    state.response = response;
+    state.frame = response.frame;
+    state.modes = response.modes || [];
+    state.mode = 0;
+    const modeSelect = $("mode-select");
+    modeSelect.replaceChildren();
+    state.modes.forEach((_, m) => { el("option", { value: m }, modeSelect, true).textContent = `mode ${m + 1}`; });
+    modeSelect.hidden = state.modes.length < 2;
+    state.fromDrawing = direct && !state.example && !state.network;
+    const report = response.report || {};
+    state.sites = { source: report.source || [], target: report.target || [] };
+    state.fresh = true;
+    draw();
+    requestAnimationFrame(() => state.timings.design.push(performance.now() - t0));
+    state.fresh = false;
+    say(`designed: ${state.frame.positions.length} nodes, ${state.frame.edges.length} bars; tracing the finite motion …`);
+    $("refine").disabled = !(state.modes.length === 1 && state.frame.specified.length >= 2);
+    $("certify").disabled = false;
+    report_();
+    await Promise.all([traceMotion(), listDownloads()]);
+  } catch (e) {
+    clearDesign();
+    say(e.message, true);
+  }
+}
+
+function clearDesign() {
+  stop();
+  Object.assign(state, { response: null, frame: null, modes: [], sites: {}, motionPath: null,
+                         refined: null, refinedPath: null, certificate: null, fromDrawing: false });
+  for (const id of ["slider", "play", "refine", "certify"]) $(id).disabled = true;
+  $("where").textContent = "";
+  $("downloads").replaceChildren();
+  $("compare").hidden = true;
+  report_();
+  draw();
+}
+
+async function traceMotion() {
+  if (!state.frame) return;
+  const body = { frame: state.frame, amplitude: Number($("amplitude").value), on_singularity: "report" };
+  if (state.modes.length) body.mode = state.modes[state.mode];
+  if (state.response.report && state.response.report.boundary) body.boundary = state.response.report.boundary;
+  const frame = state.frame;
+  try {
+    const motion = await post("/v1/motion", body);
+    if (state.frame !== frame) return;  // redesigned meanwhile
+    state.motionPath = motion;
+    const slider = $("slider");
+    slider.max = motion.path.length - 1;
+    slider.value = motion.reference_index;
+    slider.disabled = false;
+    $("play").disabled = false;
+    say(`finite motion: ${motion.path.length} configurations (${motion.status}); press Play or drag the slider.${departure()}`);
+  } catch (e) {
+    state.motionPath = null;
+    $("slider").disabled = true;
+    $("play").disabled = true;
+    say("no finite motion: " + e.message, true);
+  }
+  draw();
+  report_();
+  if (state.refined) await traceRefined();
+  else if (state.motionPath && fidelityApplies()) compare();
+}
+
+// ε(a) is defined for a 2D design with specified nodes and one motion (as POST /v1/refine).
+const fidelityApplies = () => state.frame.dim === 2 && state.frame.specified.length >= 2 && state.modes.length === 1;
+
+// One sentence when the finite path leaves the arrows (ε(a) at the amplitude above DEPARTS).
+function departure() {
+  if (!fidelityApplies()) return "";
+  const spec = state.frame.specified, a = Number($("amplitude").value);
+  const eps = epsilonCurve(state.motionPath.path, spec, spec.map((i) => state.frame.positions[i]), specifiedRows(state.modes[0]), [a])[0];
+  return eps > DEPARTS ? ` The finite path leaves the arrows (ε = ${fmt(eps, 2)} at a = ${a.toFixed(2)}: the design is exact only to first order); Refine moves the unspecified nodes so that it follows them.` : "";
+}
+
+function stop() {
+  if (state.timer) clearInterval(state.timer);
+  state.timer = null;
+  $("play").textContent = "Play";
+}
+
+function play() {
+  if (state.timer) { stop(); return; }
+  const slider = $("slider");
+  let direction = 1;
+  $("play").textContent = "Pause";
+  state.timer = setInterval(() => {
+    let k = Number(slider.value) + direction;
+    if (k > Number(slider.max) || k < 0) { direction = -direction; k += 2 * direction; }
+    slider.value = k;
+    draw();
+  }, 50);
+}
+
+// ----------------------------------------------------------------------------- refine, certify
+
+const specifiedRows = (mode) => state.frame.specified.map((i) => mode[i]);
+
+// A job on the current design with its button disabled meanwhile; ``use`` takes the result
+// unless the design changed while it ran.
+async function designJob(button, label, endpoint, request, use) {
+  const frame = state.frame;
+  $(button).disabled = true;
+  try {
+    const result = await runJob(endpoint, request, label);
+    if (state.frame === frame) await use(result);
+  } catch (e) {
+    say(`${label}: ${e.message}`, true);
+  } finally {
+    $(button).disabled = !state.frame;
+    report_();
+  }
+}
+
+async function refine() {
+  if (!state.frame) return;
+  const f = state.frame;
+  const request = {
+    frame: { dim: f.dim, positions: f.positions, edges: f.edges, specified: f.specified },
+    motion: specifiedRows(state.modes[0]), amplitude: Number($("amplitude").value), options: { max_time_s: 10 },
+  };
+  await designJob("refine", "refining", "/v1/refine", request, async (result) => {
+    state.refined = result;
+    say(`refined: ε ${fmt(result.epsilon_before)} → ${fmt(result.epsilon_after)} (IPOPT ${result.ipopt_status}, ${result.iterations} iterations).`);
+    await traceRefined();
+  });
+}
+
+async function traceRefined() {
+  const r = state.refined;
+  try {
+    state.refinedPath = await post("/v1/motion", {
+      frame: r.frame, mode: r.modes ? r.modes[0] : undefined, amplitude: Number($("amplitude").value), on_singularity: "report",
+    });
+  } catch (e) {
+    state.refinedPath = null;
+  }
+  compare();
+}
+
+async function certify() {
+  if (!state.frame) return;
+  const f = state.frame;
+  const request = { frame: { dim: f.dim, positions: f.positions, edges: f.edges }, modes: state.modes };
+  await designJob("certify", "certifying", "/v1/certify", request, (result) => {
+    state.certificate = result;
+    const p = result.prestress;
+    say(`certified: ${p.prestress_stable ? "prestress stable" : "not prestress stable"} (${p.decided_by}).`);
+  });
+}
+
+const SUBSTEPS = 8;
+
+// ε(a) of a traced path for the target x_S + a·(r_S/ρ_u)·u_S (as POST /v1/refine): the closest
+// point of the path after the best rotation and translation (2D Kabsch in closed form), over ‖Δ_S‖.
+function epsilonCurve(path, spec, x, u, amplitudes) {
+  const k = spec.length;
+  const centred = (pts) => { const c = [0, 1].map((a) => pts.reduce((s, p) => s + p[a], 0) / k); return pts.map((p) => [p[0] - c[0], p[1] - c[1]]); };
+  const rS = Math.sqrt(centred(x).reduce((s, p) => s + p[0] ** 2 + p[1] ** 2, 0) / k);
+  const rhoU = Math.sqrt(u.reduce((s, p) => s + p[0] ** 2 + p[1] ** 2, 0) / k);
+  // Between traced samples the path is taken straight (SUBSTEPS per step): at small a the
+  // target lies between the first samples, and ε is then a ratio of two small lengths.
+  const samples = [];
+  path.forEach((X, j) => {
+    const P = spec.map((i) => X[i]), next = j + 1 < path.length ? spec.map((i) => path[j + 1][i]) : null;
+    for (let s = 0; s < (next ? SUBSTEPS : 1); s++) {
+      const f = s / SUBSTEPS;
+      samples.push(centred(next ? P.map((p, i) => [p[0] + f * (next[i][0] - p[0]), p[1] + f * (next[i][1] - p[1])]) : P));
+    }
+  });
+  return amplitudes.map((a) => {
+    const delta = u.map((p) => [a * rS / rhoU * p[0], a * rS / rhoU * p[1]]);
+    const q = centred(x.map((p, i) => [p[0] + delta[i][0], p[1] + delta[i][1]]));
+    const qq = q.reduce((s, p) => s + p[0] ** 2 + p[1] ** 2, 0);
+    let best = Infinity;
+    for (const P of samples) {
+      let pp = 0, sd = 0, sc = 0;
+      P.forEach((p, i) => { pp += p[0] ** 2 + p[1] ** 2; sd += p[0] * q[i][0] + p[1] * q[i][1]; sc += p[0] * q[i][1] - p[1] * q[i][0]; });
+      best = Math.min(best, Math.sqrt(Math.max(pp + qq - 2 * Math.hypot(sd, sc), 0)));
+    }
+    return best / Math.sqrt(delta.reduce((s, p) => s + p[0] ** 2 + p[1] ** 2, 0));
+  });
+}
+
+function miniFrame(svg, frame, path) {
+  svg.replaceChildren();
+  if (!frame) {
+    el("text", { x: 150, y: 125, "text-anchor": "middle", fill: "#999", "font-size": 13 }, svg).textContent = "press Refine";
+    return;
+  }
+  const configs = path ? path.path : [frame.positions], project = projector(frame.dim);
+  let lo = [Infinity, Infinity], hi = [-Infinity, -Infinity];
+  for (const c of configs) for (const p of c) { const s = project(p); lo = [Math.min(lo[0], s[0]), Math.min(lo[1], s[1])]; hi = [Math.max(hi[0], s[0]), Math.max(hi[1], s[1])]; }
+  const sc = Math.min(270 / ((hi[0] - lo[0]) || 1), 210 / ((hi[1] - lo[1]) || 1));
+  const page = (p) => { const s = project(p); return [15 + (s[0] - lo[0]) * sc, 225 - (s[1] - lo[1]) * sc]; };
+  if (path) {
+    for (let i = 0; i < frame.positions.length; i++) {
+      const pts = path.path.map((c) => page(c[i]).map((v) => v.toFixed(1)).join(",")).join(" ");
+      el("polyline", { points: pts, fill: "none", stroke: COLOURS.progress[1], "stroke-width": 1 }, svg);
+    }
+  }
+  const p = frame.positions.map(page), spec = new Set(frame.specified);
+  frame.edges.forEach(([i, j]) => el("line", { x1: p[i][0], y1: p[i][1], x2: p[j][0], y2: p[j][1], stroke: COLOURS.bar, "stroke-width": 1.5 }, svg));
+  p.forEach((q, i) => el("circle", { cx: q[0], cy: q[1], r: 3.5, fill: spec.has(i) ? COLOURS.specified[0] : COLOURS.unspecified[0] }, svg));
+}
+
+function compare() {
+  $("compare").hidden = false;
+  miniFrame($("path-linear"), state.frame, state.motionPath);
+  miniFrame($("path-refined"), state.refined && state.refined.frame, state.refinedPath);
+  const chart = $("epsilon");
+  chart.replaceChildren();
+  if (!state.motionPath || !fidelityApplies()) return;
+  const spec = state.frame.specified, x = spec.map((i) => state.frame.positions[i]), u = specifiedRows(state.modes[0]);
+  const top = Number($("amplitude").value), amplitudes = Array.from({ length: 20 }, (_, i) => top * (i + 1) / 20);
+  const curves = [[state.motionPath, COLOURS.spaces[0], "linear"]];
+  if (state.refinedPath) curves.push([state.refinedPath, COLOURS.spaces[1], "refined"]);
+  const values = curves.map(([path]) => epsilonCurve(path.path, spec, x, u, amplitudes));
+  const ymax = Math.max(1e-3, ...values.flat().filter(Number.isFinite)) * 1.1;
+  const X = (a) => 40 + 245 * a / top, Y = (e) => 215 - 170 * e / ymax;  // labels above y = 40
+  el("line", { x1: 40, y1: 215, x2: 290, y2: 215, stroke: "#888" }, chart);
+  el("line", { x1: 40, y1: 45, x2: 40, y2: 215, stroke: "#888" }, chart);
+  const label = (x, y, text, anchor = "middle") => { el("text", { x, y, "font-size": 11, "text-anchor": anchor, fill: "#444" }, chart).textContent = text; };
+  label(165, 236, "amplitude a");
+  label(36, 49, fmt(ymax, 2), "end");
+  label(36, 218, "0", "end");
+  label(290, 228, fmt(top, 2), "end");
+  curves.forEach(([, colour, name], c) => {
+    const pts = amplitudes.map((a, i) => `${X(a).toFixed(1)},${Y(values[c][i]).toFixed(1)}`).join(" ");
+    el("polyline", { class: `epsilon ${name}`, points: pts, fill: "none", stroke: colour, "stroke-width": 2 }, chart);
+    label(285, 14 + 14 * c, `${name}: ε(${fmt(top, 2)}) = ${fmt(values[c][values[c].length - 1])}`, "end");
+  });
+}
+
+// ----------------------------------------------------------------------------- report
+
+// [label, value, unit, meaning] rows of everything known about the design.
+function reportRows() {
+  const r = state.response;
+  if (!r) return [];
+  const rep = r.report || {}, a = rep.analysis || {}, rows = [["Design"]];
+  const add = (label, value, unit, meaning) => { if (value !== undefined && value !== null) rows.push([label, value, unit, meaning]); };
+  add("nodes N", a.nodes, "", "Joints of the frame, specified and unspecified.");
+  add("unspecified nodes", rep.unspecified_nodes, "", "Nodes the designer placed on the solution spaces.");
+  add("bars N_B", a.edges, "", "Rigid bars; each keeps its length to first order.");
+  add("zero modes", a.zero_modes, "", "dim N(C) = dN − rank C: rigid motions plus the designed motions.");
+  add("non-rigid zero modes", a.nontrivial_zero_modes, "", "Zero modes beyond rigid motions: should equal the number of motions you asked for.");
+  add("self-stresses", a.self_stresses, "", "N_B − rank C: bars that fight each other (0 keeps the motion finite).");
+  if (a.rank_gap) add("rank gap σ_r / σ_r+1", `${fmt(a.rank_gap.last_nonzero)} / ${fmt(a.rank_gap.first_zero)}`, "", "Smallest nonzero and largest zero singular value of the scale-normalised C: a wide gap means the counts are decided robustly.");
+  add("mode residual", rep.mode_residual, "relative", "max ‖C u‖ / (‖C‖ ‖u‖): how exactly the designed motion is a zero mode.");
+  add("conditioning", rep.conditioning, "", "Smallest nonzero singular value of the normalised C: small means nearly another mode.");
+  add("Poisson ratio ν", r.poisson_ratio, "", "−ε_y/ε_x of the sheet's motion, to first order.");
+  if (rep.strain_range) {
+    const s = rep.strain_range;
+    const ends = [s.lower, s.upper].map((e) => (e && typeof e === "object" ? fmt(e.strain) : fmt(e)));
+    add("strain range ε_x", `${ends[0]} … ${ends[1]}`, "strain", "How far the sheet can be strained before a singular point, two nodes touching or bars crossing.");
+  }
+  if (rep.finite_strain) add("ν deviation over strain", rep.finite_strain.max_deviation, "", "max |ν_secant − ν| over the finite-strain range, measured on the whole sheet.");
+  add("target error", rep.target_error, "relative", "How far the achieved target motion is from the one prescribed.");
+  add("bonds changed", rep.bonds_changed, "", "Bars removed from the given network plus bars added to it.");
+  const tol = rep.tolerance;
+  if (tol) {
+    const budget = `keeping every designed quantity within ${fmt(100 * tol.budget)} % (linearised, checked by a Monte Carlo of ${tol.samples} frames). ${tol.summary}`;
+    add("tolerance, bar lengths", tol.bar_lengths, "fraction", `How far each bar may be off its length, ${budget}`);
+    add("tolerance, pins", tol.pin_positions, "× mean bar", `How far each pin may be off, as a fraction of the mean bar length (${fmt(tol.mean_bar_length)}), ${budget}`);
+  }
+  if (rep.timings_ms && rep.timings_ms.total !== undefined) add("design time", rep.timings_ms.total, "ms", "Time the service spent designing.");
+  const m = state.motionPath;
+  if (m) {
+    rows.push(["Finite motion"]);
+    add("configurations", m.path.length, "", "Points traced along the nonlinear motion.");
+    add("parameter range", `${fmt(m.parameter[0])} … ${fmt(m.parameter[m.parameter.length - 1])}`, "", "Pseudo-arclength, RMS node displacement over the frame's RMS radius.");
+    add("bar-length error", m.max_relative_bar_error, "relative", "Largest | |x_i − x_j| − l | / l along the path: every bar keeps its length.");
+    add("status", m.status, "", "ok, or singular_path when the motion meets a branch point or locks before the amplitude.");
+  }
+  const f = state.refined;
+  if (f) {
+    rows.push(["Refinement"]);
+    add("ε before", f.epsilon_before, "relative", "Finite-motion fidelity of the linear design: distance of the closest path point from x_S + Δ_S over ‖Δ_S‖.");
+    add("ε after", f.epsilon_after, "relative", "The same for the refined frame, measured by continuation (independently of IPOPT).");
+    add("amplitude a", f.amplitude, "relative", "RMS displacement of the specified nodes over their RMS radius.");
+    add("IPOPT", `${f.ipopt_status}, ${f.iterations} it.`, "", "The optimiser's status and iterations.");
+    add("refine time", f.time_ms, "ms", "Whole refinement, both ε measurements included.");
+  }
+  const c = state.certificate;
+  if (c) {
+    rows.push(["Certificate"]);
+    const p = c.prestress;
+    add("prestress stable", p.prestress_stable ? "yes" : "no", "", `Decided by ${p.decided_by}: a self-stress makes every undesigned flex cost energy.`);
+    if (p.decided_by === "sdp") add("prestress margin", `[${fmt(p.margin)}, ${fmt(p.margin_upper_bound)}]`, "stiffness", "Certified lower bound and upper bound of the SDP's margin.");
+    const g = c.rigidity_margin || c.margin;
+    if (g) {
+      add("rigidity margin, uniform", g.uniform, "stiffness", "Smallest stiffness of any motion beyond rigid and designed ones, unit bar stiffness.");
+      if (g.optimal !== null && g.optimal !== undefined) add("rigidity margin, optimal", `[${fmt(g.optimal)}, ${fmt(g.optimal_upper_bound)}]`, "stiffness", "Certificate bracket of the best margin over bar stiffnesses (SDP): the truth lies between.");
+      add("undesigned zero modes", g.undesigned_zero_modes, "", "Zero modes that are neither rigid nor designed (0 for a correct design).");
+    }
+    if (c.self_stress) add("self-stresses (certified)", c.self_stress.count, "", "N_B − rank C with its singular-value evidence.");
+  }
+  return rows;
+}
+
+function report_() {
+  const body = $("report").tBodies[0];
+  body.replaceChildren();
+  const rows = reportRows();
+  $("report-empty").hidden = rows.length > 0;
+  for (const [label, value, unit, meaning] of rows) {
+    const tr = el("tr", {}, body, true);
+    if (value === undefined) { tr.className = "section"; el("th", { colspan: 3 }, tr, true).textContent = label; continue; }
+    tr.title = meaning;
+    tr.dataset.row = label;
+    el("th", {}, tr, true).textContent = label;
+    el("td", { class: "value" }, tr, true).textContent = fmt(value, 4);
+    el("td", { class: "unit" }, tr, true).textContent = unit;
+  }
+  const raw = { design: state.response, motion: state.motionPath && { ...state.motionPath, path: `(${state.motionPath.path.length} configurations)` },
+                refinement: state.refined, certificate: state.certificate };
+  $("raw").textContent = state.response ? JSON.stringify(raw, null, 1) : "";
+}
+
+// ----------------------------------------------------------------------------- downloads
+
+function designName() {
+  return ($("name").value.trim() || "zeromode").replace(/[^A-Za-z0-9._-]+/g, "_");
+}
+
+async function listDownloads() {
+  const box = $("downloads");
+  box.replaceChildren();
+  if (!state.formats) state.formats = await (await api("GET", "/v1/export/formats")).json();
+  for (const f of state.formats.filter((f) => f.available)) {
+    const button = el("button", { type: "button", "data-format": f.name, "data-testid": `download-${f.name}`, title: f.description }, box, true);
+    button.textContent = FORMAT_LABELS[f.name] || `${f.description.split(/[.:;(]/)[0]}`;
+    button.addEventListener("click", () => download(f));
+  }
+}
+
+async function download(format) {
+  if (!state.response) return;
+  const body = { format: format.name, document: state.response, motion: { mode: 0 } };
+  if (state.motionPath) { body.path = state.motionPath.path; body.parameter = state.motionPath.parameter; }
+  say(`exporting ${FORMAT_LABELS[format.name] || format.name} …`);
+  try {
+    const blob = await (await api("POST", "/v1/export", body)).blob();
+    const link = document.createElement("a");
+    link.href = URL.createObjectURL(blob);
+    link.download = `${designName()}${format.name === "cut_svg" ? "_cut" : ""}${format.suffix}`;
+    document.body.appendChild(link);
+    link.click();
+    link.remove();
+    setTimeout(() => URL.revokeObjectURL(link.href), 10000);
+    say(`saved ${link.download} (${blob.size} bytes).`);
+  } catch (e) {
+    say(e.message, true);
+  }
+}
+
+// ----------------------------------------------------------------------------- kinds, examples
+
+function setKind(kind) {
+  state.kind = kind;
+  for (const b of document.querySelectorAll(".tabs button")) b.setAttribute("aria-selected", String(b.dataset.kind === kind));
+  for (const p of document.querySelectorAll("[data-for]")) p.hidden = !p.dataset.for.split(" ").includes(kind);
+  $("hint").textContent = kind === "allostery"
+    ? "Click to place source and target nodes (choose which below); drag from a node to set its motion."
+    : "Click on the canvas to place a specified node; drag from a node to give it a motion.";
+  state.example = null;
+  if (kind === "auxetic" && $("name").value === "my_design") $("name").value = "auxetic_sheet";
+  clearSketch();
+  if (kind === "space3d") fillTable(DEFAULT_3D.positions, DEFAULT_3D.motion);
+}
+
+// The 3D target as a table: one row per specified node, positions then motion; every edit
+// recomputes the solution space.
+function fillTable(positions, motion) {
+  state.nodes = positions.map((x) => ({ x: x.slice(), role: "specified" }));
+  state.motions = [motion.map((u) => u.slice())];
+  renderTable();
+  edited();
+}
+
+function renderTable() {
+  const body = $("table3d").tBodies[0];
+  body.replaceChildren();
+  state.nodes.forEach((n, i) => {
+    const tr = el("tr", {}, body, true);
+    for (const [vector, a] of [0, 1, 2].map((a) => [n.x, a]).concat([0, 1, 2].map((a) => [state.motions[0][i], a]))) {
+      const input = el("input", { type: "number", step: "0.1", value: vector[a], "aria-label": `node ${i + 1}` }, el("td", {}, tr, true), true);
+      input.addEventListener("input", () => { if (Number.isFinite(input.valueAsNumber)) { vector[a] = input.valueAsNumber; edited(); } });
+    }
+    const remove = el("button", { type: "button", title: "remove this node" }, el("td", {}, tr, true), true);
+    remove.textContent = "×";
+    remove.addEventListener("click", () => { state.nodes.splice(i, 1); state.motions[0].splice(i, 1); renderTable(); edited(); });
+  });
+}
+
+function clearSketch() {
+  Object.assign(state, { network: null, nodes: [], motions: [[]], motion: 0, placed: [] });
+  const select = $("motion-index");
+  select.replaceChildren();
+  el("option", { value: 0 }, select, true).textContent = "1";
+  clearDesign();
+  edited();
+}
+
+// A rigid triangulated sheet (rows shifted by half a spacing, each node joined to its six
+// neighbours), centred in the window.
+function triangulatedSheet([nx, ny], h) {
+  const positions = [], edges = [], at = (i, j) => j * nx + i;
+  for (let j = 0; j < ny; j++) for (let i = 0; i < nx; i++) {
+    positions.push([(i - (nx - 1) / 2 + (j % 2 ? 0.25 : -0.25)) * h, (j - (ny - 1) / 2) * h * Math.sqrt(3) / 2]);
+  }
+  for (let j = 0; j < ny; j++) for (let i = 0; i < nx; i++) {
+    if (i + 1 < nx) edges.push([at(i, j), at(i + 1, j)]);
+    if (j + 1 < ny) {
+      edges.push([at(i, j), at(i, j + 1)]);
+      const k = j % 2 ? i + 1 : i - 1;
+      if (k >= 0 && k < nx) edges.push([at(i, j), at(k, j + 1)]);
+    }
+  }
+  return { dim: 2, positions, edges };
+}
+
+function useNetwork(frame) {
+  if (!frame || frame.dim !== 2 || !Array.isArray(frame.positions) || !Array.isArray(frame.edges)) {
+    throw new Error("a network is a 2D frame: {\"dim\": 2, \"positions\": [...], \"edges\": [...]}.");
+  }
+  clearSketch();
+  state.network = { dim: 2, positions: frame.positions, edges: frame.edges };
+  $("hint").textContent = "Click nodes of the network to make them source or target sites (choose below); drag from a site to set its motion.";
+  edited();
+}
+
+function addMotion() {
+  state.motions.push(state.nodes.map(() => [0, 0]));
+  state.motion = state.motions.length - 1;
+  el("option", { value: state.motion }, $("motion-index"), true).textContent = String(state.motion + 1);
+  $("motion-index").value = String(state.motion);
+  edited();
+}
+
+function undo() {
+  if (state.placed.length) { state.placed.pop(); draw(); return; }
+  if (!state.nodes.length) return;
+  state.nodes.pop();
+  state.motions.forEach((m) => m.pop());
+  edited();
+}
+
+async function loadExamples() {
+  const select = $("example");
+  const examples = await (await api("GET", "/v1/examples")).json();
+  state.examples = Object.fromEntries(examples.map((e) => [e.name, e.description]));
+  for (const { name, description } of examples) {
+    el("option", { value: "example:" + name, title: description }, select, true).textContent = name;
+  }
+  for (const [name, preset] of Object.entries(PRESETS)) {
+    el("option", { value: "preset:" + name, title: preset.description }, select, true).textContent = name;
+  }
+}
+
+async function pickExample() {
+  const value = $("example").value;
+  if (!value) return;
+  const [kind, name] = [value.slice(0, value.indexOf(":")), value.slice(value.indexOf(":") + 1)];
+  if (kind === "preset") {
+    const preset = PRESETS[name];
+    setKind(preset.kind);
+    $("example-text").textContent = preset.description;
+    if (preset.kind === "allostery") {
+      for (const role of ["source", "target"]) {
+        preset[role].positions.forEach((x, i) => { state.nodes.push({ x, role }); state.motions[0].push(preset[role].motion[i]); });
+      }
+    }
+  } else {
+    const request = await (await api("GET", `/v1/examples/${encodeURIComponent(name)}/request`)).json();
+    setKind("draw");
+    $("example-text").textContent = state.examples[name];
+    if (request.dim === 2) {
+      state.motions = request.motions.map((m) => m.slice());
+      request.positions.forEach((x) => state.nodes.push({ x, role: "specified" }));
+      const select = $("motion-index");
+      request.motions.slice(1).forEach((_, m) => { el("option", { value: m + 1 }, select, true).textContent = String(m + 2); });
+    } else if (request.motions.length === 1) {
+      setKind("space3d");
+      $("example-text").textContent = state.examples[name];
+      fillTable(request.positions, request.motions[0]);
+    } else {
+      state.example = request;  // several 3D motions: designed as given, the view turns by dragging
+      $("space-text").textContent = "A 3D example with several motions: press Design, then drag the drawing to turn it.";
+    }
+  }
+  $("name").value = name;
+  $("example").value = value;
+  if (!state.example) edited(); else draw();
+}
+
+// ----------------------------------------------------------------------------- wiring
+
+let retrace = null;
+for (const b of document.querySelectorAll(".tabs button")) b.addEventListener("click", () => { $("example").value = ""; $("example-text").textContent = ""; setKind(b.dataset.kind); });
+$("canvas").addEventListener("pointerdown", onPointerDown);
+$("canvas").addEventListener("pointermove", onPointerMove);
+$("canvas").addEventListener("pointerup", onPointerUp);
+$("canvas").addEventListener("pointercancel", onPointerUp);
+$("example").addEventListener("change", () => pickExample().catch((e) => say(e.message, true)));
+$("design").addEventListener("click", design);
+$("refine").addEventListener("click", refine);
+$("certify").addEventListener("click", certify);
+$("slider").addEventListener("input", draw);
+$("play").addEventListener("click", play);
+$("undo").addEventListener("click", undo);
+$("clear").addEventListener("click", clearSketch);
+$("add-motion").addEventListener("click", addMotion);
+$("network-sheet").addEventListener("click", () => useNetwork(triangulatedSheet(NETWORK, NETWORK_SPACING)));
+$("network-file").addEventListener("change", async () => {
+  const file = $("network-file").files[0];
+  if (!file) return;
+  try {
+    const doc = JSON.parse(await file.text());
+    useNetwork(doc.frame || doc);
+  } catch (e) {
+    say(`${file.name}: ${e.message}`, true);
+  }
+  $("network-file").value = "";
+});
+$("add-row").addEventListener("click", () => {
+  const last = state.nodes.length ? state.nodes[state.nodes.length - 1].x : [0, 0, 0];
+  state.nodes.push({ x: [last[0] + 1, last[1], last[2]], role: "specified" });
+  state.motions[0].push([0, 0, 0]);
+  renderTable();
+  edited();
+});
+$("mode-select").addEventListener("change", () => { stop(); state.mode = Number($("mode-select").value); traceMotion(); });
+$("motion-index").addEventListener("change", () => { state.motion = Number($("motion-index").value); draw(); });
+$("raw-toggle").addEventListener("change", () => { $("raw").hidden = !$("raw-toggle").checked; });
+$("amplitude").addEventListener("input", () => {
+  $("amplitude-text").textContent = Number($("amplitude").value).toFixed(2);
+  clearTimeout(retrace);
+  retrace = setTimeout(() => { stop(); traceMotion(); }, 250);
+});
+setKind("draw");
+loadExamples().catch((e) => say(e.message, true));

@@ -1,0 +1,168 @@
+"""POST /v1/map and POST /v1/design/sequential: a module as a one-dimensional map, and a module
+designed for a map feature, chained (zeromode.solver.sequential; arXiv 1906.08400)."""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+from pydantic import BaseModel, Field, FiniteFloat, PositiveFloat
+
+from zeromode.service.wire.schemas.common import FrameModel, RequestModel, ResultFrame
+
+Pair = Annotated[list[int], Field(min_length=2, max_length=2)]
+
+
+class ModuleModel(RequestModel):
+    frame: FrameModel = Field(description="A frame with exactly one nontrivial zero mode.")
+    input_pair: Pair = Field(description="Nodes [a, b]: d_in = |x_a − x_b| (not a bar).")
+    output_pair: Pair = Field(description="Nodes [c, e]: d_out = |x_c − x_e| (not a bar).")
+
+
+class MapRequest(ModuleModel):
+    at: list[PositiveFloat] = Field(
+        default_factory=list, max_length=1000,
+        description="Input distances at which f and f′ are evaluated exactly (each inside the usable range).",
+    )
+
+
+class MapEndModel(BaseModel):
+    kind: Literal["fold", "singular_point", "horizon"] = Field(
+        description="fold: d_in turns back (f′ = ±∞); singular_point: the motion meets one; horizon: none within the search."
+    )
+    d_in: float
+    d_out: float
+
+
+class FixedPointModel(BaseModel):
+    d: float = Field(description="d* = f(d*).")
+    slope: float = Field(description="f′(d*).")
+    stable: bool = Field(description="|f′(d*)| < 1: orbits near d* converge to it.")
+
+
+class MapPointModel(BaseModel):
+    d_in: float
+    d_out: float = Field(description="f(d_in), exact (Newton on the module's branch).")
+    slope: float = Field(description="f′(d_in) from the module's tangent.")
+
+
+class MapBody(BaseModel):
+    input_pair: list[int]
+    output_pair: list[int]
+    d_in: list[float] = Field(description="Samples of the branch through the reference, increasing.")
+    d_out: list[float] = Field(description="f at each sample.")
+    slope: list[float] = Field(description="f′ at each sample (from the null space of C there).")
+    lower: MapEndModel = Field(description="The usable range's lower end.")
+    upper: MapEndModel = Field(description="The usable range's upper end.")
+    fixed_points: list[FixedPointModel]
+    evaluated: list[MapPointModel] = Field(description="f and f′ at the requested `at`.")
+    max_relative_bar_error: float = Field(description="Largest bar-length error along the traced motion.")
+
+
+class MapResponse(MapBody):
+    timings_ms: dict[str, float]
+
+
+class FixedPointFeature(RequestModel):
+    kind: Literal["fixed_point"]
+    d: PositiveFloat = Field(description="d* with f(d*) = d*.")
+    slope: FiniteFloat = Field(description="f′(d*): |slope| < 1 stable, > 1 unstable.")
+
+
+class PeriodTwoFeature(RequestModel):
+    kind: Literal["period_two"]
+    d1: PositiveFloat
+    d2: PositiveFloat = Field(description="f(d1) = d2 and f(d2) = d1, d1 ≠ d2.")
+
+
+class RangeFeature(RequestModel):
+    kind: Literal["range"]
+    source: Annotated[list[PositiveFloat], Field(min_length=2, max_length=2)] = Field(description="[a, b].")
+    target: Annotated[list[PositiveFloat], Field(min_length=2, max_length=2)] = Field(
+        description="[c, e]: f(a) = c and f(b) = e, f continuous and fold-free between."
+    )
+
+
+Feature = Annotated[FixedPointFeature | PeriodTwoFeature | RangeFeature, Field(discriminator="kind")]
+
+
+class ChainOptions(RequestModel):
+    n_modules: int = Field(default=16, ge=1, le=256, description="Copies chained (output pair of one = input pair of the next).")
+    d0: PositiveFloat | None = Field(
+        default=None, description="d_in of the first copy (default: the first feature's first input distance)."
+    )
+
+
+class SequentialRequest(RequestModel):
+    features: list[Feature] = Field(min_length=1, max_length=4, description="Map features, met together by one module.")
+    start: ModuleModel | None = Field(
+        default=None, description="The module whose node positions are optimised (default: the two-triangle module)."
+    )
+    chain: ChainOptions | None = Field(default=None, description="Chain the designed module and verify it by continuation.")
+    reach: PositiveFloat = Field(default=3.0, le=100.0, description="Nodes stay within reach × the start's RMS radius of its centre.")
+
+
+class DesignedModule(BaseModel):
+    frame: ResultFrame
+    input_pair: list[int]
+    output_pair: list[int]
+
+
+class FeaturePointModel(BaseModel):
+    d_in: float
+    d_out: float = Field(description="Requested f(d_in).")
+    slope: float | None = Field(description="Requested f′(d_in) (None: free).")
+    achieved_d_out: float = Field(description="f(d_in) of the designed module, exact.")
+    achieved_slope: float = Field(description="f′(d_in) of the designed module.")
+
+
+class ChainBody(BaseModel):
+    frame: ResultFrame = Field(description="The chained frame at the orbit from d0.")
+    pairs: list[list[int]] = Field(description="(n + 1) node pairs: pair k is copy k's input, the last the last output.")
+    iterates: list[float] = Field(description="d_0 … d_n the chain was built with: d_{k+1} = f(d_k).")
+    distances: list[list[float]] = Field(description="d_k of every pair at each sample of the chain's traced motion.")
+    deviation: float = Field(description="max |d_{k+1} − f(d_k)| / d_{k+1} over the traced motion (≤ map_rtol).")
+    iterate_deviation: float = Field(
+        description="max |d_k − f^k(d_0)| / d_k: grows like Π|f′| (amplified round-off at an unstable fixed point); reported, not promised."
+    )
+    ends: list[str] = Field(description="Why the traced motion ended each way: map_range, singular_point or horizon.")
+
+
+class SequentialResponse(BaseModel):
+    module: DesignedModule
+    map: MapBody
+    features: list[FeaturePointModel]
+    chain: ChainBody | None
+    deviation: float = Field(description="max relative deviation of the features (≤ map_rtol).")
+    map_rtol: float = Field(description="The promise: features and chain within this.")
+    solver_status: str = Field(description="IPOPT's return status (the answer is verified by continuation, not by it).")
+    timings_ms: dict[str, float]
+
+
+# Named examples of POST /v1/design/sequential (its OpenAPI examples; docs/module_maps.md).
+SEQUENTIAL_EXAMPLES = {
+    "deployable": {
+        "summary": "Deployable chain",
+        "description": "An unstable fixed point 1.2 (f′ = 1.8) and a stable one 1.8 (f′ = 0.4): "
+                       "a 1 % change at the input opens the far end of the chain.",
+        "value": {"features": [{"kind": "fixed_point", "d": 1.2, "slope": 1.8},
+                               {"kind": "fixed_point", "d": 1.8, "slope": 0.4}],
+                  "chain": {"n_modules": 16, "d0": 1.21}},
+    },
+    "curvature": {
+        "summary": "Chain that changes its curvature",
+        "description": "A marginal fixed point 1.3 (f′ = 1): near it f is close to the identity, so "
+                       "every copy opens alike and the chain's curvature changes along its motion.",
+        "value": {"features": [{"kind": "fixed_point", "d": 1.3, "slope": 1.0}],
+                  "chain": {"n_modules": 12}},
+    },
+    "period_two": {
+        "summary": "Period-2 chain",
+        "description": "f(1.3) = 1.7 and f(1.7) = 1.3: the copies alternate.",
+        "value": {"features": [{"kind": "period_two", "d1": 1.3, "d2": 1.7}], "chain": {"n_modules": 12}},
+    },
+    "stable_fixed_point": {
+        "summary": "Stable fixed point",
+        "description": "d* = 1.5 with f′ = −0.5: a disturbance at the input dies out along the chain, alternating.",
+        "value": {"features": [{"kind": "fixed_point", "d": 1.5, "slope": -0.5}], "chain": {"n_modules": 12}},
+    },
+}
