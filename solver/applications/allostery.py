@@ -861,10 +861,12 @@ def _refined(sim: Similarity, src, tgt, accepted: list[AllostericDesign], distan
     best = accepted[0]
     chain = next((r.options for r in accepted if r.modules > 1), None)
     sides = SOURCE_SIDES if len(sim.rotation) == 3 else [s for s in SOURCE_SIDES if s[0] == 0.0]
-    for side in sides if chain is not None else ():
+    for i, side in enumerate(sides if chain is not None else ()):
         check_budget()
         try:
-            result = _attempt(sim, src, tgt, replace(chain, source_side=side), distance)
+            # Each attempt reports its own 0 → 1; its share keeps the caller's fraction monotone.
+            with progress_stage(i / len(sides), (i + 1) / len(sides), f"source side {i + 1}"):
+                result = _attempt(sim, src, tgt, replace(chain, source_side=side), distance)
         except DomainError as exc:
             if exc.code == "too_expensive":
                 raise
