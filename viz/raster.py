@@ -55,8 +55,10 @@ def raster_bytes(scene: Scene, fmt: str = "png", scale: float = 1.5) -> bytes:
 
 def scene_figure(scene: Scene, scale: float):
     """(figure, axes) of the scene's page: data units are SVG pixels, y down, no axes drawn."""
-    # Whole output pixels (the last one partly blank), so that no rounding squeezes the page.
-    width, height = (math.ceil(v * scale) / scale for v in (scene.width, scene.height))
+    # The page the SVG declares (its sizes are written to 0.1 px: a height of 344.50000000000006
+    # is "344.5" there), in whole output pixels (the last one partly blank), so that no rounding
+    # squeezes the page and the PNG is the SVG's size.
+    width, height = (math.ceil(round(v, 1) * scale) / scale for v in (scene.width, scene.height))
     fig = Figure(figsize=(width / POINTS_PER_INCH, height / POINTS_PER_INCH), facecolor=WHITE)
     ax = fig.add_axes((0.0, 0.0, 1.0, 1.0))
     ax.set_xlim(0.0, width)
