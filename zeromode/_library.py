@@ -38,6 +38,7 @@ if TYPE_CHECKING:
     from zeromode.viz.picture import Picture
 
 __all__ = [
+    "Result",
     "allosteric",
     "analyze",
     "auxetic",
