@@ -66,6 +66,12 @@ def body_arrays(body: dict):
             np.array(s["rest_length"], float), np.array(body["conformations"], float))
 
 
+def _written(path, content: bytes):
+    """``path``, holding ``content``."""
+    path.write_bytes(content)
+    return path
+
+
 def energy(x: np.ndarray, pairs: np.ndarray, stiffness: np.ndarray, rest: np.ndarray) -> float:
     """E = Σ k_s (ℓ_s − L_s)²/2, written from the definition."""
     ell = np.sqrt(((x[pairs[:, 0]] - x[pairs[:, 1]]) ** 2).sum(axis=1))
@@ -83,9 +89,7 @@ def test_the_designs_have_both_element_types(bodies):
 def test_vtu_keeps_springs_a_cell_kind_of_their_own(client, bodies, tmp_path, name):
     body = bodies[name]
     x, rods, pairs, stiffness, rest, conformations = body_arrays(body)
-    path = tmp_path / "design.vtu"
-    path.write_bytes(export(client, "vtk", body))
-    mesh = meshio.read(path)
+    mesh = meshio.read(_written(tmp_path / "design.vtu", export(client, "vtk", body)))
     assert np.allclose(mesh.points, pad3(x), atol=1e-12)
     cells = np.vstack([block.data for block in mesh.cells if block.type == "line"])
     kind = np.concatenate(mesh.cell_data["kind"])
@@ -109,9 +113,7 @@ def test_vtu_keeps_springs_a_cell_kind_of_their_own(client, bodies, tmp_path, na
 def test_xdmf_steps_through_the_minima(client, bodies, tmp_path, name):
     body = bodies[name]
     x, rods, pairs, _, _, conformations = body_arrays(body)
-    path = tmp_path / "minima.xdmf"
-    path.write_bytes(export(client, "xdmf", body))
-    with meshio.xdmf.TimeSeriesReader(str(path)) as reader:
+    with meshio.xdmf.TimeSeriesReader(str(_written(tmp_path / "minima.xdmf", export(client, "xdmf", body)))) as reader:
         points, cells = reader.read_points_cells()
         steps = [reader.read_data(k) for k in range(reader.num_steps)]
     lines = np.vstack([block.data for block in cells])
@@ -162,9 +164,8 @@ PIN, WIDTH = 3.0, 8.0
 def test_dxf_lays_the_springs_out_on_their_own_layer(client, bodies, tmp_path):
     body = bodies["triangle_2d"]
     _, rods, pairs, stiffness, rest, _ = body_arrays(body)
-    path = tmp_path / "kit.dxf"
-    path.write_bytes(export(client, "dxf", body, fabrication={"pin_diameter_mm": PIN, "link_width_mm": WIDTH}))
-    dxf = ezdxf.readfile(path)
+    fabrication = {"pin_diameter_mm": PIN, "link_width_mm": WIDTH}
+    dxf = ezdxf.readfile(_written(tmp_path / "kit.dxf", export(client, "dxf", body, fabrication=fabrication)))
     scale = float(dxf.header.custom_vars.get("zeromode.mm_per_unit"))
     assert int(dxf.header.custom_vars.get("zeromode.springs")) == len(pairs)
     msp = dxf.modelspace()
@@ -232,9 +233,7 @@ def test_stl_prints_the_links_only(client, bodies):
 def test_a_chain_exports_its_rods_and_no_spring(client, chain_body, tmp_path):
     chain = chain_body["chain"]
     x, rods = np.array(chain["frame"]["positions"], float), np.array(chain["frame"]["edges"], int)
-    path = tmp_path / "chain.vtu"
-    path.write_bytes(export(client, "vtk", chain_body))
-    mesh = meshio.read(path)
+    mesh = meshio.read(_written(tmp_path / "chain.vtu", export(client, "vtk", chain_body)))
     assert np.allclose(mesh.points, pad3(x), atol=1e-12)
     assert np.array_equal(mesh.cells[0].data, rods) and not np.concatenate(mesh.cell_data["kind"]).any()
     site = mesh.point_data["site"]
@@ -254,11 +253,6 @@ def test_a_chain_exports_its_rods_and_no_spring(client, chain_body, tmp_path):
         moved = [r.read_data(k)[1]["displacement"] for k in range(r.num_steps)]
     for u in moved:  # the chain's finite motion keeps every rod's length
         assert np.allclose(lengths_of(points + u, rods), lengths_of(points, rods), rtol=1e-8)
-
-
-def _written(path, content: bytes):
-    path.write_bytes(content)
-    return path
 
 
 def test_springs_given_with_a_chain_export_as_springs(client, chain_body, tmp_path):
