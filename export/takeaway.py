@@ -152,7 +152,7 @@ def checked_springs(frame: Frame, springs: SpringSet | None) -> SpringSet:
     and a graph has one edge per pair), a stiffness not > 0, a rest length not ≥ 0."""
     if springs is None:
         return no_springs()
-    pairs = np.asarray(springs.pairs, dtype=int).reshape(-1, 2)
+    pairs = [tuple(int(i) for i in pair) for pair in np.asarray(springs.pairs, dtype=object).reshape(-1, 2)]
     stiffness = np.asarray(springs.stiffness, dtype=float).reshape(-1)
     rest = np.asarray(springs.rest_length, dtype=float).reshape(-1)
 
@@ -163,7 +163,7 @@ def checked_springs(frame: Frame, springs: SpringSet | None) -> SpringSet:
         refuse(f"springs have {len(pairs)} pairs, {len(stiffness)} stiffnesses and {len(rest)} rest lengths.")
     n = frame.n_nodes
     taken = {frozenset(e) for e in frame.edges.tolist()}
-    for s, (i, j) in enumerate(pairs.tolist()):
+    for s, (i, j) in enumerate(pairs):  # Python ints: a node number beyond int64 is named, not overflowed
         if not (0 <= i < n and 0 <= j < n) or i == j:
             refuse(f"spring {s} joins [{i}, {j}]: two distinct nodes of 0..{n - 1} are needed.")
         if frozenset((i, j)) in taken:
@@ -173,4 +173,4 @@ def checked_springs(frame: Frame, springs: SpringSet | None) -> SpringSet:
         refuse("every spring's stiffness must be finite and > 0.")
     if not np.all(np.isfinite(rest) & (rest >= 0)):
         refuse("every spring's rest length must be finite and ≥ 0.")
-    return SpringSet(pairs, stiffness, rest)
+    return SpringSet(np.array(pairs, dtype=int).reshape(-1, 2), stiffness, rest)

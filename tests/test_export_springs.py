@@ -273,6 +273,7 @@ def test_bad_springs_are_refused_with_a_code(client, chain_body):
         ({"pairs": [rod], "stiffness": [1.0], "rest_length": [1.0]}, "invalid_springs"),
         ({"pairs": [[0, 0]], "stiffness": [1.0], "rest_length": [1.0]}, "invalid_springs"),
         ({"pairs": [[0, 10_000]], "stiffness": [1.0], "rest_length": [1.0]}, "invalid_springs"),
+        ({"pairs": [[0, 2**70]], "stiffness": [1.0], "rest_length": [1.0]}, "invalid_springs"),
         ({"pairs": chain_body["chain"]["pairs"][:1] * 2, "stiffness": [1.0, 1.0], "rest_length": [1.0, 1.0]}, "invalid_springs"),
         ({"pairs": chain_body["chain"]["pairs"][:1], "stiffness": [1.0, 2.0], "rest_length": [1.0]}, "invalid_springs"),
         ({"pairs": chain_body["chain"]["pairs"][:1], "stiffness": [-1.0], "rest_length": [1.0]}, "invalid_springs"),
@@ -281,6 +282,11 @@ def test_bad_springs_are_refused_with_a_code(client, chain_body):
     for springs, code in cases:
         r = client.post("/v1/export", json={"format": "vtk", "document": chain_body, "springs": springs})
         assert r.status_code == 422 and r.json()["detail"]["code"] == code, (springs, r.text)
+    infinite = json.dumps({"format": "vtk", "document": chain_body, "springs": "SPRINGS"}).replace(
+        '"SPRINGS"', '{"pairs": [[0, 2]], "stiffness": [1e309], "rest_length": [1.0]}')  # JSON's overflow: inf
+    r = client.post("/v1/export", content=infinite, headers={"content-type": "application/json"})
+    assert r.status_code == 422 and r.json()["detail"]["code"] == "invalid_springs", r.text
+    assert "stiffness" in r.json()["detail"]["message"]
 
 
 def test_library_and_cli_export_by_suffix(tmp_path):
