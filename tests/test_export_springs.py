@@ -283,7 +283,8 @@ def test_bad_springs_are_refused_with_a_code(client, chain_body):
         r = client.post("/v1/export", json={"format": "vtk", "document": chain_body, "springs": springs})
         assert r.status_code == 422 and r.json()["detail"]["code"] == code, (springs, r.text)
     infinite = json.dumps({"format": "vtk", "document": chain_body, "springs": "SPRINGS"}).replace(
-        '"SPRINGS"', '{"pairs": [[0, 2]], "stiffness": [1e309], "rest_length": [1.0]}')  # JSON's overflow: inf
+        '"SPRINGS"', f'{{"pairs": [{chain_body["chain"]["pairs"][0]}], "stiffness": [1e309], "rest_length": [1.0]}}'
+    )  # 1e309 overflows to inf when read
     r = client.post("/v1/export", content=infinite, headers={"content-type": "application/json"})
     assert r.status_code == 422 and r.json()["detail"]["code"] == "invalid_springs", r.text
     assert "stiffness" in r.json()["detail"]["message"]
