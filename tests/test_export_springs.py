@@ -316,3 +316,17 @@ def test_library_and_cli_export_by_suffix(tmp_path):
     assert main(["export", str(document), "-o", str(tmp_path / "chain.csv")]) == 0
     rows = list(csv.DictReader(line for line in (tmp_path / "chain.csv").read_text().splitlines() if not line.startswith("#")))
     assert [(int(row["node_i"]), int(row["node_j"])) for row in rows] == [tuple(e) for e in chain["frame"]["edges"]]
+
+
+def test_a_multistable_response_plots_as_its_rods(bodies):
+    """documents.kind names the multistable response; ``zeromode plot`` (picture_for_document)
+    still draws it as a design: one bar per rod, the springs not drawn as bars."""
+    import xml.etree.ElementTree as ET
+
+    from zeromode.operations.plotting import picture_for_document
+    from zeromode.viz.svg import picture_svg
+
+    body = bodies["triangle_2d"]
+    svg = ET.fromstring(picture_svg(picture_for_document(body)))
+    bars = [el for el in svg.iter("{http://www.w3.org/2000/svg}line") if el.get("class") == "bar"]
+    assert len(bars) == len(body["frame"]["edges"])
