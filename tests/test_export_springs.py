@@ -220,6 +220,17 @@ def test_kit_csv_lists_the_springs_apart_with_rest_length_and_stiffness(client, 
     assert f"{len(rods)} struts, {len(pairs)} springs" in text.splitlines()[0]
 
 
+def test_a_request_is_designed_first_and_exports_the_same_springs(client, bodies):
+    """Same request, same answer: the request as the document gives the body's springs."""
+    body = bodies["triangle_2d"]
+    _, rods, pairs, stiffness, rest, _ = body_arrays(body)
+    graph = nx.node_link_graph(json.loads(export(client, "node_link_json", REQUESTS["triangle_2d"])), edges="edges")
+    springs = {frozenset((i, j)): a for i, j, a in graph.edges(data=True) if a["kind"] == "spring"}
+    assert set(springs) == pair_set(pairs) and graph.number_of_edges() == len(rods) + len(pairs)
+    assert [springs[frozenset(p)]["stiffness"] for p in pairs.tolist()] == pytest.approx(stiffness, rel=1e-9)
+    assert [springs[frozenset(p)]["rest_length"] for p in pairs.tolist()] == pytest.approx(rest, rel=1e-9)
+
+
 def test_stl_prints_the_links_only(client, bodies):
     body = bodies["triangle_2d"]
     x, rods, _, _, _, _ = body_arrays(body)
