@@ -101,7 +101,7 @@ def sheet(takeaway: Takeaway, fab: Fabrication) -> Sheet:
     rest_mm = takeaway.springs.rest_length * scale
     pitch = fab.link_width + fab.gap  # centre-to-centre distance of rows
     pins, top, width = _rows(mm, fab, 0.0)
-    spring_pins, top, spring_width = _rows(rest_mm, fab, top + pitch if len(mm) else 0.0)
+    spring_pins, top, spring_width = _rows(rest_mm, fab, top + pitch if len(mm) and len(rest_mm) else top)
     height = top + fab.link_width if len(mm) or len(rest_mm) else 0.0
     labels = tuple(f"{i}-{j} {m:.1f}" for (i, j), m in zip(takeaway.frame.edges.tolist(), mm))
     spring_labels = tuple(

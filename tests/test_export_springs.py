@@ -197,6 +197,25 @@ def test_dxf_lays_the_springs_out_on_their_own_layer(client, bodies, tmp_path):
     assert min(c.dxf.center.y for c in on["SPRING"].query("CIRCLE")) > link_top
 
 
+def test_the_sheet_is_as_large_as_its_parts(bodies):
+    """Sheet.size is the box of every part (holes' centres ± half a link width), with and
+    without springs: no empty row is left for springs a design does not have."""
+    from zeromode.export.fabrication import Fabrication, sheet
+    from zeromode.export.takeaway import SpringSet, Takeaway
+    from zeromode.solver.frame import Frame
+
+    body = bodies["triangle_2d"]
+    x, rods, pairs, stiffness, rest, _ = body_arrays(body)
+    frame = Frame.build(x, rods, body["frame"]["specified"])
+    fab = Fabrication()
+    for springs in (None, SpringSet(pairs, stiffness, rest)):
+        layout = sheet(Takeaway.build(frame, springs=springs), fab)
+        centres = np.concatenate([layout.pins, layout.spring_pins]).reshape(-1, 2)
+        assert len(centres) == 2 * (len(rods) + (0 if springs is None else len(pairs)))
+        assert layout.size[1] == pytest.approx(centres[:, 1].max() + fab.link_width / 2)
+        assert layout.size[0] == pytest.approx(centres[:, 0].max() + fab.link_width / 2)
+
+
 def test_kit_csv_lists_the_springs_apart_with_rest_length_and_stiffness(client, bodies):
     body = bodies["triangle_2d"]
     x, rods, pairs, stiffness, rest, _ = body_arrays(body)
