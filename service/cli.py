@@ -380,8 +380,7 @@ def build_parser() -> argparse.ArgumentParser:
     de.add_argument("-o", "--output", default=None, help="write the response here instead of stdout")
     de.set_defaults(func=cmd_design)
     exp = sub.add_parser(
-        "export", help="write a design, lattice, allosteric or multistable design (springs as springs), chain, "
-        "refinement or motion (a response, or a "
+        "export", help="write a design, lattice, allosteric design, refinement or motion (a response, or a "
         "request designed first) for ParaView, networkx, a laser cutter, a 3D printer, or as an animation"
     )
     exp.add_argument("document", help="JSON file (or - for stdin)")

@@ -3,9 +3,8 @@ POST /v1/plot and POST /v1/export accept besides their own bodies.
 
 A document is a request or response body of /v1/design, /v1/design/auxetic,
 /v1/design/allosteric or /v1/design/multistable — a request is designed first (``endpoints.respond``), so a request and its response
-give the same document — a /v1/design/sequential response (the chain, or the module without
-one), a /v1/refine response, a /v1/motion response (which has no frame: the frame it moved comes
-with it), or any other body with a ``frame``.
+give the same document — a /v1/refine response, a /v1/motion response (which has no frame: the
+frame it moved comes with it), or any other body with a ``frame``.
 """
 
 from __future__ import annotations
