@@ -297,6 +297,30 @@ def test_springs_given_with_a_chain_export_as_springs(client, chain_body, tmp_pa
     assert np.array_equal(np.concatenate(mesh.cell_data["stiffness"])[kind == 1], given["stiffness"])
 
 
+def test_a_soliton_shaped_answer_exports_its_springs_and_uniform_states(client, chain_body, tmp_path):
+    """A soliton (issue #41 item 2, answered beside ``chain`` as ``soliton``: springs on the
+    chain's nodes and the chain in its two uniform states) exports its springs as springs and
+    both states as configurations. The answer is built here in that shape from a real chain:
+    springs across the copies' input pairs, the states the chain itself and a uniform stretch."""
+    chain = chain_body["chain"]
+    x = np.array(chain["frame"]["positions"], float)
+    pairs = chain["pairs"][:-1]
+    soliton = {
+        "springs": {"pairs": pairs, "stiffness": [2.0] * len(pairs), "rest_length": chain["iterates"][:-1]},
+        "unstable": {"positions": x.tolist()}, "stable": {"positions": (1.5 * x).tolist()},
+    }
+    document = {**chain_body, "soliton": soliton}
+    mesh = meshio.read(_written(tmp_path / "soliton.vtu", export(client, "vtk", document)))
+    kind = np.concatenate(mesh.cell_data["kind"])
+    assert np.array_equal(mesh.cells[0].data[kind == 1], pairs)
+    assert np.array_equal(mesh.cells[0].data[kind == 0], chain["frame"]["edges"])
+    assert np.array_equal(np.concatenate(mesh.cell_data["rest_length"])[kind == 1], chain["iterates"][:-1])
+    assert np.allclose(mesh.points + mesh.point_data["stable"], pad3(1.5 * x), atol=1e-12)
+    assert np.allclose(mesh.point_data["unstable"], 0.0)
+    graph = nx.node_link_graph(json.loads(export(client, "node_link_json", document)), edges="edges")
+    assert {frozenset(e) for e, k in nx.get_edge_attributes(graph, "kind").items() if k == "spring"} == pair_set(pairs)
+
+
 def test_bad_springs_are_refused_with_a_code(client, chain_body):
     rod = chain_body["chain"]["frame"]["edges"][0]
     cases = [

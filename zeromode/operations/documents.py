@@ -65,11 +65,26 @@ class MultistableDocument(DesignDocument):
     minima: list[MinimumModel] = []
 
 
+class UniformStateFields(BaseModel):
+    positions: Points
+
+
+class SolitonFields(BaseModel):
+    """A soliton's part of a /v1/design/sequential response (issue #41 item 2): one spring per
+    copy on the chain's nodes, and the chain with every copy at each fixed point."""
+
+    springs: SpringsModel
+    unstable: UniformStateFields | None = None
+    stable: UniformStateFields | None = None
+
+
 class SequentialDocument(BaseModel):
-    """A /v1/design/sequential response: the designed module and its chain (or None)."""
+    """A /v1/design/sequential response: the designed module, its chain (or None) and, for a
+    soliton, the springs that make its uniform states minima."""
 
     module: DesignedModule
     chain: ChainBody | None = None
+    soliton: SolitonFields | None = None
     deviation: float | None = None
     map_rtol: float | None = None
 

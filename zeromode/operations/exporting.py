@@ -8,8 +8,9 @@ A multistable design exports its rods as the frame and its springs as springs (t
 type in every format), each conformation as a configuration ``conformation_<c>`` and, for the
 motion formats, the conformations in turn as the path (parameter: each minimum's arc length s
 along the motion; placed as the design gives them, not re-posed). A sequential design exports its
-chain (or, without one, its module): rods only, the input pair as source and the last output
-pair as target.
+chain (or, without one, its module): its rods, the input pair as source and the last output
+pair as target; a soliton's springs (one per copy) as springs, and its two uniform states as
+configurations ``unstable`` and ``stable``.
 """
 
 from __future__ import annotations
@@ -85,6 +86,10 @@ def takeaway_for(request: ExportRequest) -> Takeaway:
         if chain:
             metadata["report"]["chain"] = {"deviation": chain.deviation, "iterate_deviation": chain.iterate_deviation}
             metadata["chain"] = {"pairs": chain.pairs, "iterates": chain.iterates}
+        if sequential.soliton is not None:
+            springs = sequential.soliton.springs
+            states = {"unstable": sequential.soliton.unstable, "stable": sequential.soliton.stable}
+            configurations = {name: state.positions for name, state in states.items() if state is not None}
     elif what == MULTISTABLE:
         multistable = validated(doc, MultistableDocument)
         springs = multistable.springs
