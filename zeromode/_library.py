@@ -320,6 +320,11 @@ class SequentialResult(Result):
         chain = self.body["chain"]
         return {"frame": (chain or self.body["module"])["frame"]}
 
+    def _exported(self) -> dict:
+        """The whole response: exports mark the chain's input and output pairs and carry its
+        figures (exporting.takeaway_for)."""
+        return {"document": self.body}
+
     def plot(self, scale: float = 1.0, solution_space: bool = True) -> Figure:
         """The designed map (with the chain's cobweb) and the chain's distances."""
         from zeromode.viz.sequential import sequential_figure
