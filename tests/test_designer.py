@@ -11,6 +11,7 @@ are recorded by benchmarks/bench_designer.py, not asserted here (no test races t
 
 from __future__ import annotations
 
+import itertools
 import json
 from pathlib import Path
 
@@ -377,7 +378,7 @@ def similarity_fit(world: np.ndarray, drawn: np.ndarray) -> tuple[np.ndarray, fl
                            np.column_stack([-world[:, 1], np.zeros(len(world)), np.ones(len(world))])])
     coef, *_ = np.linalg.lstsq(rows, np.concatenate([drawn[:, 0], drawn[:, 1]]), rcond=None)
     s, tx, ty = coef
-    to_page = lambda p: np.column_stack([s * p[:, 0] + tx, -s * p[:, 1] + ty])  # noqa: E731
+    to_page = lambda p: np.column_stack([s * p[:, 0] + tx, -s * p[:, 1] + ty])
     return to_page, float(np.abs(to_page(world) - drawn).max())
 
 
@@ -403,7 +404,7 @@ def test_multistable_design_with_its_energy_landscape(browser, designer_url):  #
     assert page.evaluate("designer.conformations[2][2][1]") == 1.3
     after = np.array(page.eval_on_selector_all("#canvas circle.conformation-node", preview))
     # The apex rose against the base: its height over the base in px grew by 0.15 of the base's width.
-    height = lambda p: (p[6, 1] - p[8, 1]) / (p[7, 0] - p[6, 0])  # noqa: E731 (nodes of conformation 3)
+    height = lambda p: (p[6, 1] - p[8, 1]) / (p[7, 0] - p[6, 0])
     assert height(after) - height(before) == pytest.approx(0.15, abs=1e-3)
     page.fill(apex, "1.15")
     page.fill("[data-testid=barrier]", "0.0001")  # the default is 8.5e-5, the springs reach 1.7e-4
@@ -436,7 +437,7 @@ def test_multistable_design_with_its_energy_landscape(browser, designer_url):  #
         assert abs(cx - (ax * m["arclength"] + bx)) < 0.1 and abs(cy - (ay * m["energy"] + by)) < 0.1
     tops = page.eval_on_selector_all("#landscape polygon.barrier", "ps => ps.map(p => +p.dataset.sample)")
     at = land["conformation_samples"]
-    assert tops == [a + int(np.argmax(e[a:b + 1])) for a, b in zip(at[:-1], at[1:])]
+    assert tops == [a + int(np.argmax(e[a:b + 1])) for a, b in itertools.pairwise(at)]
 
     # The cursor follows the animation: at the slider's sample, and it moves with Play.
     def cursor():
@@ -519,7 +520,7 @@ def test_chain_animated_with_its_map_as_a_cobweb(browser, designer_url):  # noqa
         page.wait_for_function(f"+document.getElementById('slider').value !== {k}")
         frames.append(drawn_nodes(page))
     page.click("[data-testid=play]")
-    assert all(np.abs(a - b).max() > 0.1 for a, b in zip(frames, frames[1:]))
+    assert all(np.abs(a - b).max() > 0.1 for a, b in itertools.pairwise(frames))
 
     # The map chart: f's samples, one marker per fixed point, the cobweb of d at the slider's sample.
     k = int(page.input_value("[data-testid=slider]"))

@@ -411,7 +411,7 @@ function drawFrame(svg, toPage, shown) {
   if (r.springs) {
     const g = el("g", { class: "springs" }, svg);
     r.springs.pairs.forEach(([i, j], s) => el("path", { class: "spring", "data-spring": s, d: springPath(p[i], p[j]), fill: "none",
-                                                          stroke: CHART.spring, "stroke-width": 1.1, opacity: 0.8 }, g));
+                                                          stroke: CHART.spring, "stroke-width": 1, opacity: 0.6 }, g));
     shown.add("spring");
   }
   const bars = el("g", { class: "bars" }, svg);
@@ -1030,7 +1030,6 @@ function beyondOneMotion(r, rows, add) {
   const rep = r.report || {};
   if (r.minima) {
     rows.push(["Rods and springs"]);
-    add("rods", rep.rods, "", "Rods: each keeps its length along the whole motion.");
     add("springs", rep.springs, "", "Springs (zig-zags), E = Σ k_s (|x_i − x_j| − L_s)² / 2; never where a rod is.");
     add("gap along the motion", rep.gap, "relative", "Smallest σ_r/σ_max of C along the motion: one non-rigid zero mode at every sample.");
     add("rod length mismatch", rep.max_length_mismatch, "relative", "Largest relative difference of a rod's length between the conformations.");
@@ -1075,7 +1074,8 @@ function beyondOneMotion(r, rows, add) {
 function report_() {
   const body = $("report").tBodies[0];
   body.replaceChildren();
-  const rows = reportRows();
+  // A section without rows (a module map has no "Design" counts) is not shown.
+  const rows = reportRows().filter((row, i, all) => row.length > 1 || (all[i + 1] && all[i + 1].length > 1));
   $("report-empty").hidden = rows.length > 0;
   for (const [label, value, unit, meaning] of rows) {
     const tr = el("tr", {}, body, true);
@@ -1229,7 +1229,7 @@ const FEATURE_FIELDS = {
   period_two: [[["d1"], "d₁", 1.3], [["d2"], "d₂", 1.7]],
   range: [[["source", 0], "a", 1.2], [["source", 1], "b", 1.6], [["target", 0], "f(a)", 1.3], [["target", 1], "f(b)", 1.7]],
 };
-const FEATURE_NAMES = { fixed_point: "fixed point", period_two: "period 2", range: "range" };
+const FEATURE_NAMES = { fixed_point: "fixed pt", period_two: "2-cycle", range: "range" };
 
 function renderFeatures() {
   const body = $("features").tBodies[0];

@@ -24,7 +24,7 @@ function springPath([x1, y1], [x2, y2]) {
 }
 
 // A chart's frame: world box → SVG box, axes with end labels; returns the maps.
-function chartAxes(svg, box, [xlo, xhi], [ylo, yhi], xlabel, ylabel) {
+function chartAxes(svg, box, [xlo, xhi], [ylo, yhi], xlabel, ylabel, xends = [fmt(xlo, 3), fmt(xhi, 3)]) {
   const X = (v) => box.left + (box.right - box.left) * (v - xlo) / ((xhi - xlo) || 1);
   const Y = (v) => box.bottom - (box.bottom - box.top) * (v - ylo) / ((yhi - ylo) || 1);
   el("line", { x1: box.left, y1: box.bottom, x2: box.right, y2: box.bottom, stroke: "#888" }, svg);
@@ -34,8 +34,8 @@ function chartAxes(svg, box, [xlo, xhi], [ylo, yhi], xlabel, ylabel) {
   };
   text(box.left - 4, box.top + 4, fmt(yhi, 3), "end");
   text(box.left - 4, box.bottom + 3, fmt(ylo, 3), "end");
-  text(box.left, box.bottom + 14, fmt(xlo, 3), "start");
-  text(box.right, box.bottom + 14, fmt(xhi, 3), "end");
+  text(box.left, box.bottom + 14, xends[0], "start");
+  text(box.right, box.bottom + 14, xends[1], "end");
   text((box.left + box.right) / 2, box.bottom + 14, xlabel, "middle");
   text(box.left - 30, (box.top + box.bottom) / 2, ylabel, "middle",
        { transform: `rotate(-90 ${box.left - 30} ${(box.top + box.bottom) / 2})` });
@@ -47,10 +47,11 @@ function chartAxes(svg, box, [xlo, xhi], [ylo, yhi], xlabel, ylabel) {
 // its height above the higher of the two), and the cursor at sample k of the animation.
 function drawLandscape(svg, body, k) {
   svg.replaceChildren();
-  const land = body.landscape, s = land.arclength, e = land.energy;
-  const ylo = Math.min(...e), yhi = Math.max(...e) + 0.12 * ((Math.max(...e) - ylo) || 1);
-  const { X, Y, text } = chartAxes(svg, { left: 56, right: 785, top: 12, bottom: 150 }, [s[0], s[s.length - 1]], [ylo, yhi],
-                                  "arc length s along the motion", "energy E");
+  // Drawn above the lowest sample: the landscape's shape is in differences far smaller than E.
+  const land = body.landscape, s = land.arclength, low = Math.min(...land.energy), e = land.energy.map((v) => v - low);
+  const yhi = 1.12 * (Math.max(...e) || 1);
+  const { X, Y, text } = chartAxes(svg, { left: 56, right: 785, top: 12, bottom: 150 }, [s[0], s[s.length - 1]], [0, yhi],
+                                  "arc length s along the motion", "E − E_min");
   el("polyline", { class: "energy", points: s.map((v, i) => `${X(v).toFixed(1)},${Y(e[i]).toFixed(1)}`).join(" "),
                    fill: "none", stroke: CHART.energy, "stroke-width": 2 }, svg);
   const at = land.conformation_samples;
@@ -64,7 +65,7 @@ function drawLandscape(svg, body, k) {
     text(x + 8, Y(e[top]) + 4, `ΔE ${fmt(e[top] - base, 3)}`, "start", { fill: CHART.barrier });
   }
   body.minima.forEach((m, c) => {
-    const x = X(m.arclength), y = Y(m.energy);
+    const x = X(m.arclength), y = Y(m.energy - low);
     el("circle", { class: "minimum", "data-index": m.index, cx: x, cy: y, r: 6, fill: CONFORMATION_COLOURS[c % 3], stroke: "#fff", "stroke-width": 1.5 }, svg);
     text(x, y + 20, `${m.index + 1}`, "middle", { "font-weight": "bold", fill: CONFORMATION_COLOURS[c % 3] });
   });
@@ -107,7 +108,7 @@ function drawProfile(svg, map, d) {
   svg.replaceChildren();
   const lo = Math.min(map.lower.d_in, ...d), hi = Math.max(map.upper.d_in, ...d);
   const { X, Y } = chartAxes(svg, { left: 48, right: 290, top: 10, bottom: 252 }, [-0.5, d.length - 0.5], [Math.min(0, lo), hi],
-                             "pair k along the chain", "d_k");
+                             "pair k along the chain", "d_k", ["0", String(d.length - 1)]);
   for (const p of map.fixed_points) {
     el("line", { class: "fixed-level", x1: X(-0.5), y1: Y(p.d), x2: X(d.length - 0.5), y2: Y(p.d), stroke: "#999", "stroke-dasharray": p.stable ? "" : "4 3" }, svg);
   }
