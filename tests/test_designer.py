@@ -543,5 +543,21 @@ def test_chain_animated_with_its_map_as_a_cobweb(browser, designer_url):  # noqa
     report = page.inner_text("[data-testid=report]")
     for words in ("chain deviation", "fixed point 2", "POST /v1/map check", "usable range"):
         assert words in report
-    assert problems == []
+
+    # 1920 and 800 px: the drawing and both charts inside the window, no sideways scrolling.
+    for width in (1920, 800):
+        page.set_viewport_size({"width": width, "height": 900})
+        for testid in ("canvas", "map-chart", "profile"):
+            box = page.locator(f"[data-testid={testid}]").bounding_box()
+            assert box["x"] >= 0 and box["x"] + box["width"] <= width and box["width"] > 150
+        assert page.evaluate("document.documentElement.scrollWidth") <= width
+
+    # A feature out of the module's reach: the service's refusal said, the old chain cleared.
+    page.locator("[data-testid=features] tr").nth(1).locator("input").nth(0).fill("9")
+    page.click("[data-testid=design]")
+    page.wait_for_selector("#status.error", timeout=TIMEOUT_MS)
+    assert "feature_out_of_reach" in page.inner_text("[data-testid=status]")
+    assert page.evaluate("designer.response") is None and page.is_hidden("#map-box")
+    assert page.query_selector_all("#canvas line.bar") == []
+    assert problems == ["Failed to load resource: the server responded with a status of 422 (Unprocessable Entity)"]
     page.close()
