@@ -19,6 +19,8 @@ import meshio
 import numpy as np
 import pytest
 from browser import browser, console_problems  # noqa: F401 (a fixture)
+from oracles.two_triangles import TwoTriangles
+from scipy.optimize import brentq
 
 from benchmarks.bench_designer import (
     ARROW,
@@ -560,4 +562,43 @@ def test_chain_animated_with_its_map_as_a_cobweb(browser, designer_url):  # noqa
     assert page.evaluate("designer.response") is None and page.is_hidden("#map-box")
     assert page.query_selector_all("#canvas line.bar") == []
     assert problems == ["Failed to load resource: the server responded with a status of 422 (Unprocessable Entity)"]
+    page.close()
+
+
+def test_a_given_module_mapped(browser, designer_url):  # noqa: F811
+    """The Chain tab's given module (POST /v1/map): the two-triangle module with its hinge moved
+    in the table; the body's map is the closed form's (tests/oracles/two_triangles.py), its ends
+    the closed form's folds, the chart draws the body's samples, and there is one marker per
+    fixed point of the closed form (roots of f(d) − d on the usable range)."""
+    page, problems = open_page(browser, designer_url)
+    page.click("[data-testid=tab-chain]")
+    page.wait_for_function("designer.features.length === 2")
+    page.check("[data-testid=chain-given]")
+    assert page.is_hidden("[data-testid=features]") and page.is_visible("[data-testid=module]")
+    page.fill("[data-testid=module] input[data-node='4'][data-axis='1']", "0.5")
+    page.click("[data-testid=design]")
+    page.wait_for_function("designer.response || document.getElementById('status').className === 'error'", timeout=TIMEOUT_MS)
+    body = page.evaluate("designer.response")
+    assert body, page.inner_text("[data-testid=status]")
+    positions = np.array(body["module"]["frame"]["positions"])
+    assert positions[4].tolist() == [0.15, 0.5]
+    exact, m = TwoTriangles(positions), body["map"]
+    d_in, d_out = np.array(m["d_in"]), np.array(m["d_out"])
+    assert max(abs(exact.f(a) - b) / b for a, b in zip(d_in, d_out, strict=True)) < 1e-8
+    assert m["lower"]["kind"] == m["upper"]["kind"] == "fold"
+    assert [m["lower"]["d_in"], m["upper"]["d_in"]] == pytest.approx(exact.range(), rel=1e-6)
+    lo, hi = exact.range()
+    grid = np.linspace(lo, hi, 2001)[1:-1]
+    gap = np.array([exact.f(d) - d for d in grid])
+    roots = [brentq(lambda d: exact.f(d) - d, a, b) for a, b, ga, gb in zip(grid, grid[1:], gap, gap[1:]) if ga * gb < 0]
+    drawn = page.eval_on_selector_all("#map-chart circle.fixed-point", "cs => cs.map(c => +c.getAttribute('cx'))")
+    assert len(drawn) == len(m["fixed_points"]) == len(roots) >= 1
+    assert sorted(p["d"] for p in m["fixed_points"]) == pytest.approx(roots, rel=1e-8)
+    curve = np.array([[float(v) for v in p.split(",")] for p in page.get_attribute("#map-chart polyline.map", "points").split()])
+    ax, x_residual = affine_fit(d_in, curve[:, 0])
+    ay, y_residual = affine_fit(d_out, curve[:, 1])
+    assert ax > 0 and ay < 0 and x_residual < 0.06 and y_residual < 0.06
+    assert len(page.query_selector_all("#canvas line.bar")) == 6 and len(page.query_selector_all("#canvas line.pair")) == 2
+    assert page.is_hidden("[data-testid=profile]") and page.query_selector("[data-testid=cobweb]") is None
+    assert problems == []
     page.close()

@@ -51,7 +51,7 @@ const state = {
   example: null, response: null, frame: null, modes: [], mode: 0, sites: {}, motionPath: null,
   refined: null, refinedPath: null, certificate: null, timer: null, drag: null, view: VIEW_3D.slice(),
   formats: null, jobs: 0, timings: { live: [], design: [] }, progressLog: [], map: null, fresh: true,
-  conformations: [], features: [], chainExamples: null, mapCheck: null,
+  conformations: [], features: [], chainExamples: null, mapCheck: null, module: null,
 };
 window.designer = state;  // for outside tests and the curious
 
@@ -288,7 +288,8 @@ function drawCharts() {
   if (r && r.map) {
     const d = r.chain && k !== null ? r.chain.distances[k] : null;
     drawMapChart($("map-chart"), r.map, d);
-    if (d) drawProfile($("profile"), r.map, d); else $("profile").replaceChildren();
+    $("profile").parentNode.hidden = !d;
+    if (d) drawProfile($("profile"), r.map, d);
   }
 }
 
@@ -420,9 +421,10 @@ function drawFrame(svg, toPage, shown) {
     stroke: COLOURS.bar, "stroke-width": r.springs ? 3 : 2, "stroke-linecap": "round",
   }, bars));
   shown.add(r.springs ? "rod" : "bar");
-  if (r.chain && state.frame === r.chain.frame) {
+  const pairs = r.chain ? r.chain.pairs : r.module ? [r.module.input_pair, r.module.output_pair] : null;
+  if (pairs) {
     const g = el("g", { class: "pairs" }, svg);
-    r.chain.pairs.forEach(([i, j], k) => el("line", { class: "pair", "data-pair": k, x1: p[i][0], y1: p[i][1], x2: p[j][0], y2: p[j][1],
+    pairs.forEach(([i, j], k) => el("line", { class: "pair", "data-pair": k, x1: p[i][0], y1: p[i][1], x2: p[j][0], y2: p[j][1],
                                                      stroke: CHART.pair, "stroke-width": 1.5, "stroke-dasharray": "4 3" }, g));
     shown.add("pair");
   }
@@ -622,6 +624,10 @@ function drawnRequest() {
     if (barrier) options.barrier = Number(barrier);
     return ["/v1/design/multistable", { dim: 2, conformations: state.conformations, options }];
   }
+  if (state.kind === "chain" && chainSource() === "given") {
+    const m = state.module;
+    return ["/v1/map", { frame: { dim: 2, positions: m.positions, edges: m.edges }, input_pair: m.input_pair, output_pair: m.output_pair }];
+  }
   if (state.kind === "chain") {
     const chain = { n_modules: Number($("n-modules").value) }, d0 = $("d0").value.trim();
     if (d0) chain.d0 = Number(d0);
@@ -666,9 +672,11 @@ async function design(event) {
   // (Allostery in a given network has no job endpoint: it is asked directly too.)
   // (So has a sequential design, on a worker all the same: the service offloads it.)
   const direct = (endpoint === "/v1/design" && request.dim === 2) || endpoint === "/v1/design/allosteric/network"
-    || endpoint === "/v1/design/sequential";
+    || endpoint === "/v1/design/sequential" || endpoint === "/v1/map";
   try {
-    const response = direct ? await post(endpoint, request) : await runJob(endpoint, request, "designing");
+    let response = direct ? await post(endpoint, request) : await runJob(endpoint, request, "designing");
+    // A given module's map is drawn as a designed module's is, without features or chain.
+    if (endpoint === "/v1/map") response = { map: response, module: { ...request, frame: { ...request.frame, specified: [] } }, features: [], chain: null };
     const own = ownMotion(response);
     state.response = response;
     state.frame = own ? own.frame : response.frame;
@@ -738,7 +746,8 @@ function showOwnMotion(motion) {
   }
   slider.disabled = $("play").disabled = !motion;
   const f = state.frame, springs = state.response.springs;
-  say(`designed: ${f.positions.length} nodes, ${f.edges.length} ${springs ? `rods, ${springs.pairs.length} springs` : "bars"}`
+  const mapped = state.response.features && !state.response.features.length;
+  say(`${mapped ? "mapped" : "designed"}: ${f.positions.length} nodes, ${f.edges.length} ${springs ? `rods, ${springs.pairs.length} springs` : "bars"}`
       + (motion ? `; its motion in ${motion.path.length} samples: press Play or drag the slider.` : "."));
   draw();
   report_();
@@ -1145,6 +1154,31 @@ function setKind(kind) {
   if (kind === "space3d") fillTable(DEFAULT_3D.positions, DEFAULT_3D.motion);
   if (kind === "multistable" && !state.conformations.length) loadConformations(MULTISTABLE_EXAMPLE).catch((e) => say(e.message, true));
   if (kind === "chain" && !state.features.length) loadChainExamples().catch((e) => say(e.message, true));
+  if (kind === "chain" && !state.module) {
+    state.module = JSON.parse(JSON.stringify(GIVEN_MODULE));
+    renderModule();
+  }
+}
+
+// The given module of the Chain tab: the two-triangle module of docs/module_maps.md.
+const GIVEN_MODULE = {
+  positions: [[-1, 0], [1, 0], [-0.8, 1], [0.8, 1], [0.15, 0.45]],
+  edges: [[0, 2], [0, 4], [2, 4], [1, 3], [1, 4], [3, 4]], input_pair: [0, 1], output_pair: [2, 3],
+};
+const chainSource = () => document.querySelector("input[name=chain-source]:checked").value;
+
+function renderModule() {
+  const body = $("module").tBodies[0];
+  body.replaceChildren();
+  state.module.positions.forEach((p, i) => {
+    const tr = el("tr", {}, body, true);
+    el("td", {}, tr, true).textContent = String(i + 1);
+    p.forEach((v, a) => {
+      const input = el("input", { type: "number", step: "0.05", value: v, "aria-label": `node ${i + 1}, ${"xy"[a]}`, "data-node": i, "data-axis": a },
+                       el("td", {}, tr, true), true);
+      input.addEventListener("input", () => { if (Number.isFinite(input.valueAsNumber)) { p[a] = input.valueAsNumber; clearDesign(); } });
+    });
+  });
 }
 
 // ----------------------------------------------------------------------------- multistable, chain forms
@@ -1441,6 +1475,13 @@ $("add-node-ms").addEventListener("click", () => {
 });
 $("n-conformations").addEventListener("change", conformationCount);
 $("chain-example").addEventListener("change", () => pickChainExample($("chain-example").value));
+for (const radio of document.querySelectorAll("input[name=chain-source]")) {
+  radio.addEventListener("change", () => {
+    for (const p of document.querySelectorAll("[data-source]")) p.hidden = p.dataset.source !== chainSource();
+    if (chainSource() === "given") $("name").value = "two_triangle_module";
+    clearDesign();
+  });
+}
 $("add-feature").addEventListener("click", () => {
   if (state.features.length >= 4) { say("at most four features, met together by one module.", true); return; }
   state.features.push({ kind: "fixed_point", d: 1.5, slope: 0.5 });
