@@ -600,5 +600,10 @@ def test_a_given_module_mapped(browser, designer_url):  # noqa: F811
     assert ax > 0 and ay < 0 and x_residual < 0.06 and y_residual < 0.06
     assert len(page.query_selector_all("#canvas line.bar")) == 6 and len(page.query_selector_all("#canvas line.pair")) == 2
     assert page.is_hidden("[data-testid=profile]") and page.query_selector("[data-testid=cobweb]") is None
+    # The multistable example in the list of examples opens its own tab, its form filled.
+    page.select_option("[data-testid=example]", "example:tristable_triangle_2d")
+    page.wait_for_function("designer.kind === 'multistable' && designer.conformations.length === 3")
+    assert page.get_attribute("[data-testid=tab-multistable]", "aria-selected") == "true"
+    assert page.evaluate("designer.response") is None and page.is_hidden("#map-box")
     assert problems == []
     page.close()

@@ -674,7 +674,9 @@ async function design(event) {
   const direct = (endpoint === "/v1/design" && request.dim === 2) || endpoint === "/v1/design/allosteric/network"
     || endpoint === "/v1/design/sequential" || endpoint === "/v1/map";
   try {
+    const kind = state.kind;
     let response = direct ? await post(endpoint, request) : await runJob(endpoint, request, "designing");
+    if (state.kind !== kind) return;  // another tab was chosen meanwhile
     // A given module's map is drawn as a designed module's is, without features or chain.
     if (endpoint === "/v1/map") response = { map: response, module: { ...request, frame: { ...request.frame, specified: [] } }, features: [], chain: null };
     const own = ownMotion(response);
