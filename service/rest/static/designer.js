@@ -289,6 +289,7 @@ function drawCharts() {
     const d = r.chain && k !== null ? r.chain.distances[k] : null;
     drawMapChart($("map-chart"), r.map, d);
     $("profile").parentNode.hidden = !d;
+    $("map-caption").textContent = d ? "the module's map f, the chain as a cobweb" : "the module's map f, its fixed points and folds";
     if (d) drawProfile($("profile"), r.map, d);
   }
 }
