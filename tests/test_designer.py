@@ -475,7 +475,7 @@ def test_multistable_design_with_its_energy_landscape(browser, designer_url):  #
     page.close()
 
 
-def test_chain_animated_with_its_map_as_a_cobweb(browser, designer_url):  # noqa: F811
+def test_chain_animated_with_its_map_as_a_cobweb(browser, designer_url, tmp_path):  # noqa: F811
     """Issue #41 item 2 in the page: the deployable example's form (from the OpenAPI examples),
     the chain drawn from the body and animated along its traced motion (nodes move between
     frames; the drawn ends are the body's chain.path ends through the drawing's map fitted on the
@@ -545,6 +545,14 @@ def test_chain_animated_with_its_map_as_a_cobweb(browser, designer_url):  # noqa
     report = page.inner_text("[data-testid=report]")
     for words in ("chain deviation", "fixed point 2", "POST /v1/map check", "usable range"):
         assert words in report
+
+    # The chain exports as a design does, named after it.
+    with page.expect_download() as info:
+        page.click("[data-testid=download-vtk]")
+    assert info.value.suggested_filename == "deployable_chain.vtu"
+    saved = Path(tmp_path) / info.value.suggested_filename
+    info.value.save_as(saved)
+    assert np.allclose(meshio.read(saved).points[:, :2], chain["frame"]["positions"])
 
     # 1920 and 800 px: the drawing and both charts inside the window, no sideways scrolling.
     for width in (1920, 800):

@@ -700,7 +700,8 @@ async function design(event) {
     $("certify").disabled = Boolean(own);
     if (own) {
       showOwnMotion(own.motion);
-      await (response.landscape ? listDownloads() : checkMap(response));
+      // Rods and springs, and a chain, export as designs do (springs as their own cells).
+      await Promise.all([response.landscape || response.chain ? listDownloads() : null, checkMap(response)]);
       return;
     }
     say(`designed: ${state.frame.positions.length} nodes, ${state.frame.edges.length} bars; tracing the finite motion …`);
