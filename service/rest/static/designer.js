@@ -51,7 +51,7 @@ const state = {
   example: null, response: null, frame: null, modes: [], mode: 0, sites: {}, motionPath: null,
   refined: null, refinedPath: null, certificate: null, timer: null, drag: null, view: VIEW_3D.slice(),
   formats: null, jobs: 0, timings: { live: [], design: [] }, progressLog: [], map: null, fresh: true,
-  conformations: [], features: [], chainExamples: null, mapCheck: null, module: null,
+  conformations: [], features: [], chainExamples: null, jobEndpoints: [], mapCheck: null, module: null,
 };
 window.designer = state;  // for outside tests and the curious
 
@@ -671,9 +671,10 @@ async function design(event) {
   say(`designing (${endpoint}) …`);
   // A drawn 2D design answers in milliseconds; the rest may take seconds: a job with progress.
   // (Allostery in a given network has no job endpoint: it is asked directly too.)
-  // (So has a sequential design, on a worker all the same: the service offloads it.)
+  // (So are a module's map and a sequential design unless the service runs it as a job: on a
+  // worker all the same, the service offloads it.)
   const direct = (endpoint === "/v1/design" && request.dim === 2) || endpoint === "/v1/design/allosteric/network"
-    || endpoint === "/v1/design/sequential" || endpoint === "/v1/map";
+    || endpoint === "/v1/map" || (endpoint === "/v1/design/sequential" && !state.jobEndpoints.includes(endpoint));
   try {
     const kind = state.kind;
     let response = direct ? await post(endpoint, request) : await runJob(endpoint, request, "designing");
@@ -1240,6 +1241,7 @@ async function loadChainExamples() {
   if (!state.chainExamples) {
     const spec = await (await api("GET", "/openapi.json")).json();
     state.chainExamples = spec.paths["/v1/design/sequential"].post.requestBody.content["application/json"].examples;
+    state.jobEndpoints = spec.components.schemas.JobRequest.properties.endpoint.enum || [];
     const select = $("chain-example");
     for (const [name, ex] of Object.entries(state.chainExamples)) {
       el("option", { value: name, title: ex.description }, select, true).textContent = ex.summary;
