@@ -242,10 +242,28 @@ class ResponseFigures:
 
 @dataclass(frozen=True, eq=False)
 class AllostericDesign:
-    """The design (frame nodes: source, then target, then relays and unspecified nodes), and what
-    it achieves. relays: the port nodes between the sites; modules: how many modules the chain
-    has (1 for a direct design); options: the chain parameters that produced it (port in site
-    sizes); site_size: the site size s in the caller's units (the canonical length)."""
+    """An allosteric design from scratch and what it achieves.
+
+    Attributes
+    ----------
+    design : Design
+        The design; its frame's nodes are the source, then the target, then the relays and
+        unspecified nodes.
+    source, target : tuple of int
+        The sites' node indices.
+    relays : tuple of int
+        The port nodes between the sites.
+    figures : ResponseFigures
+        What the design achieves: the target's response to the source motion and its errors.
+    distance : float
+        The distance between the sites' centroids, in the caller's units.
+    modules : int
+        How many modules the chain has (1 for a direct design).
+    options : ChainOptions
+        The chain parameters that produced it (port in site sizes).
+    site_size : float
+        The site size s in the caller's units (the canonical length).
+    """
 
     design: Design
     source: tuple[int, ...]
@@ -259,10 +277,12 @@ class AllostericDesign:
 
     @property
     def achieved_target_motion(self) -> np.ndarray:
+        """The target's rows of the response to the source motion (figures)."""
         return self.figures.achieved_target_motion
 
     @property
     def target_error(self) -> float:
+        """The achieved target motion's error relative to the prescribed one (figures)."""
         return self.figures.target_error
 
 
