@@ -198,7 +198,7 @@ def test_amplification_is_what_seeded_fabrication_errors_do(d, distance):
     the reported amplification within a factor 3 (its expectation is A², the mean of 8 squares of
     a ≤ k_tgt·d-dimensional Gaussian form has relative spread ≤ 0.5); and the issue's floor,
     A ≤ 100·√(D/12) for the worst of four seeded perturbations, holds with the default options
-    for these sites (in 3D not for every site shape yet: docs/benchmarks/allostery.md)."""
+    for these sites."""
     x_src, u_src, x_tgt, u_tgt = sites(d, distance)
     result = design_allosteric(x_src, u_src, x_tgt, u_tgt)
     f = result.figures
@@ -211,17 +211,15 @@ def test_amplification_is_what_seeded_fabrication_errors_do(d, distance):
           f"RMS {rms:.0f}, worst of four {sampled[:4].max():.0f}")
 
 
-@pytest.mark.parametrize(
-    ("distance", "site_seed", "floor_met"), [(12.0, 1, True), (12.0, 2, True), (48.0, 1, True), (48.0, 2, True)]
-)
-def test_3d_amplification_of_the_default_design_is_what_seeded_errors_do(distance, site_seed, floor_met):
+@pytest.mark.parametrize(("distance", "site_seed"), [(12.0, 1), (12.0, 2), (48.0, 1), (48.0, 2)])
+def test_3d_amplification_of_the_default_design_is_what_seeded_errors_do(distance, site_seed):
     """3D, the benchmark's other site shapes (1 missed the floor at D = 12 before the source-side
     search: sampled 106 > 100; 2 is the hardest shape, 679 at D = 48 before the source base):
     the default design stays exact (the response driven through numpy's SVD of C hits u_tgt to
     1e-9, one nontrivial mode, no self-stress), eight seeded fabrication errors re-solved from
     scratch agree with the reported A (RMS within a factor 3, none above A_worst), and the worst
     of four meets the issue's floor 100·√(D/12) (D = 48: sampled 69 and 164 in the benchmark;
-    D = 200, shape 2 still misses it: docs/benchmarks/allostery.md)."""
+    D = 200 there too, docs/benchmarks/allostery.md, but a design of ~120 nodes takes ~6 s)."""
     x_src, u_src, x_tgt, u_tgt = sites(3, distance, site_seed)
     result = design_allosteric(x_src, u_src, x_tgt, u_tgt)
     x, edges = np.asarray(result.design.frame.positions), np.asarray(result.design.frame.edges)
@@ -233,8 +231,7 @@ def test_3d_amplification_of_the_default_design_is_what_seeded_errors_do(distanc
     assert sampled.max() <= f.amplification_worst * 1.01
     rms = float(np.sqrt(np.mean(sampled**2)))
     assert f.amplification / 3 <= rms <= 3 * f.amplification
-    if floor_met:
-        assert sampled[:4].max() <= 100 * np.sqrt(distance / 12)
+    assert sampled[:4].max() <= 100 * np.sqrt(distance / 12)
     print(f"\n3D D={distance} shape {site_seed}: A reported {f.amplification:.0f}, sampled RMS {rms:.0f}, "
           f"worst of four {sampled[:4].max():.0f}, floor {100 * np.sqrt(distance / 12):.0f}")
 

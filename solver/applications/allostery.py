@@ -30,10 +30,11 @@ Every answer carries its accuracy (target error, from the frame's own zero modes
 relative singular-value gap of the designed mode, the linear sensitivity of the response and
 the amplification of fabrication errors a builder feels (``ResponseFigures``). An answer with
 target error above TARGET_ERROR_MAX or gap below GAP_FLOOR is not returned: by default the
-chains of ROBUST_CHAINS are all designed, the best of them is rebuilt with the source modules
-of smallest lever (``source_tilt``, screened over the first port at each of SOURCE_SIDES and the
-source site's base of REACHES), and the acceptable one with the smallest amplification is
-kept; then (or with robustness="economy" first) other port sizes, growths, module lengths and
+chains of ROBUST_CHAINS are all designed (in 3D each also leaving the source from a base, up to
+BASE_MAX_MODULES modules), the best of them (in 3D the best with and the best without a base)
+is rebuilt with the source modules of smallest lever (``source_tilt``, screened over the first
+port at each of SOURCE_SIDES and the source site's base of REACHES), and the acceptable one
+with the smallest amplification is kept; then (or with robustness="economy" first) other port sizes, growths, module lengths and
 seeds are tried (``ALTERNATIVES``) and, if none meets both, DomainError ``inaccurate_design``
 reports the best.
 """
@@ -162,6 +163,13 @@ ROBUST_CHAINS = (
 # Robust candidates needing more modules than this are skipped (equal small relays across a long
 # distance: hundreds of nodes, each relay adding to the lever; 3D designs of 200 nodes took 20 s).
 ROBUST_MAX_MODULES = 16
+# In 3D every robust chain of at most BASE_MAX_MODULES modules is also designed leaving the source
+# from a base (reach REACHES[-1]), and ``_refined`` rebuilds the best chain with a base as well as
+# the best without: with a base the source's lever no longer dominates, and the chains of small
+# equal relays (whose smaller bars shrink ℓ̄, the node error's unit) do best, but without one they
+# rank last. Measured (3D, D = 200, shape 2, sampled worst of four): the chain (8, 1.5, aspect 3)
+# refined 872; (4, 1, 1) with a base 289 (29 modules, 120 nodes), (2, 1, 1.5) 235 (39 modules).
+BASE_MAX_MODULES = 32
 ROBUSTNESS = ("robust", "economy")
 # Then the acceptable chain of smallest A is rebuilt with the source site's first
 # port at each of SOURCE_SIDES (ChainOptions.source_side) and the smallest A is kept. Measured
@@ -881,7 +889,12 @@ def design_allosteric(
     gap = float(sim.positions_in(x_tgt)[:, 0].min() - sim.positions_in(x_src)[:, 0].max())
     robust = []
     if robustness == "robust":
-        robust = [c for c in ROBUST_CHAINS if estimated_modules(gap, replace(first, **{**c, **fixed})) <= ROBUST_MAX_MODULES]
+        based = [{**c, "reach": REACHES[-1]} for c in ROBUST_CHAINS if c.get("port") != DIRECT_PORT] if x_src.shape[1] == 3 else []
+        robust = [
+            c
+            for c in ROBUST_CHAINS + tuple(based)
+            if estimated_modules(gap, replace(first, **{**c, **fixed})) <= (BASE_MAX_MODULES if "reach" in c else ROBUST_MAX_MODULES)
+        ]
     candidates = [(change, True) for change in robust] + [(change, False) for change in ALTERNATIVES]
     best: AllostericDesign | None = None
     accepted: list[AllostericDesign] = []
@@ -933,34 +946,32 @@ def design_allosteric(
 
 def _refined(sim: Similarity, src, tgt, accepted: list[AllostericDesign], distance: float) -> AllostericDesign:
     """The acceptable design of smallest amplification among ``accepted`` and the best chain of
-    them rebuilt, for each of REACHES, with the REFINED_BUILDS source sides of smallest
-    ``source_tilt`` among the source site's first port at each of SOURCE_SIDES (in 2D those
-    without twist: a 2D port has none)."""
+    them (in 3D the best built without a base and the best with one: BASE_MAX_MODULES) rebuilt,
+    for each of REACHES, with the REFINED_BUILDS source sides of smallest ``source_tilt`` among
+    the source site's first port at each of SOURCE_SIDES (in 2D those without twist: a 2D port
+    has none)."""
     accepted = sorted(accepted, key=lambda r: r.figures.amplification_tail())
     best = accepted[0]
-    chain = next((r.options for r in accepted if r.modules > 1), None)
-    if chain is None:
-        return best
+    chains: list[ChainOptions] = []  # the best chain without a base, and with one (3D)
+    for r in accepted:
+        if r.modules > 1 and all(bool(c.reach) != bool(r.options.reach) for c in chains):
+            chains.append(r.options)
     sides = SOURCE_SIDES if len(sim.rotation) == 3 else [s for s in SOURCE_SIDES if s[0] == 0.0]
-    screened = []
     reaches = REACHES if len(sim.rotation) == 3 else (0.0,)
-    variants = list(itertools.product(reaches, sides))
-    for i, (reach, side) in enumerate(variants):
+    variants = list(itertools.product(range(len(chains)), reaches, sides))
+    screened: dict[tuple[int, float], list] = {}
+    for i, (c, reach, side) in enumerate(variants):
         check_budget()
         report_progress(0.5 * i / len(variants), "screening source modules")
-        options = replace(chain, source_side=side, reach=reach)
+        options = replace(chains[c], source_side=side, reach=reach)
         _, _, (y_src, v_src, y_tgt, _), plan, direct, base = _canonical_sites(sim, src, tgt, options)
         if direct or not plan.source_ports:
             continue
         try:
-            screened.append((source_tilt(y_src, v_src, y_tgt, plan, options, base), i, options))
+            screened.setdefault((c, reach), []).append((source_tilt(y_src, v_src, y_tgt, plan, options, base), i, options))
         except DomainError:
             continue
-    chosen = [
-        options
-        for reach in reaches
-        for _, _, options in sorted(s for s in screened if s[2].reach == reach)[:REFINED_BUILDS]
-    ]
+    chosen = [options for tilts in screened.values() for _, _, options in sorted(tilts)[:REFINED_BUILDS]]
     for i, options in enumerate(chosen):
         try:
             # Each attempt reports its own 0 → 1; its share keeps the caller's fraction monotone.
