@@ -570,7 +570,7 @@ def two_configuration(initial: Points, final: Points, *, dim: int | None = None,
 
 
 def multistable(conformations: Sequence[Points], *, barrier: float | None = None, max_stiffness: float = 1.0,
-                dim: int | None = None, seed: int = 0) -> MultistableResult:
+                dim: int | None = None, seed: int = 0, bifurcation: int | None = None) -> MultistableResult:
     """Rods and springs whose specified nodes rest in each of 2 or 3 conformations: a strict
     local minimum of the elastic energy E = Σ_s k_s (|x_i − x_j| − L_s)²/2 along the rods'
     one-degree-of-freedom motion, which passes through them in order (POST
@@ -595,6 +595,10 @@ def multistable(conformations: Sequence[Points], *, barrier: float | None = None
         The dimension (by default the width of the first conformation).
     seed : int
         Seed of the placement and the relaxations.
+    bifurcation : int, optional
+        Index of one of three 2D conformations where the rods' motion is to branch (the body's
+        ``bifurcation``: both tangents, the rank drop, both continuations); the other two are
+        the minima.
 
     Returns
     -------
@@ -611,7 +615,7 @@ def multistable(conformations: Sequence[Points], *, barrier: float | None = None
     """
     return _run("/v1/design/multistable", {
         "dim": _dim(conformations[0], dim), "conformations": conformations,
-        "options": {"barrier": barrier, "max_stiffness": max_stiffness, "seed": seed},
+        "options": {"barrier": barrier, "max_stiffness": max_stiffness, "seed": seed, "bifurcation": bifurcation},
     }, MultistableResult)
 
 

@@ -615,7 +615,7 @@ def multistable_body(result, timings_ms: dict) -> dict:
         },
         "minima": [
             {
-                "index": m.index,
+                "index": result.minimum_indices[m.index] if result.minimum_indices else m.index,
                 "arclength": m.arclength,
                 "energy": m.energy,
                 "slope": m.slope,
@@ -628,6 +628,7 @@ def multistable_body(result, timings_ms: dict) -> dict:
             }
             for m, c in zip(land.minima, result.checks)
         ],
+        "bifurcation": None if result.bifurcation is None else bifurcation_body(result),
         "report": {
             "construction": link.construction,
             "analysis": counts_body(link.analysis),
@@ -645,6 +646,31 @@ def multistable_body(result, timings_ms: dict) -> dict:
             "timings_ms": timings_ms,
         },
     }
+
+def bifurcation_body(result) -> dict:
+    """The branch point of a branched MultistableDesign: where it sits on the landscape, the
+    rank drop, the stress and second-order form, both tangents and both continuations."""
+    b, link = result.bifurcation, result.linkage
+    first = link.parameters[result.minimum_indices[0]]
+    followed = lambda f: {"reach": list(f.reach), "max_relative_bar_error": f.max_relative_bar_error, "separation": f.separation}
+    return {
+        "index": b.index,
+        "arclength": float((link.parameters[b.index] - first) * link.arclength_scale),
+        "energy": result.springs.energy(link.conformations[b.index]),
+        "rank": b.point.rank,
+        "sigma_kept": b.point.sigma_kept,
+        "sigma_dropped": b.point.sigma_dropped,
+        "stress": b.point.stress.tolist(),
+        "form": list(b.point.form),
+        "taken_tangent": b.taken_tangent.tolist(),
+        "other_tangent": b.other_tangent.tolist(),
+        "angle_degrees": b.point.angle,
+        "dyad": list(b.dyad_nodes),
+        "kind": b.dyad_kind,
+        "taken_branch": followed(b.taken_branch),
+        "other_branch": followed(b.other_branch),
+    }
+
 
 def module_map_body(the_map, at=()) -> dict:
     """/v1/map's body (without timings) for a solver ModuleMap: samples, range, fixed points and

@@ -486,11 +486,16 @@ def _mode_towards(frame: Frame, target: np.ndarray) -> np.ndarray:
 
 
 def _gap_along(path: MotionPath, edges: np.ndarray, until: float) -> float | None:
-    """Smallest σ_r/σ_max of C (normalised positions) over the path samples from τ = 0 to the
-    one nearest ``until``, or None when a sample has other than one nontrivial zero mode."""
-    gap = np.inf
+    """gap_along over the path samples from τ = 0 to the one nearest ``until``."""
     last = int(np.argmin(np.abs(path.parameter - until)))
-    for x in path.positions[path.reference_index : last + 1]:
+    return gap_along(path.positions[path.reference_index : last + 1], edges)
+
+
+def gap_along(positions: np.ndarray, edges: np.ndarray) -> float | None:
+    """Smallest σ_r/σ_max of C (normalised positions) over configurations (P, N, d), or None
+    when one of them has other than one nontrivial zero mode."""
+    gap = np.inf
+    for x in positions:
         y = Normalisation.of(x).positions_in(x)
         s = np.linalg.svd(compatibility_matrix(y, edges, dense=True), compute_uv=False)
         r, _ = decide_rank(s)

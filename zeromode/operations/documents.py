@@ -100,7 +100,7 @@ def multistable_arguments(r: MultistableRequest) -> dict:
     o = r.options
     return {
         "conformations": r.conformations, "barrier": o.barrier, "max_stiffness": o.max_stiffness,
-        "dim": r.dim, "seed": o.seed,
+        "dim": r.dim, "seed": o.seed, "bifurcation": o.bifurcation,
     }
 
 
