@@ -164,15 +164,16 @@ def multistable(r: MultistableRequest) -> Outcome:
     """POST /v1/design/multistable: a one-freedom linkage through the 2 or 3 conformations
     (verified by continuation), springs making each a strict minimum of the elastic energy
     along its motion with barriers between neighbours, every minimum verified by the full
-    energy's Hessian and seeded relaxations (solver.multistable); a branched design's
-    NoBifurcation carries the best candidate's figures."""
+    energy's Hessian and seeded relaxations (solver.multistable); NoPath and a branched
+    design's NoBifurcation carry the best attempt's figures."""
     from zeromode.solver.multistable.bifurcation import NoBifurcation
     from zeromode.solver.multistable.design import design_multistable
+    from zeromode.solver.multistable.linkage import NoPath
 
     t0 = time.perf_counter()
     try:
         result = design_multistable(**multistable_arguments(r))
-    except NoBifurcation as exc:
+    except (NoBifurcation, NoPath) as exc:
         raise with_best(exc, json_safe(exc.best)) from None
     return Outcome(result, multistable_body(result, _ms_since(t0)))
 
