@@ -126,6 +126,8 @@ BAD = [
     ("/v1/design/multistable", {"dim": 2, "conformations": [[[0, 0], [1, 0]], [[0, 0], [2, 0]]]}, "too_few_nodes"),
     ("/v1/design/multistable", {"dim": 2, "conformations": [[[i, i * i % 7] for i in range(17)],
                                                              [[i, i * i % 5] for i in range(17)]]}, "too_expensive"),
+    ("/v1/design/multistable", {"dim": 2, "conformations": TRISTABLE["conformations"][:2], "options": {"bifurcation": 0}},
+     "invalid_bifurcation"),  # a branch point needs two minima beside it: three conformations
     # /v1/motion.
     ("/v1/motion", {"frame": SQUARE, "boundary": {"left": [0], "right": [1], "bottom": [0], "top": [9]}}, "invalid_boundary"),
     ("/v1/motion", {"frame": {**SQUARE, "positions": [[0.0, 0.0], [1e160, 0.0], [1e160, 1e160], [0.0, 1e160]]}}, "out_of_range"),

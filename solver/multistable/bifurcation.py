@@ -39,19 +39,20 @@ and w: if d has its largest value over the motion at j, p sits on the segment be
 and w along the line is resolved by the rest (d′ = 0: the virtual rod q–w's row lies in C's row
 space), so the frame gains one self-stress and one mode (p across the line).  Near j, p's offset
 s from the line obeys s² ∝ ±(d_j − d(τ)) ≈ ∓d″(τ − τ_j)²/2: two branches s = ±κ(τ − τ_j), every
-other node moving alike on both.  The motion through the conformations takes the branch on
-which p crosses the line (p on opposite sides before and after j); on the other, p touches the
-line and goes back.  Among the candidates (rod, w, distance, p's split) the one with the largest
-min(σ_kept/σ_max, sin angle) is kept.  A stationary d placed *on* the solution space of the
-three-conformation construction would need one more equation than its unknowns allow (2D: the
-placement is already a finite set), hence the added dyad.
+other node moving alike on both.  The motion through the conformations takes the branch that
+carries p from side σ of the line (before j) to −σ (after); the other carries it from −σ to σ,
+so a motion arriving on the first could leave along the second's half with p back on side σ
+(p touches the line and returns).  Among the candidates (rod, w, distance, p's split) the one with the
+largest (σ_kept/σ_max)·sin(angle) is tried first (far from a second rank drop, branches well
+apart).  Why a dyad: a node of the three-conformation construction made stationary there would
+need one more equation than its unknowns allow (2D: its placements are already a finite set).
 
-Verification: at j an SVD of C gives the rank drop (σ_dropped/σ_max ≤ RANK_RTOL, the kept
-smallest σ/σ_max reported) and the two tangents; each is continued (finite_motion.trace_motion
-from the branch point with that mode).  The branch taken must meet every other conformation in
+Verification: at j an SVD of C gives the rank drop (σ_dropped/σ_max, the smallest kept σ/σ_max)
+and the two tangents; each is continued (_through: a short step off the branch point, then
+finite_motion.trace_motion both ways).  The branch taken must meet every other conformation in
 order (ε ≤ REACHED_EPS); the other is followed BRANCH_FOLLOW of the way to the nearest
-conformation, without a singular point, its bars at their lengths, its configurations apart from
-the taken branch's.
+conformation, without a singular point, its bars at their lengths, its configurations apart
+from the taken branch's.
 """
 
 from __future__ import annotations
@@ -63,7 +64,7 @@ import numpy as np
 from zeromode.solver.analysis.normalisation import Normalisation
 from zeromode.solver.analysis.rigidity import analyze
 from zeromode.solver.budget import check_budget
-from zeromode.solver.errors import DomainError
+from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame
 from zeromode.solver.motion.finite_motion import (
     BarConstraints,
@@ -213,6 +214,19 @@ def design_branched_linkage(conformations: np.ndarray, index: int, seed: int = 0
             if best is None or figures["score"] > best["score"]:
                 best, why = figures, figures["why"]
     raise NoBifurcation(f"no linkage found branches at conformation {index}: {why}.", best)
+
+
+def check_bifurcation(index, x: np.ndarray) -> None:
+    """InvalidInput ``invalid_bifurcation`` unless ``index`` names one of three 2D conformations x
+    (the branching dyad is planar; the other two conformations become the minima)."""
+    if len(x) != 3 or x.shape[2] != 2:
+        raise InvalidInput(
+            "invalid_bifurcation",
+            "a branched design takes three 2D conformations: the branch point and two minima of the springs' energy.",
+        )
+    if not (isinstance(index, (int, np.integer)) and 0 <= index < 3):
+        raise InvalidInput("invalid_bifurcation", f"bifurcation must be the index of a conformation (0, 1 or 2), got {index!r}.")
+
 
 
 @dataclass(frozen=True, eq=False)

@@ -13,6 +13,7 @@ import numpy as np
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.multistable.bifurcation import (
     Bifurcation,
+    check_bifurcation,
     design_branched_linkage,
     minima_view,
 )
@@ -69,7 +70,7 @@ def design_multistable(
             linkage = design_linkage(conformations, dim=dim, seed=seed)
         else:
             x = check_conformations(conformations, dim)
-            _check_bifurcation(bifurcation, x)
+            check_bifurcation(bifurcation, x)
             linkage, branch = design_branched_linkage(x, bifurcation, seed=seed)
     minima = tuple(i for i in range(len(linkage.conformations)) if i != bifurcation)
     view = linkage if branch is None else minima_view(linkage, minima)
@@ -96,14 +97,3 @@ def design_multistable(
         linkage, springs, landscape, checks, float(barrier), float(max_stiffness), bifurcation=branch, minimum_indices=minima,
     )
 
-
-def _check_bifurcation(index, x: np.ndarray) -> None:
-    """InvalidInput ``invalid_bifurcation`` unless ``index`` names one of three 2D conformations x
-    (the branching dyad is planar; the other two conformations become the minima)."""
-    if len(x) != 3 or x.shape[2] != 2:
-        raise InvalidInput(
-            "invalid_bifurcation",
-            "a branched design takes three 2D conformations: the branch point and two minima of the springs' energy.",
-        )
-    if not (isinstance(index, (int, np.integer)) and 0 <= index < 3):
-        raise InvalidInput("invalid_bifurcation", f"bifurcation must be the index of a conformation (0, 1 or 2), got {index!r}.")

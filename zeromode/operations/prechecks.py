@@ -29,8 +29,9 @@ What is decided here, and what only the run can decide:
                          (too_expensive).  Run time: inaccurate_design, the tolerance stage.
   /v1/design/multistable the conformations (2 or 3, equal shapes, k ≥ d + 1 distinct nodes,
                          at most MAX_SPECIFIED: too_expensive; none a rigid motion of another:
-                         rigid_target).  Run time: no_linkage, no_path, no_springs,
-                         not_verified.
+                         rigid_target), a bifurcation's (three 2D conformations:
+                         invalid_bifurcation).  Run time: no_linkage, no_path, no_bifurcation,
+                         no_springs, not_verified.
   /v1/motion             the frame, its extent, direction / amplitude / max_step, the size
                          (too_expensive), the given mode's shape, the boundary sets.  Run time:
                          everything about the frame's modes (no_motion, ambiguous_mode,
@@ -70,6 +71,7 @@ from zeromode.solver.frame import Frame, check_extent
 from zeromode.solver.motion.boundary_strain import boundary_sets
 from zeromode.solver.motion.finite_motion import check_trace_arguments, given_mode
 from zeromode.solver.motion.refine import refinement_target
+from zeromode.solver.multistable.bifurcation import check_bifurcation
 from zeromode.solver.multistable.linkage import check_conformations
 from zeromode.solver.pipeline import check_auxetic_request, check_design_request
 
@@ -106,7 +108,9 @@ def _allosteric(r: AllostericRequest) -> None:
 
 def _multistable(r: MultistableRequest) -> None:
     a = multistable_arguments(r)
-    check_conformations(a["conformations"], a["dim"])
+    x = check_conformations(a["conformations"], a["dim"])
+    if a["bifurcation"] is not None:
+        check_bifurcation(a["bifurcation"], x)
 
 
 def _motion(r: MotionRequest) -> None:
