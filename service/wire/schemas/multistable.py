@@ -85,7 +85,10 @@ class BranchFollowedModel(BaseModel):
 
 class BifurcationModel(BaseModel):
     index: int = Field(description="The conformation where the motion branches (not a minimum: two first-order modes).")
-    arclength: float = Field(description="Its s on the landscape.")
+    arclength: float = Field(
+        description="Its s along the motion, on the landscape's scale (0 at the first minimum); a branch point at the "
+        "first or last conformation lies beyond the landscape's samples, which span the minima and a margin."
+    )
     energy: float = Field(description="The springs' energy there (neither constrained nor a minimum).")
     rank: int = Field(description="Rank of C there: one below the rods' count (one self-stress).")
     sigma_kept: float = Field(description="Smallest kept singular value of C over the largest (normalised positions).")
@@ -105,8 +108,8 @@ class BifurcationModel(BaseModel):
     kind: Literal["stretched", "folded"] = Field(
         description="stretched: p between q and its other node (their distance largest there); folded: p beyond q (smallest)."
     )
-    taken_branch: BranchFollowedModel
-    other_branch: BranchFollowedModel
+    taken_branch: BranchFollowedModel = Field(description="The branch the motion takes, traced through every conformation.")
+    other_branch: BranchFollowedModel = Field(description="The other branch, followed a quarter of the way to the nearest conformation.")
 
 
 class MultistableReport(BaseModel):
