@@ -43,8 +43,11 @@ other node moving alike on both.  The motion through the conformations takes the
 carries p from side σ of the line (before j) to −σ (after); the other carries it from −σ to σ,
 so a motion arriving on the first could leave along the second's half with p back on side σ
 (p touches the line and returns).  Among the candidates (rod, w, distance, p's split) the one with the
-largest (σ_kept/σ_max)·sin(angle) is tried first (far from a second rank drop, branches well
-apart).  Why a dyad: a node of the three-conformation construction made stationary there would
+largest min(σ_kept/σ_max at j, σ_min/σ_max at the other conformations)·sin(angle) is tried
+first: far from a second rank drop at j, the dyad well bent where the springs must hold a
+minimum (nearly straight, its rods hold p across the line only to second order: a soft
+direction the springs' prestress buckles, measured as relaxations sliding 0.2–0.3 of the
+radius away), branches well apart.  Why a dyad: a node of the three-conformation construction made stationary there would
 need one more equation than its unknowns allow (2D: its placements are already a finite set).
 
 Verification: at j an SVD of C gives the rank drop (σ_dropped/σ_max, the smallest kept σ/σ_max)
@@ -62,7 +65,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from zeromode.solver.analysis.normalisation import Normalisation
-from zeromode.solver.analysis.rigidity import analyze
+from zeromode.solver.analysis.rigidity import analyze, compatibility_matrix
 from zeromode.solver.budget import check_budget
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame
@@ -271,8 +274,17 @@ def _dyads(base: Linkage, j: int, rng: np.random.Generator) -> list[_Dyad]:
         point = branch_point(positions[j], full)
         if point is None or point.angle < MIN_ANGLE:
             continue
-        found.append(_Dyad(positions, full, point, kind, point.sigma_kept * np.sin(np.radians(point.angle))))
+        # Elsewhere the dyad must be well bent: nearly straight, its rods hold p across the line
+        # q–w only to second order, a soft direction the springs' prestress can buckle.
+        regular = min(_smallest_sigma(positions[i], full) for i in range(len(positions)) if i != j)
+        found.append(_Dyad(positions, full, point, kind, min(point.sigma_kept, regular) * np.sin(np.radians(point.angle))))
     return sorted(found, key=lambda c: -c.score)
+
+
+def _smallest_sigma(x: np.ndarray, edges: np.ndarray) -> float:
+    """σ_min/σ_max of C at normalised positions x (N, d) (rows = bars ≤ dN)."""
+    s = np.linalg.svd(compatibility_matrix(x, edges, dense=True), compute_uv=False)
+    return float(s[-1] / s[0])
 
 
 def _quarter(y: np.ndarray) -> np.ndarray:
