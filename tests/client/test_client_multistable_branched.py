@@ -8,6 +8,7 @@ from __future__ import annotations
 import httpx
 import numpy as np
 from oracles.motion import bar_lengths
+from oracles.rigidity import compatibility_matrix
 
 from zeromode_client import Client
 
@@ -17,15 +18,6 @@ CONFORMATIONS = [[[0.0, 0.0], [1.0, 0.0], p] for p in APEX]
 # the two must make the three nodes collinear on the way, which no linkage the construction finds
 # does; each attempt is refused quickly (the traced motion ends without meeting conformation 1).
 FLIPPED = [[[0.0, 0.0], [1.0, 0.0], [0.4, 0.15]], [[0.0, 0.0], [1.0, 0.0], [0.6, -0.15]]]
-
-
-def compatibility(x: np.ndarray, edges: np.ndarray) -> np.ndarray:
-    """C from the definition: row e = (i, j) holds x_i − x_j at node i and x_j − x_i at node j."""
-    c = np.zeros((len(edges), x.size))
-    for e, (i, j) in enumerate(edges):
-        c[e, 2 * i : 2 * i + 2] = x[i] - x[j]
-        c[e, 2 * j : 2 * j + 2] = x[j] - x[i]
-    return c
 
 
 def test_branched_design_over_the_client(service_url: str) -> None:
@@ -39,7 +31,7 @@ def test_branched_design_over_the_client(service_url: str) -> None:
     assert max(np.max(np.abs(ell - lengths[0]) / lengths[0]) for ell in lengths) <= 1e-12
     x = confs[0] - confs[0].mean(axis=0)
     x = x / np.sqrt(np.mean(np.sum(x * x, axis=1)))
-    c = compatibility(x, edges)
+    c = compatibility_matrix(x, edges)  # C from the definition (tests/oracles)
     s = np.linalg.svd(c, compute_uv=False)
     assert s[-1] <= 1e-12 * s[0] < 1e-3 * s[-2]  # one rank lost: a self-stress
     omega = np.linalg.svd(c)[0][:, -1]
