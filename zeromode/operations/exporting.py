@@ -96,7 +96,8 @@ def takeaway_for(request: ExportRequest) -> Takeaway:
         configurations = {f"conformation_{c}": x for c, x in enumerate(multistable.conformations)}
         if multistable.minima:
             metadata["minima"] = [m.model_dump() for m in multistable.minima]
-            placed = multistable.conformations, [m.arclength for m in multistable.minima]
+            # minima name their conformation: a branched design's branch point is none of them
+            placed = [multistable.conformations[m.index] for m in multistable.minima], [m.arclength for m in multistable.minima]
     frame_model = request.frame or frame_model
     if frame_model is None:
         raise InvalidInput("invalid_request", "the export needs a frame: give `frame`, or a document with one.")
