@@ -54,17 +54,16 @@ log = logging.getLogger("zeromode")
 VALIDATE_HERE_BYTES = 1_000_000
 # Routes that are not job endpoints (service/jobs/tasks.py RUNNABLE) answered by a worker when heavy,
 # through ``execute_route`` (their answer may be a file).
-ROUTES = frozenset({"/v1/design/two-configuration", "/v1/design/allosteric/network", "/v1/plot", "/v1/export",
-                    "/v1/design/sequential", "/v1/map"})
+ROUTES = frozenset({"/v1/design/two-configuration", "/v1/design/allosteric/network", "/v1/plot", "/v1/export"})
 JSON_HEADERS = [("content-type", "application/json")]
 
 
 @cache
 def _route(path: str) -> APIRoute:
     """The POST route of ``path`` among ROUTES."""
-    from zeromode.service.rest.routes import design, export, lattice, plot, sequential
+    from zeromode.service.rest.routes import design, export, lattice, plot
 
-    return next(r for module in (design, export, lattice, plot, sequential) for r in module.router.routes
+    return next(r for module in (design, export, lattice, plot) for r in module.router.routes
                 if isinstance(r, APIRoute) and r.path == path and "POST" in r.methods)
 
 

@@ -19,6 +19,7 @@ from zeromode.operations.documents import (
     AuxeticDocument,
     DesignDocument,
     PathDocument,
+    framed,
     kind,
     validated,
 )
@@ -55,9 +56,9 @@ def export_file(request: ExportRequest) -> tuple[bytes, str, str]:
 def takeaway_for(request: ExportRequest) -> Takeaway:
     """The request's document (designed first when it is a request) with the request's own
     frame, modes and path taking precedence; the path traced when the format needs one."""
-    doc = request.document or {}
+    doc = framed(request.document or {})
     if doc and "frame" not in doc and kind(doc) != MOTION:
-        doc, _ = endpoints.respond(doc)
+        doc = framed(endpoints.respond(doc)[0])
     what = kind(doc) if doc else FRAME
     frame_model = request.frame or (validated(doc, DesignDocument).frame if "frame" in doc else None)
     if frame_model is None:
