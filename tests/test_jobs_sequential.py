@@ -24,6 +24,7 @@ import numpy as np
 import pytest
 from client.conftest import served
 from scipy.optimize import least_squares
+from test_jobs import without_timings
 
 from zeromode.service.rest.app import create_app
 from zeromode.service.wire.settings import Settings
@@ -88,21 +89,18 @@ def oracle_slope(positions, d: float, h: float = 1e-5) -> float:
     return (oracle_map(positions, d + h) - oracle_map(positions, d - h)) / (2 * h)
 
 
-def without_timings(body):
-    if isinstance(body, dict):
-        return {k: without_timings(v) for k, v in body.items() if k != "timings_ms"}
-    if isinstance(body, list):
-        return [without_timings(v) for v in body]
-    return body
-
-
 @pytest.fixture(scope="module")
-def service(tmp_path_factory: pytest.TempPathFactory, dask_scheduler: str):
+def service_url(tmp_path_factory: pytest.TempPathFactory, dask_scheduler: str):
     """The app on the session's Dask cluster, served by a real uvicorn on loopback."""
     tmp = tmp_path_factory.mktemp("jobs_sequential")
     app = create_app(Settings(dask_scheduler=dask_scheduler, database_url=f"sqlite:///{tmp}/jobs.sqlite3"))
-    with served(app) as url, httpx.Client(base_url=url, timeout=WAIT_S) as http:
-        # The engine starts in the background: a job submitted before it is ready waits for it.
+    with served(app) as url:
+        yield url
+
+
+@pytest.fixture
+def service(service_url: str):
+    with httpx.Client(base_url=service_url, timeout=WAIT_S) as http:
         yield http
 
 
@@ -195,6 +193,29 @@ def test_a_refused_request_is_refused_at_submission_as_its_route_refuses_it(serv
     sweep = service.post("/v1/sweeps", json={"endpoint": endpoint, "requests": [request_]})
     assert sweep.status_code == 422 and sweep.json()["detail"]["code"] == "invalid_point", sweep.text
     assert code in sweep.json()["detail"]["message"]
+
+
+def test_the_python_client_runs_both_as_jobs_and_sweeps(service_url: str) -> None:
+    """zeromode_client (no service/ or solver/ import): a sequential job equals the client's
+    direct call, a sweep over `at` answers each point as the oracle, a refusal at submission is
+    a ZeromodeError with the route's code."""
+    from zeromode_client import Client, ZeromodeError
+
+    request = {"features": [{"kind": "period_two", "d1": 1.3, "d2": 1.7}], "chain": {"n_modules": 4}}
+    with Client(service_url, timeout=WAIT_S) as client:
+        job = client.submit_job("/v1/design/sequential", request)
+        result = client.wait(job, poll=0.05, timeout=WAIT_S)
+        assert without_timings(result.raw) == without_timings(client.design_sequential(**request).raw)
+        points = list(client.sweep("/v1/map", map_request(MODULES[2]), grid={"at": [[d] for d in AT]},
+                                   poll=0.05, timeout=WAIT_S))
+        assert sorted(p.point for p in points) == [0, 1, 2] and {p.status for p in points} == {"done"}
+        for p in points:
+            (evaluated,) = p.result.raw["evaluated"]
+            assert [evaluated["d_in"]] == p.params["at"]
+            assert evaluated["d_out"] == pytest.approx(oracle_map(MODULES[2], evaluated["d_in"]), rel=1e-9)
+        with pytest.raises(ZeromodeError) as refused:
+            client.submit_job("/v1/design/sequential", {**request, "start": start_module(17)})
+        assert refused.value.status == 422 and refused.value.code == "too_expensive"
 
 
 def test_a_sequential_design_reports_its_stages_in_order() -> None:
