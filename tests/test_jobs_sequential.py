@@ -218,6 +218,18 @@ def test_the_python_client_runs_both_as_jobs_and_sweeps(service_url: str) -> Non
         assert refused.value.status == 422 and refused.value.code == "too_expensive"
 
 
+@pytest.mark.parametrize("endpoint", ["/v1/map", "/v1/design/sequential"])
+def test_a_job_past_its_time_budget_fails_too_expensive(endpoint: str) -> None:
+    """The job's own run (service.jobs.tasks.execute, as a worker runs it) under a job time
+    budget of 1 ms, far less than a map's continuation: failed, too_expensive naming it."""
+    from zeromode.service.jobs.tasks import execute
+
+    request = map_request(MODULES[0]) if endpoint == "/v1/map" else DEPLOYABLE
+    status, detail = execute("budget", endpoint, request, Settings(job_time_budget_s=0.001).model_dump_json())
+    assert status == "failed" and detail["code"] == "too_expensive", detail
+    assert "0.001 s" in detail["message"]
+
+
 def test_a_sequential_design_reports_its_stages_in_order() -> None:
     """The operation's progress (what a job reports): monotone, through the start's map, IPOPT,
     the verification and the chain, ending at 1."""

@@ -68,6 +68,9 @@ DESIGN_MAX_NODES = 16
 IPOPT_MAX_ITER = 400
 # ... and its time limit (CPU and wall; the request's budget if shorter): a design takes ~1 s.
 IPOPT_MAX_S = 60.0
+# ... and at least this (IPOPT refuses a limit of 0: a budget that ends between check_budget and
+# IPOPT's start is overrun by this at most, then refused by check_budget after it).
+IPOPT_MIN_S = 0.01
 # Progress shares of a design and IPOPT's expected time for its heartbeat (measured on the
 # deployable pair of fixed points, wall at load 8: the start's map 0.9–1.2 s, the NLP's
 # construction 0.5 s and IPOPT 0.6–0.9 s, the designed module's map 1.1–1.3 s).
@@ -252,8 +255,9 @@ def design_module(points, start: Module | None = None, reach: float = REACH) -> 
         add(ca.sumsqr(xs[k] - xs[j]) / (n * r**2), -np.inf, BRANCH_JUMP**2)
     w = ca.vertcat(*[ca.reshape(x.T, -1, 1) for x in xs])
     objective = sum(ca.sumsqr(x - s) for x, s in zip(xs, seeds)) / r**2
+    check_budget()  # spent already (the start's map): too_expensive before IPOPT
     budget = remaining()
-    left = IPOPT_MAX_S if budget is None else min(IPOPT_MAX_S, budget)
+    left = IPOPT_MAX_S if budget is None else min(IPOPT_MAX_S, max(budget, IPOPT_MIN_S))
     # IPOPT's default (monotone) barrier update: refine.ipopt_solver's adaptive one misses the
     # deployable pair of fixed points (measured), so the options are this NLP's own.
     options = {"ipopt.tol": MAP_IPOPT_TOL, "ipopt.max_iter": IPOPT_MAX_ITER, "ipopt.max_cpu_time": left,
