@@ -612,6 +612,7 @@ def multistable_body(result, timings_ms: dict) -> dict:
             "arclength": land.arclength.tolist(),
             "energy": land.energy.tolist(),
             "conformation_samples": land.conformation_samples.tolist(),
+            "positions": land.positions.tolist(),
         },
         "minima": [
             {
@@ -678,6 +679,8 @@ def sequential_body(result, timings_ms: dict) -> dict:
             "pairs": verified.chain.pairs.tolist(),
             "iterates": verified.chain.iterates.tolist(),
             "distances": verified.distances.tolist(),
+            "path": verified.positions.tolist(),
+            "reference_index": verified.reference_index,
             "deviation": verified.deviation,
             "iterate_deviation": verified.iterate_deviation,
             "ends": list(verified.ends),

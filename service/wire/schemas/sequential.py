@@ -120,6 +120,11 @@ class ChainBody(BaseModel):
     pairs: list[list[int]] = Field(description="(n + 1) node pairs: pair k is copy k's input, the last the last output.")
     iterates: list[float] = Field(description="d_0 … d_n the chain was built with: d_{k+1} = f(d_k).")
     distances: list[list[float]] = Field(description="d_k of every pair at each sample of the chain's traced motion.")
+    path: list[list[list[float]]] = Field(
+        description="The chain's conformation (every node, N_chain × 2) at each of those samples, in the same order: "
+        "its motion as the input pair is driven (d_0 = distances[s][0]); aligned to `frame` by the best rigid motion."
+    )
+    reference_index: int = Field(description="The sample that is `frame` (the chain as built, at the orbit from d0).")
     deviation: float = Field(description="max |d_{k+1} − f(d_k)| / d_{k+1} over the traced motion (≤ map_rtol).")
     iterate_deviation: float = Field(
         description="max |d_k − f^k(d_0)| / d_k: grows like Π|f′| (amplified round-off at an unstable fixed point); reported, not promised."
