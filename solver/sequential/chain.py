@@ -23,6 +23,7 @@ MAP_RTOL): the n-fold iterate f^n(d_0) amplifies the round-off of d_0 by Π|f′
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -32,6 +33,9 @@ from zeromode.solver.motion.finite_motion import MotionPath, trace_motion
 from zeromode.solver.sequential.design import REACH, ModuleDesign, design_module
 from zeromode.solver.sequential.module_map import Module, ModuleMap, branch_signs
 from zeromode.solver.tolerances import MAP_RTOL
+
+if TYPE_CHECKING:
+    from zeromode.solver.sequential.soliton import Soliton
 
 # Most copies in a chain (a 64-module chain of the two-triangle module is 194 nodes).
 MAX_MODULES = 256
@@ -95,6 +99,17 @@ def chain_of(the_map: ModuleMap, n: int, d0: float | None = None) -> Chain:
             f"the orbit from d_0 = {d0:.10g} leaves the map's usable range [{lo:.6g}, {hi:.6g}] at d_{k} = "
             f"{iterates[-1]:.10g}, before the chain's {n} copies.",
         )
+    return chain_at(the_map, iterates)
+
+
+def chain_at(the_map: ModuleMap, distances) -> Chain:
+    """The chain of n = len(distances) − 1 copies (module docstring) with copy k at d_in =
+    distances[k] (any sequence in the usable range, e.g. the orbit of chain_of, or a uniform
+    state d_k = d* at a fixed point); copy k's output distance is then f(d_k), which the chain's
+    shared pair makes equal to d_{k+1} only where the sequence is an orbit of f."""
+    module = the_map.module
+    iterates = np.asarray(distances, dtype=float)
+    n = len(iterates) - 1
     configs = the_map.configurations(iterates[:n])
     m = module.frame.n_nodes
     (a, b), (c, e) = module.input_pair, module.output_pair
@@ -117,7 +132,8 @@ class ChainVerification:
     """The chain's traced motion and its comparison with the module's map.
 
     distances: (P, n + 1) d_k along the path (samples with every input in the map's range);
-    predicted: (P, n) f(d_k) from the single module; deviation: max |d_{k+1} − f(d_k)|/d_{k+1}
+    predicted: (P, n) f(d_k) from the single module; samples: (P,) their indices in ``path``;
+    deviation: max |d_{k+1} − f(d_k)|/d_{k+1}
     (promised ≤ MAP_RTOL); iterate_deviation: max |d_k − f^k(d_0)|/d_k over the iterates that
     stay in range (reported: it grows like Π|f′|); ends: why each direction ended."""
 
@@ -125,6 +141,7 @@ class ChainVerification:
     path: MotionPath
     distances: np.ndarray
     predicted: np.ndarray
+    samples: np.ndarray
     deviation: float
     iterate_deviation: float
     ends: tuple[str, str]
@@ -162,7 +179,7 @@ def verify_chain(chain: Chain, the_map: ModuleMap, horizon: float = CHAIN_HORIZO
         orbit[live] = the_map.evaluate(orbit[live])[0]
         orbit[~live] = np.nan
         iterate_deviation = max(iterate_deviation, float(np.nanmax(np.abs(d[:, k] - orbit) / d[:, k])))
-    result = ChainVerification(chain, path, d, predicted, deviation, iterate_deviation, ends)
+    result = ChainVerification(chain, path, d, predicted, np.flatnonzero(inside), deviation, iterate_deviation, ends)
     if not deviation <= MAP_RTOL:
         error = DomainError(
             "chain_mismatch",
@@ -179,6 +196,7 @@ class SequentialDesign:
 
     design: ModuleDesign
     chain: ChainVerification | None
+    soliton: Soliton | None = None  # a design_soliton chain's drive, wall and energy
 
 
 def design_sequential(points, start: Module | None = None, reach: float = REACH, n_modules: int | None = None,
