@@ -81,6 +81,9 @@ SOLITON_HORIZON = 4.0
 MIN_SOLITON_MODULES = 4
 # Newton steps refining a designed fixed point d* of f (f(d*) = d*) to FIXED_POINT_RTOL.
 FIXED_POINT_NEWTON_STEPS = 8
+# Drive samples kept as snapshots of the whole chain: those whose wall is nearest to
+# k·n/(SNAPSHOTS + 1), k = 1…SNAPSHOTS (the wall at evenly spaced places along the chain).
+SNAPSHOTS = 4
 # A dyad whose angle at the anchor has a sine below this is refused as a candidate (nearly
 # collinear: the anchor would be barely held).
 MIN_DYAD_SINE = 0.3
@@ -93,11 +96,12 @@ class Soliton:
     module: the designed module with its anchor (node N − 1, joined to ``anchor_bar``), spring
     from the anchor to node ``spring_node``; unstable, stable: (d*, f′(d*)); springs: on the
     chain's nodes, one per copy; drive: (P,) d_0 at the drive samples (increasing from d_u to
-    d_s; indices ``samples`` into the verification's path); distances: (P, n + 1); wall: (P,)
+    d_s; ``rows`` their indices in the verification's distances); distances: (P, n + 1); wall: (P,)
     (NaN where the chain is on one side); energy: (P,) E; travel: max − min of the wall;
     uniform: (2, N_chain, 2) the uniform states (at d_u, at d_s); uniform_energy: (2,) E there;
     uniform_hessian: (2,) the smallest eigenvalue of the stiff-rod Hessian there modulo rigid
-    motions; wall_slope: dw/d ln|d_0 − d_u| fitted over the bulk; barrier: max E along the drive."""
+    motions; wall_slope: dw/d ln|d_0 − d_u| fitted over the bulk; barrier: max E along the drive;
+    snapshots: (SNAPSHOTS,) drive indices with the wall nearest k·n/(SNAPSHOTS + 1)."""
 
     module: Module
     anchor_bar: tuple[int, int]
@@ -106,7 +110,7 @@ class Soliton:
     stable: tuple[float, float]
     springs: Springs
     drive: np.ndarray
-    samples: np.ndarray
+    rows: np.ndarray
     distances: np.ndarray
     wall: np.ndarray
     energy: np.ndarray
@@ -120,6 +124,7 @@ class Soliton:
     barrier: float
     stiffness: float
     rod_stiffness_ratio: float
+    snapshots: np.ndarray
 
     @property
     def verified(self) -> bool:
@@ -292,8 +297,7 @@ def _drive(verification: ChainVerification, springs: Springs, the_map: ModuleMap
     keep = np.flatnonzero((d0 - d_u) * (d_s - d0) > 0)
     keep = keep[np.argsort(np.abs(d0[keep] - d_u))]
     distances = verification.distances[keep]
-    samples = verification.samples[keep]
-    positions = verification.path.positions[samples]
+    positions = verification.path.positions[verification.samples[keep]]
     wall = wall_position(distances, d_u, d_s)
     energy = np.array([springs.energy(x) for x in positions])
     n = chain.n_modules
@@ -302,13 +306,16 @@ def _drive(verification: ChainVerification, springs: Springs, the_map: ModuleMap
     monotone = bool(np.all(np.diff(wall[finite]) < 0))
     bulk = finite & (wall >= 1) & (wall <= n - 1)
     slope = float(np.polyfit(np.log(np.abs(distances[bulk, 0] - d_u)), wall[bulk], 1)[0]) if np.sum(bulk) >= 2 else float("nan")
+    targets = n * np.arange(1, SNAPSHOTS + 1) / (SNAPSHOTS + 1)
+    placed = np.where(finite, wall, np.inf)
+    snapshots = np.array([int(np.argmin(np.abs(placed - t))) for t in targets]) if np.any(finite) else np.zeros(0, dtype=int)
     frame = chain.frame
     rods = np.linalg.norm(frame.positions[frame.edges[:, 0]] - frame.positions[frame.edges[:, 1]], axis=1)
     stiff = StiffRodEnergy(frame.edges, rods, springs, 2, ROD_STIFFNESS_RATIO * stiffness)
     uniform = np.stack([chain_at(the_map, np.full(n + 1, d)).frame.positions for d in (d_u, d_s)])
     return Soliton(
-        module, tuple(bar), int(node), tuple(unstable), tuple(stable), springs, d0[keep], samples, distances, wall,
+        module, tuple(bar), int(node), tuple(unstable), tuple(stable), springs, d0[keep], keep, distances, wall,
         energy, travel, float(n - TRAVEL_MARGIN), monotone, uniform,
         np.array([springs.energy(x) for x in uniform]), np.array([_hessian_floor(stiff, x) for x in uniform]),
-        slope, float(energy.max()) if len(energy) else 0.0, stiffness, ROD_STIFFNESS_RATIO,
+        slope, float(energy.max()) if len(energy) else 0.0, stiffness, ROD_STIFFNESS_RATIO, snapshots,
     )

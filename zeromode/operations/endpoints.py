@@ -336,20 +336,27 @@ def module_map(r: MapRequest) -> Outcome:
 
 def sequential(r: SequentialRequest) -> Outcome:
     """POST /v1/design/sequential: a module designed for the features (IPOPT, verified by
-    continuation) and, with ``chain``, its chain verified against the map's iterates; a refusal
-    carries its best figures (``feature_out_of_reach``, ``chain_mismatch``)."""
+    continuation) and, with ``chain``, its chain verified against the map's iterates, or with
+    ``soliton``, the soliton chain with its springs, drive and wall (solver.sequential.soliton); a
+    refusal carries its best figures (``feature_out_of_reach``, ``chain_mismatch``,
+    ``soliton_not_verified``)."""
     from zeromode.solver.sequential.chain import design_sequential
+    from zeromode.solver.sequential.soliton import design_soliton
 
     t0 = time.perf_counter()
-    chain = r.chain
+    chain, soliton = r.chain, r.soliton
+    if chain is not None and soliton is not None:
+        raise InvalidInput("invalid_soliton", "ask for either a chain or a soliton, not both.")
+    start = None if r.start is None else module_from_model(r.start)
     try:
-        result = design_sequential(
-            feature_points(r.features),
-            None if r.start is None else module_from_model(r.start),
-            r.reach,
-            None if chain is None else chain.n_modules,
-            None if chain is None else chain.d0,
-        )
+        if soliton is not None:
+            result = design_soliton(feature_points(r.features), start, r.reach, soliton.n_modules, soliton.stiffness)
+        else:
+            result = design_sequential(
+                feature_points(r.features), start, r.reach,
+                None if chain is None else chain.n_modules,
+                None if chain is None else chain.d0,
+            )
     except DomainError as exc:
         best = sequential_refusal_best(exc)
         if best is None:
