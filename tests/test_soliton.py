@@ -24,7 +24,7 @@ from oracles.rigidity import rigid_motions
 from scipy.optimize import brentq, root
 
 import zeromode as zm
-from zeromode.solver.errors import InvalidInput
+from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.sequential.design import MapPoint
 from zeromode.solver.sequential.soliton import design_soliton, wall_position
 
@@ -209,6 +209,9 @@ def test_refusals():
     with pytest.raises(InvalidInput) as short:
         design_soliton(POINTS, n_modules=3)
     assert short.value.code == "invalid_modules"
+    with pytest.raises(DomainError) as long:  # the drive would need d_0 − d_u below round-off
+        design_soliton(POINTS, n_modules=64)
+    assert long.value.code == "soliton_out_of_reach" and "59.0" in long.value.message
     with pytest.raises(InvalidInput) as both:
         zm.sequential([{"kind": "fixed_point", "d": 1.2, "slope": 1.8}, {"kind": "fixed_point", "d": 1.8, "slope": 0.4}],
                       n_modules=8, soliton={"n_modules": 8})

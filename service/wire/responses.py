@@ -667,7 +667,7 @@ def module_map_body(the_map, at=()) -> dict:
 
 
 def sequential_body(result, timings_ms: dict) -> dict:
-    """/v1/design/sequential's body for a solver SequentialDesign."""
+    """/v1/design/sequential's body for a solver SequentialDesign (a SolitonDesign adds ``soliton``)."""
     from zeromode.solver.tolerances import MAP_RTOL
 
     design, verified = result.design, result.chain
@@ -692,7 +692,7 @@ def sequential_body(result, timings_ms: dict) -> dict:
             for p, v, s in zip(design.points, design.achieved, design.slopes)
         ],
         "chain": chain,
-        "soliton": None if result.soliton is None else soliton_body(result.soliton, verified),
+        "soliton": soliton_body(result.soliton, verified) if hasattr(result, "soliton") else None,
         "deviation": design.deviation,
         "map_rtol": MAP_RTOL,
         "solver_status": design.solver_status,
@@ -750,7 +750,7 @@ def sequential_refusal_best(exc) -> dict | None:
             "solver_status": best.solver_status,
             "positions": best.configurations[0].tolist(),
         })
-    if getattr(best, "soliton", None) is not None:
+    if hasattr(best, "soliton"):
         soliton = best.soliton
         return json_safe({
             "travel": soliton.travel, "required_travel": soliton.required_travel, "monotone": soliton.monotone,

@@ -23,7 +23,6 @@ MAP_RTOL): the n-fold iterate f^n(d_0) amplifies the round-off of d_0 by Π|f′
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -33,9 +32,6 @@ from zeromode.solver.motion.finite_motion import MotionPath, trace_motion
 from zeromode.solver.sequential.design import REACH, ModuleDesign, design_module
 from zeromode.solver.sequential.module_map import Module, ModuleMap, branch_signs
 from zeromode.solver.tolerances import MAP_RTOL
-
-if TYPE_CHECKING:
-    from zeromode.solver.sequential.soliton import Soliton
 
 # Most copies in a chain (a 64-module chain of the two-triangle module is 194 nodes).
 MAX_MODULES = 256
@@ -196,7 +192,6 @@ class SequentialDesign:
 
     design: ModuleDesign
     chain: ChainVerification | None
-    soliton: Soliton | None = None  # a design_soliton chain's drive, wall and energy
 
 
 def design_sequential(points, start: Module | None = None, reach: float = REACH, n_modules: int | None = None,

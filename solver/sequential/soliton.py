@@ -35,6 +35,10 @@ intermediate conformation costs energy: about the wall's energy while the wall i
 every node j not on it, P at one RMS radius either way along the bisector) the one chosen has
 the largest max |ℓ − L| over (d_u, d_s) times the sine of the dyad's angle at P.
 
+Reach.  The drive cannot come closer to d_u than the round-off ε·d_u of d_0, so the wall reaches
+at most copy ln(|d_s − d_u|/(2ε·d_u))/ln λ_u (≈ 59 for the deployable map, λ_u = 1.8); a chain
+that would need it further is refused before any work (``soliton_out_of_reach``).
+
 Verification (every answer): the chain of n copies of the module with its anchors, built at the
 orbit from the midpoint, is traced by continuation and compared with f at every sample
 (chain.verify_chain: max |d_{k+1} − f(d_k)|/d_{k+1} ≤ MAP_RTOL); the samples with d_u < d_0 < d_s
@@ -73,10 +77,11 @@ from zeromode.solver.tolerances import FIXED_POINT_RTOL, MAP_RTOL
 # The wall must travel over at least n − TRAVEL_MARGIN modules of an n-module chain along the
 # drive (it enters and leaves the chain within about a module of either end).
 TRAVEL_MARGIN = 2
-# Search horizon of the soliton chain's motion (chain.CHAIN_HORIZON's units): the uniform state
-# at d_u lies at the end of a long, slow approach (every copy moves in turn as the wall leaves
-# the far end), past the ordinary chain's horizon.
-SOLITON_HORIZON = 4.0
+# Search horizon of the soliton chain's motion per copy (chain.CHAIN_HORIZON's units, at least
+# 4): the uniform state at d_u lies at the end of a long approach (the wall walks through every
+# copy, and the copies beyond it swing as it passes), past the ordinary chain's horizon.
+SOLITON_HORIZON_PER_MODULE = 0.25
+SOLITON_MIN_HORIZON = 4.0
 # Fewest copies of a soliton chain (a wall needs room to travel).
 MIN_SOLITON_MODULES = 4
 # Newton steps refining a designed fixed point d* of f (f(d*) = d*) to FIXED_POINT_RTOL.
@@ -129,6 +134,13 @@ class Soliton:
     @property
     def verified(self) -> bool:
         return bool(self.monotone and self.travel >= self.required_travel and np.all(self.uniform_hessian > 0))
+
+
+@dataclass(frozen=True, eq=False)
+class SolitonDesign(SequentialDesign):
+    """The designed module, its soliton chain's verification (``chain``) and the Soliton."""
+
+    soliton: Soliton
 
 
 def wall_position(distances: np.ndarray, unstable: float, stable: float) -> np.ndarray:
@@ -245,12 +257,13 @@ def check_soliton_points(points) -> tuple[tuple[float, float], tuple[float, floa
 
 
 def design_soliton(points, start: Module | None = None, reach: float = REACH, n_modules: int = 16,
-                   stiffness: float = 1.0) -> SequentialDesign:
+                   stiffness: float = 1.0) -> SolitonDesign:
     """The soliton of the module docstring for map ``points`` (two fixed points, see
-    check_soliton_points): the module designed for them (FeatureOutOfReach as design_module's),
+    check_soliton_points): the module designed for them (FeatureOutOfReach as design_module's;
+    ``soliton_out_of_reach`` for more copies than the wall can reach, module docstring),
     its anchor and spring, the chain of ``n_modules`` copies verified by continuation, the drive,
-    the wall and the energy.  DomainError ``soliton_not_verified`` (``best``: the Soliton) when a
-    check of the module docstring fails."""
+    the wall and the energy.  DomainError ``soliton_not_verified`` (``best``: the SolitonDesign
+    with its figures) when a check of the module docstring fails."""
     (d_u, s_u), (d_s, s_s) = check_soliton_points(points)
     if not (isinstance(n_modules, (int, np.integer)) and MIN_SOLITON_MODULES <= n_modules <= MAX_MODULES):
         raise InvalidInput("invalid_modules", f"a soliton chain has {MIN_SOLITON_MODULES} to {MAX_MODULES} modules.")
@@ -266,15 +279,22 @@ def design_soliton(points, start: Module | None = None, reach: float = REACH, n_
     if np.any(bare.slope[between] <= 0) or not (np.all(g * (d_s - d_u) > 0)):
         raise DomainError("soliton_not_verified", "the designed map is not increasing, or has another fixed point, "
                           "between the two fixed points: orbits would not run from one to the other.")
+    reachable = np.log(abs(d_s - d_u) / (2 * np.finfo(float).eps * d_u)) / np.log(s_u)
+    if n_modules - TRAVEL_MARGIN > reachable:
+        raise DomainError(
+            "soliton_out_of_reach",
+            f"the wall reaches copy ln(|d_s − d_u|/(2ε·d_u))/ln f′(d_u) = {reachable:.1f} when the drive d_0 is within "
+            f"round-off (ε) of d_u; {n_modules} copies need it at {n_modules - TRAVEL_MARGIN}: ask for fewer copies or a "
+            "steeper unstable fixed point.")
     bar, node, anchor, rest = _choose_anchor(bare, d_u, d_s)
     module = _with_anchor(design.module, bar, anchor)
     the_map = module_map(module)
     anchor_node = module.frame.n_nodes - 1
     chain = chain_of(the_map, n_modules, 0.5 * (d_u + d_s))
-    verification = verify_chain(chain, the_map, horizon=SOLITON_HORIZON)
+    verification = verify_chain(chain, the_map, horizon=max(SOLITON_MIN_HORIZON, SOLITON_HORIZON_PER_MODULE * n_modules))
     springs = Springs(chain.nodes[:, [anchor_node, node]], np.full(n_modules, float(stiffness)), np.full(n_modules, rest))
     soliton = _drive(verification, springs, the_map, (d_u, s_u), (d_s, s_s), float(stiffness), module, bar, node)
-    result = SequentialDesign(design, verification, soliton)
+    result = SolitonDesign(design, verification, soliton)
     if not soliton.verified:
         error = DomainError(
             "soliton_not_verified",
