@@ -216,3 +216,17 @@ def test_refusals():
         zm.sequential([{"kind": "fixed_point", "d": 1.2, "slope": 1.8}, {"kind": "fixed_point", "d": 1.8, "slope": 0.4}],
                       n_modules=8, soliton={"n_modules": 8})
     assert both.value.code == "invalid_soliton"
+
+
+def test_library_soliton_and_its_picture():
+    s = zm.sequential([{"kind": "fixed_point", "d": 1.2, "slope": 1.8}, {"kind": "fixed_point", "d": 1.8, "slope": 0.4}],
+                      soliton={"n_modules": 6, "stiffness": 0.5})
+    body = s.to_dict()
+    sol = body["soliton"]
+    assert body["chain"] is not None and len(sol["springs"]["pairs"]) == 6 and set(sol["springs"]["stiffness"]) == {0.5}
+    assert sol["travel"] >= sol["required_travel"] == 4
+    figure = s.plot()
+    chains = [a for a in figure.get_axes() if a.get_title().startswith("d₀ − d_u")]
+    assert len(chains) == len(sol["snapshots"]) == 4
+    for axes, shot in zip(chains, sol["snapshots"]):
+        assert f"wall at copy {sol['wall'][shot['drive_index']]:.1f}" in axes.get_title()
