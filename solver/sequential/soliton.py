@@ -96,11 +96,12 @@ MIN_DYAD_SINE = 0.3
 
 @dataclass(frozen=True, eq=False)
 class Soliton:
-    """A verified soliton chain (module docstring).
+    """A soliton chain and the figures of its checks (module docstring; ``verified`` whether all
+    hold).
 
     module: the designed module with its anchor (node N − 1, joined to ``anchor_bar``), spring
     from the anchor to node ``spring_node``; unstable, stable: (d*, f′(d*)); springs: on the
-    chain's nodes, one per copy; drive: (P,) d_0 at the drive samples (increasing from d_u to
+    chain's nodes, one per copy; drive: (P,) d_0 at the drive samples (ordered from d_u towards
     d_s; ``rows`` their indices in the verification's distances); distances: (P, n + 1); wall: (P,)
     (NaN where the chain is on one side); energy: (P,) E; travel: max − min of the wall;
     uniform: (2, N_chain, 2) the uniform states (at d_u, at d_s); uniform_energy: (2,) E there;
@@ -197,7 +198,7 @@ def _choose_anchor(the_map: ModuleMap, d_u: float, d_s: float):
                 continue
             j_local = np.einsum("kdc,kd->kc", rot, ends[:, j] - origin)  # j at d_u, d_s in the bar's frame
             chord = j_local[1] - j_local[0]
-            if np.linalg.norm(chord) <= FIXED_POINT_RTOL * r:
+            if np.linalg.norm(chord) <= MAP_RTOL * r:  # j rigid with the bar: no spring length changes
                 continue
             across = np.array([-chord[1], chord[0]]) / np.linalg.norm(chord)
             middle = 0.5 * (j_local[0] + j_local[1])
