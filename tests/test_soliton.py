@@ -141,6 +141,28 @@ def test_chain_conformation_is_the_orbit_of_the_scipy_map(result, scipy_map):
     assert slope == pytest.approx(-1 / np.log(POINTS[0].slope), rel=0.1)
 
 
+def test_a_steeper_map_gives_a_sharper_wall():
+    # f′(d_u) = 2.5, f′(d_s) = 0.3 on 12 copies: the same checks by the scipy map, the wall's
+    # slope against ln|d_0 − d_u| now −1/ln 2.5
+    result = design_soliton((MapPoint(1.3, 1.3, 2.5), MapPoint(1.7, 1.7, 0.3)), n_modules=12)
+    sol, module = result.soliton, result.soliton.module
+    f = ScipyMap(module.frame.positions, module.frame.edges, module.input_pair, module.output_pair, 1.29, 1.71)
+    d_u, d_s = sol.unstable[0], sol.stable[0]
+    picks = np.linspace(0, len(sol.drive) - 1, 20).astype(int)
+    walls = []
+    for i in picks:
+        orbit = f.orbit(sol.drive[i], 12)
+        assert np.max(np.abs(orbit - sol.distances[i]) / orbit) <= 1e-8
+        walls.append(wall_position(orbit, d_u, d_s))
+    walls = np.asarray(walls)
+    placed = walls[np.isfinite(walls)]
+    assert np.all(np.diff(placed) < 0) and sol.travel >= 10 and sol.monotone
+    bulk = np.isfinite(walls) & (walls > 2) & (walls < 10)
+    slope = np.polyfit(np.log(np.abs(sol.drive[picks][bulk] - d_u)), walls[bulk], 1)[0]
+    assert slope == pytest.approx(-1 / np.log(2.5), rel=0.1)
+    assert np.all(sol.uniform_hessian > 0) and np.max(sol.uniform_energy) < 1e-20
+
+
 def test_spring_is_at_rest_at_both_fixed_points_and_not_between(result, scipy_map):
     sol = result.soliton
     anchor, node = sol.module.frame.n_nodes - 1, sol.spring_node
