@@ -68,7 +68,7 @@ def main() -> None:
     for n in args.soliton:
         times = []
         for _ in range(args.repeats):
-            t, result = cpu(lambda: design_soliton(fixed_point(1.2, 1.8) + fixed_point(1.8, 0.4), n_modules=n))
+            t, result = cpu(lambda n=n: design_soliton(fixed_point(1.2, 1.8) + fixed_point(1.8, 0.4), n_modules=n))
             times.append(t)
         sol = result.soliton
         rows[f"soliton_{n}"] = (
