@@ -100,9 +100,9 @@ def chain_of(the_map: ModuleMap, n: int, d0: float | None = None) -> Chain:
 
 def chain_at(the_map: ModuleMap, distances) -> Chain:
     """The chain of n = len(distances) − 1 copies (module docstring) with copy k at d_in =
-    distances[k] (any sequence in the usable range, e.g. the orbit of chain_of, or a uniform
-    state d_k = d* at a fixed point); copy k's output distance is then f(d_k), which the chain's
-    shared pair makes equal to d_{k+1} only where the sequence is an orbit of f."""
+    distances[k]: an orbit of f in the usable range (d_{k+1} = f(d_k), so that copy k + 1's input
+    pair fits copy k's output pair), as chain_of computes it, or the uniform state d_k = d* at a
+    fixed point."""
     module = the_map.module
     iterates = np.asarray(distances, dtype=float)
     n = len(iterates) - 1
