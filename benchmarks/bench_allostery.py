@@ -815,8 +815,10 @@ def document(raw: dict) -> list[str]:
             (f"Load average when run: {', '.join(f'{v:.2f}' for v in part['load'])}; CPU time per design. The "
             f"seeded sites of the distance part ({len({r['seed'] for r in part['rows']})} seeds; the target cloud "
             "moved D along x, site RMS radii ≈ 1.2–1.7), designed with the default options (`robustness` "
-            "\"robust\": every chain of `ROBUST_CHAINS` designed, the best rebuilt with the "
-            "source site's first port at each of `SOURCE_SIDES`, the smallest reported A kept) and with "
+            "\"robust\": every chain of `ROBUST_CHAINS` designed; the best rebuilt, for each source base of "
+            "`REACHES` (3D), with the `REFINED_BUILDS` placements of the source site's first port (`SOURCE_SIDES`) "
+            "whose source side tilts the target least (`source_tilt`, screened on the source side alone); the "
+            "answer of smallest √(A² + 3 A_top²) kept, A_top the worst direction's share) and with "
             "\"economy\" (the first chain meeting the floors). A is the relative change of the target's whole "
             "response per relative node error, node errors in mean bar lengths ℓ̄. Sampled here: every node moved "
             "by 1e-7·ℓ̄ in a seeded random direction, the perturbed frame's zero mode from numpy's SVD of C "
@@ -841,15 +843,23 @@ def document(raw: dict) -> list[str]:
             *profile_table(part["rows"]),
             "",
             ("Reading: in 3D almost all of A is the target site carried rigidly — the angle at which the chain "
-             "leaves the source, set by node errors in the source site's module and carried to the target by a "
-             "lever of length D. A bar (i, j) of length L whose node moves by δ changes its constraint by "
-             "(u_i − u_j)·δ, which turns what it holds by about |u_i − u_j| δ/(L m), m its moment arm about the "
-             "source (≤ the site size s), so to first order A ~ D·ℓ̄·|u_i − u_j|/(L·m·|u_T|) — an estimate, not a "
-             "bound: relays of gain 1 and re-anchoring further along the chain do not touch this term, and choosing "
-             "where the source site's first port sits (its twist and offset, `SOURCE_SIDES`) only lowers its "
-             "constant. Moving the first port 3–10 module lengths away (a longer source module before the same "
-             "small relays) did not lower it either (3D, D = 48, shape 2: A 514 → 491–589). Untried: a source "
-             "attachment whose bars are much longer than the frame's mean bar (L ≫ ℓ̄) by construction."),
+             "leaves the source, set by node errors on the source side and carried to the target by a lever of "
+             "length D. A bar (i, j) of length L whose node moves by δ changes its constraint by (u_i − u_j)·δ, "
+             "which turns what it holds by about |u_i − u_j| δ/(L m), m the width of what holds the chain (the "
+             "site size s when the chain leaves from the site's own nodes), so to first order A ~ D·ℓ̄·|u_i − "
+             "u_j|/(L·m·|u_T|). The default now widens m: the chain leaves from a *source base* (`source_base`, "
+             "ChainOptions.reach): d + 1 nodes 0.25 or 0.4 of the gap away, each joined by d long bars to d "
+             "site nodes along the one direction in which its motion stays of the site's size (normal to the "
+             "differences of their motions; any other direction needs a motion r/s times larger). Measured "
+             "before it (previous run: 92 / 679 / 591 / 814 at D = 12 / 48 / 96 / 200) and with the source-side "
+             "screen alone (89 / 396 / 405 / 774), the base brought the worst 3D sites at D = 48 and 96 under the "
+             "floor. Not yet at D = 200: shape 2 keeps 872 (its reported A fell from 932 to 508 and A_worst from "
+             "7581 to 4046, but the four fixed perturbations fall near its worst direction), its profile "
+             "splitting between the site's nodes, the base and the target's module; a base at the target's end "
+             "as well lowered it by only ~10 % (A 467 → 409 on one chain) and was not kept. Tried and not kept: "
+             "the relays carrying the source's or the target's rigid motion (best A over 60 placements 297 and "
+             "204 against 232 at rest, D = 48, shape 2; not better once the base was there), bases on both "
+             "sides of the site (8 nodes: tilt 145 against 62 for 4)."),
             "",
         ]
     if "network" in raw:

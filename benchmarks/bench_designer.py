@@ -9,7 +9,11 @@ Against a `zeromode serve` on loopback (requests answered in process), measured 
 2. click to drawing of a 2D single-mode design (the outward square): from the click's time stamp
    to the first animation frame after the designed frame is drawn, DESIGNS times after one
    warm-up design — p50/p95/max, beside the service's own design time;
-3. the page weight: the HTML and every file it loads.
+3. the page weight: the HTML and every file it loads (and, apart, the OpenAPI document the
+   Chain tab reads once for its examples);
+4. a frame of the Multistable and Chain tabs' animations (issue #41): the slider moved to the
+   next sample → drawing, springs or chain, and charts rebuilt, FRAMES frames of the default
+   example's design — p50/p95/max.
 
 The load average is printed beside the figures (the machine is shared).
 
@@ -29,7 +33,7 @@ import numpy as np
 
 from benchmarks.bench_sweeps import start_service_with
 
-MOVES, DESIGNS = 300, 30
+MOVES, DESIGNS, FRAMES = 300, 30, 60
 # The outward square of Fig. 3 on the page's snapping grid: corners and outward arrows.
 CORNERS = [(1.0, 1.0), (-1.0, 1.0), (-1.0, -1.0), (1.0, -1.0)]
 ARROW = 0.5
@@ -117,8 +121,28 @@ def measure(url: str) -> dict:
             page.wait_for_function(f"designer.timings.design.length > {n}")
             server.append(page.evaluate("designer.response.report.timings_ms.total"))
         design = page.evaluate("designer.timings.design")
+        frames = {tab: stats(animation_frames(page, tab)) for tab in ("multistable", "chain")}
         browser.close()
-    return {"live": stats(live), "final_space": kinds, "design": stats(design), "server": stats(server)}
+    return {"live": stats(live), "final_space": kinds, "design": stats(design), "server": stats(server), "frames": frames}
+
+
+def animation_frames(page, tab: str) -> list[float]:
+    """The tab's default example designed, then FRAMES slider steps timed in the page (the
+    input event's handler: the drawing and the charts rebuilt; ms each)."""
+    page.click(f"[data-testid=tab-{tab}]")
+    page.wait_for_function("designer.features.length" if tab == "chain" else "designer.conformations.length")
+    page.click("[data-testid=design]")
+    page.wait_for_function("!document.getElementById('play').disabled", timeout=600_000)
+    return page.evaluate("""n => {
+        const s = document.getElementById('slider'), times = [];
+        for (let i = 0; i < n; i++) {
+            s.value = (+s.value + 1) % (+s.max + 1);
+            const t0 = performance.now();
+            s.dispatchEvent(new Event('input'));
+            times.push(performance.now() - t0);
+        }
+        return times;
+    }""", FRAMES)
 
 
 def main() -> None:
@@ -131,12 +155,13 @@ def main() -> None:
         figures = measure(url)
         load_after = os.getloadavg()
         weight = page_weight(url)
+        openapi = len(httpx.get(url + "/openapi.json").content)
     finally:
         proc.terminate()
         proc.wait(timeout=30)
     live, design, server = figures["live"], figures["design"], figures["server"]
     lines = [
-        "# Designer page: interactive speed (issue #40)",
+        "# Designer page: interactive speed (issues #40, #41)",
         "",
         "`python -m benchmarks.bench_designer` — Debian's chromium (headless) against `zeromode serve` on loopback.",
         f"Load average before/after: {load_before[0]:.2f} / {load_after[0]:.2f} (1 min), {os.cpu_count()} cores, shared.",
@@ -146,8 +171,13 @@ def main() -> None:
         f"| live solution-space update while dragging (event → space recomputed and redrawn) | {live['n']} | {live['p50']:.1f} | {live['p95']:.1f} | {live['max']:.1f} | p95 ≤ 50 |",
         f"| 2D single-mode design, click → frame drawn (next animation frame; after one warm-up) | {design['n']} | {design['p50']:.1f} | {design['p95']:.1f} | {design['max']:.1f} | ≤ 150 |",
         f"| of which the service's design time (report.timings_ms.total) | {server['n']} | {server['p50']:.1f} | {server['p95']:.1f} | {server['max']:.1f} | |",
+    ]
+    for tab, f in figures["frames"].items():
+        lines.append(f"| {tab} animation frame (slider step → drawing and charts rebuilt) | {f['n']} | {f['p50']:.1f} | {f['p95']:.1f} | {f['max']:.1f} | |")
+    lines += [
         "",
-        f"Page weight: {sum(weight.values())} bytes ({', '.join(f'{k} {v}' for k, v in weight.items())}); floor 400 KB.",
+        (f"Page weight: {sum(weight.values())} bytes ({', '.join(f'{k} {v}' for k, v in weight.items())}); floor 400 KB. "
+        f"The Chain tab reads /openapi.json ({openapi} bytes) once, when first opened, for its examples."),
         "",
     ]
     text = "\n".join(lines)

@@ -6,13 +6,18 @@ Starts `zeromode serve` on loopback, drives Debian's chromium with Playwright as
 - designer.png: the square designed by judicious placement, refined and certified, with the
   linear and refined paths and ε(a) side by side and the report;
 - designer_two_motions.png: the two-motion example (Fig. 4): both conics and where they cross;
-- designer_3d.png: the 3D tab's five nodes designed, with the planar curve of their space.
+- designer_3d.png: the 3D tab's five nodes designed, with the planar curve of their space;
+- designer_multistable.png: the tristable triangle (Multistable tab) designed, rods and springs
+  a third of the way along its motion, the energy landscape under it and the minima's report;
+- designer_chain.png: the deployable chain (Chain tab) designed and played part-way open, the
+  module's map with the chain's cobweb and d_k along the chain.
 
-    python -m docs.designer_pictures
+    python -m docs.designer_pictures [--only multistable chain]
 """
 
 from __future__ import annotations
 
+import argparse
 import shutil
 from pathlib import Path
 
@@ -32,54 +37,86 @@ OUT = Path(__file__).parent / "img"
 TIMEOUT_MS = 300_000
 
 
+SHOTS = ("pipeline", "multistable", "chain")
+
+
 def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--only", nargs="+", choices=SHOTS, default=SHOTS, help="render only these pictures")
+    only = parser.parse_args().only
     proc, url = start_service_with({"ZEROMODE_OFFLOAD": "false"})
     try:
-        shoot(url)
+        shoot(url, only)
     finally:
         proc.terminate()
         proc.wait(timeout=30)
 
 
-def shoot(url: str) -> None:
+def shoot(url: str, only=SHOTS) -> None:
     from playwright.sync_api import sync_playwright
 
     with sync_playwright() as pw:
         browser = pw.chromium.launch(executable_path=shutil.which("chromium"), args=CHROMIUM_ARGS)
         page = goto_designer(browser.new_page(viewport={"width": 1440, "height": 960}), url)
-        page.fill("[data-testid=name]", "outward_2d")
-        for c in CORNERS[:2]:
-            drag_arrow(page, c, np.multiply(c, 1 + ARROW))
-        # The third arrow held mid-drag: the conic of a node joined to three specified nodes.
-        start = np.array(CORNERS[2])
-        page.mouse.move(*screen(page, start))
-        page.mouse.down()
-        page.mouse.move(*screen(page, start + [-0.3, -0.6]))
-        page.screenshot(path=OUT / "designer_draw.png")
-        page.mouse.move(*screen(page, start * (1 + ARROW)))
-        page.mouse.up()
-        drag_arrow(page, CORNERS[3], np.multiply(CORNERS[3], 1 + ARROW))
-        page.click("[data-testid=design]")
-        page.wait_for_selector("[data-testid=play]:not([disabled])", timeout=TIMEOUT_MS)
-        page.click("[data-testid=refine]")
-        page.wait_for_function("designer.refined && designer.refinedPath", timeout=TIMEOUT_MS)
-        page.click("[data-testid=certify]")
-        page.wait_for_function("designer.certificate", timeout=TIMEOUT_MS)
-        page.wait_for_timeout(800)  # the progress bar's last transition
-        page.screenshot(path=OUT / "designer.png", full_page=True)
-
-        page.select_option("[data-testid=example]", "example:two_mode_2d")
-        page.wait_for_function("designer.spaces.length === 2")
-        page.click("[data-testid=design]")
-        page.wait_for_selector("[data-testid=play]:not([disabled])", timeout=TIMEOUT_MS)
-        page.locator("[data-testid=canvas]").screenshot(path=OUT / "designer_two_motions.png")
-
-        page.click("[data-testid=tab-3d]")
-        page.wait_for_function("designer.spaces.length === 1")
-        page.click("[data-testid=design]")
-        page.wait_for_selector("[data-testid=play]:not([disabled])", timeout=TIMEOUT_MS)
-        page.locator("#view").screenshot(path=OUT / "designer_3d.png")
+        if "pipeline" in only:
+            shoot_pipeline(page)
+        if "multistable" in only:
+            shoot_played(page, "multistable", 1 / 3, OUT / "designer_multistable.png")
+        if "chain" in only:
+            shoot_played(page, "chain", 0.8, OUT / "designer_chain.png")
         browser.close()
+
+
+def shoot_played(page, tab: str, where: float, path: Path) -> None:
+    """The tab's default example designed, the slider set ``where`` along the motion, the whole page."""
+    page.click(f"[data-testid=tab-{tab}]")
+    page.wait_for_function("designer.features.length" if tab == "chain" else "designer.conformations.length")
+    page.click("[data-testid=design]")
+    page.wait_for_function("!document.getElementById('play').disabled || document.getElementById('status').className === 'error'",
+                           timeout=TIMEOUT_MS)
+    if page.evaluate("!designer.response"):
+        raise RuntimeError(f"{tab}: {page.inner_text('[data-testid=status]')}")
+    if tab == "chain":
+        page.wait_for_function("designer.mapCheck", timeout=TIMEOUT_MS)
+    page.evaluate("f => { const s = document.getElementById('slider'); s.value = Math.round(f * s.max); s.dispatchEvent(new Event('input')); }", where)
+    page.wait_for_timeout(800)  # the progress bar's last transition
+    page.screenshot(path=path, full_page=True)
+
+
+def shoot_pipeline(page) -> None:
+    """designer_draw.png, designer.png, designer_two_motions.png, designer_3d.png."""
+    page.fill("[data-testid=name]", "outward_2d")
+    for c in CORNERS[:2]:
+        drag_arrow(page, c, np.multiply(c, 1 + ARROW))
+    # The third arrow held mid-drag: the conic of a node joined to three specified nodes.
+    start = np.array(CORNERS[2])
+    page.mouse.move(*screen(page, start))
+    page.mouse.down()
+    page.mouse.move(*screen(page, start + [-0.3, -0.6]))
+    page.screenshot(path=OUT / "designer_draw.png")
+    page.mouse.move(*screen(page, start * (1 + ARROW)))
+    page.mouse.up()
+    drag_arrow(page, CORNERS[3], np.multiply(CORNERS[3], 1 + ARROW))
+    page.click("[data-testid=design]")
+    page.wait_for_selector("[data-testid=play]:not([disabled])", timeout=TIMEOUT_MS)
+    page.click("[data-testid=refine]")
+    page.wait_for_function("designer.refined && designer.refinedPath", timeout=TIMEOUT_MS)
+    page.click("[data-testid=certify]")
+    page.wait_for_function("designer.certificate", timeout=TIMEOUT_MS)
+    page.wait_for_timeout(800)  # the progress bar's last transition
+    page.screenshot(path=OUT / "designer.png", full_page=True)
+
+    page.select_option("[data-testid=example]", "example:two_mode_2d")
+    page.wait_for_function("designer.spaces.length === 2")
+    page.click("[data-testid=design]")
+    page.wait_for_selector("[data-testid=play]:not([disabled])", timeout=TIMEOUT_MS)
+    page.locator("[data-testid=canvas]").screenshot(path=OUT / "designer_two_motions.png")
+
+    page.click("[data-testid=tab-3d]")
+    page.wait_for_function("designer.spaces.length === 1")
+    page.click("[data-testid=design]")
+    page.wait_for_selector("[data-testid=play]:not([disabled])", timeout=TIMEOUT_MS)
+    page.locator("#view").screenshot(path=OUT / "designer_3d.png")
 
 
 if __name__ == "__main__":

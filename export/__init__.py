@@ -3,7 +3,7 @@
 Each format is written with its field's own library (imported only when that format is asked
 for), from one neutral Takeaway (takeaway.py):
 
-  vtk, xdmf              ParaView, through meshio (meshes.py)
+  vtk, xdmf              ParaView, through meshio (meshes.py); springs are a cell kind of their own
   graphml, node_link_json  graph libraries, through networkx (graphs.py)
   dxf, cut_svg, stl, kit_csv  fabrication in mm: ezdxf, its SVG backend, meshio (fabrication.py)
   svg_animation, gif, mp4  the finite motion as an animation (zeromode.viz.animation; mp4 only
@@ -31,14 +31,14 @@ class Format:
 
 
 FORMATS = {
-    "vtk": Format("application/xml", ".vtu", False, "VTK unstructured grid for ParaView (meshio): bars as lines, roles, sites and zero modes as point data"),
+    "vtk": Format("application/xml", ".vtu", False, "VTK unstructured grid for ParaView (meshio): bars and springs as lines told apart by cell data kind, roles, sites, zero modes and conformations as point data"),
     "xdmf": Format("application/xml", ".xdmf", True, "XDMF time series for ParaView (meshio): the finite motion as point displacements"),
-    "graphml": Format("application/graphml+xml", ".graphml", False, "GraphML (networkx): positions, roles, modes and bar lengths as attributes"),
-    "node_link_json": Format("application/json", ".json", False, "networkx node-link JSON: positions, roles, modes and bar lengths as attributes"),
-    "dxf": Format("image/vnd.dxf", ".dxf", False, "DXF cut file in mm (ezdxf): each bar a link with pin holes, laid flat and labelled"),
+    "graphml": Format("application/graphml+xml", ".graphml", False, "GraphML (networkx): positions, roles, modes, bar lengths and springs (edge kind, rest length, stiffness) as attributes"),
+    "node_link_json": Format("application/json", ".json", False, "networkx node-link JSON: positions, roles, modes, bar lengths and springs (edge kind, rest length, stiffness) as attributes"),
+    "dxf": Format("image/vnd.dxf", ".dxf", False, "DXF cut file in mm (ezdxf): each bar a link with pin holes, laid flat and labelled; springs on layer SPRING at their rest length"),
     "cut_svg": Format("image/svg+xml", ".svg", False, "the DXF cut file as a plain SVG in mm (no legend)"),
     "stl": Format("model/stl", ".stl", False, "the links as printable plates (binary STL, meshio)"),
-    "kit_csv": Format("text/csv", ".csv", False, "bar list of a strut-and-hub kit with lengths in the frame's units and in mm"),
+    "kit_csv": Format("text/csv", ".csv", False, "parts list of a strut-and-hub kit: bars with lengths in the frame's units and in mm, springs with rest lengths and stiffness"),
     "svg_animation": Format("image/svg+xml", ".svg", True, "the finite motion as an animated SVG (SMIL)"),
     "gif": Format("image/gif", ".gif", True, "the finite motion as a GIF (matplotlib, Pillow)"),
     "mp4": Format("video/mp4", ".mp4", True, "the finite motion as an MP4 (matplotlib, ffmpeg; only where ffmpeg is installed)"),

@@ -7,11 +7,18 @@ of diameter p at each end, the holes' centres exactly the bar's length apart (ti
 numbers. Holes are exact circles in DXF; pins need the clearance the machine needs (give p
 accordingly).
 
-  dxf      ezdxf: layer CUT (outlines and holes, red) and ENGRAVE (labels), units mm
+Springs (a multistable design's) are not links: each is laid out after the links, in rows of
+its own, as its two pin holes its *rest length* apart (times the scale) joined by a line — the
+template to cut a band or set a coil to — engraved "i-j L k=k_s", on layers of their own.
+
+  dxf      ezdxf: layer CUT (link outlines and holes, red), ENGRAVE (link labels), SPRING (spring
+           holes and lines, blue), SPRING_ENGRAVE (spring labels); units mm
   cut_svg  the same drawing rendered by ezdxf's SVG backend, in mm, white page, no legend
   stl      the links as printable plates of thickness t, laid out as on the sheet, one closed
-           triangle mesh each (written by meshio, binary STL)
-  kit_csv  the bar list of a strut-and-hub kit: bar, nodes, length in the frame's units and in mm
+           triangle mesh each (written by meshio, binary STL); springs are not printed
+  kit_csv  the parts list of a strut-and-hub kit (KIT_COLUMNS): each bar with its nodes and
+           length in the frame's units and in mm, then each spring with its nodes, rest length
+           (frame units and mm) and stiffness
 
 The scale defaults to DEFAULT_SHORTEST_LINK_WIDTHS link widths for the shortest bar.
 """
@@ -73,23 +80,43 @@ class Fabrication:
 @dataclass(frozen=True, eq=False)
 class Sheet:
     """Links laid flat: pins (N_B, 2, 2), the two hole centres of each bar in mm (the first
-    at node i, the second at node j), labels (N_B,), and the sheet's size (width, height) in mm."""
+    at node i, the second at node j), labels (N_B,); springs after them: spring_pins (S, 2, 2)
+    their hole centres, rest length apart, spring_labels (S,); the sheet's size (width,
+    height) in mm."""
 
     pins: np.ndarray
     labels: tuple[str, ...]
     size: tuple[float, float]
     scale: float
+    spring_pins: np.ndarray
+    spring_labels: tuple[str, ...]
 
 
 def sheet(takeaway: Takeaway, fab: Fabrication) -> Sheet:
     """Rows of links, longest first, left to right and bottom to top; a row is at most
-    sheet_width wide (a link longer than that gets a row of its own)."""
-    lengths = takeaway.lengths
-    scale = fab.scale(lengths)
-    mm = lengths * scale
+    sheet_width wide (a link longer than that gets a row of its own). The springs follow in
+    rows of their own, laid out alike by their rest lengths."""
+    scale = fab.scale(takeaway.lengths)
+    mm = takeaway.lengths * scale
+    rest_mm = takeaway.springs.rest_length * scale
+    pitch = fab.link_width + fab.gap  # centre-to-centre distance of rows
+    pins, top, width = _rows(mm, fab, 0.0)
+    spring_pins, top, spring_width = _rows(rest_mm, fab, top + pitch if len(mm) and len(rest_mm) else top)
+    height = top + fab.link_width if len(mm) or len(rest_mm) else 0.0
+    labels = tuple(f"{i}-{j} {m:.1f}" for (i, j), m in zip(takeaway.frame.edges.tolist(), mm))
+    spring_labels = tuple(
+        f"{i}-{j} {m:.1f} k={k:.4g}"
+        for (i, j), m, k in zip(takeaway.springs.pairs.tolist(), rest_mm, takeaway.springs.stiffness)
+    )
+    return Sheet(pins, labels, (max(width, spring_width), height), scale, spring_pins, spring_labels)
+
+
+def _rows(mm: np.ndarray, fab: Fabrication, y: float) -> tuple[np.ndarray, float, float]:
+    """Parts whose holes are ``mm`` apart in rows from height ``y`` (the bottom of the first
+    row), longest first: their hole centres (P, 2, 2), the bottom of the last row, the width."""
     pitch = fab.link_width + fab.gap  # centre-to-centre distance of rows
     pins = np.zeros((len(mm), 2, 2))
-    x = y = width = 0.0
+    x = width = 0.0
     for b in np.argsort(-mm, kind="stable"):
         footprint = mm[b] + fab.link_width  # pin-to-pin plus the two rounded ends
         if x > 0 and x + footprint > fab.sheet_width:
@@ -98,9 +125,7 @@ def sheet(takeaway: Takeaway, fab: Fabrication) -> Sheet:
         pins[b] = [[left, y + fab.link_width / 2], [left + mm[b], y + fab.link_width / 2]]
         x += footprint + fab.gap
         width = max(width, x - fab.gap)
-    height = y + fab.link_width if len(mm) else 0.0
-    labels = tuple(f"{i}-{j} {m:.1f}" for (i, j), m in zip(takeaway.frame.edges.tolist(), mm))
-    return Sheet(pins, labels, (width, height), scale)
+    return pins, y, width
 
 
 # ----------------------------------------------------------------------------- DXF and SVG
@@ -109,7 +134,9 @@ def sheet(takeaway: Takeaway, fab: Fabrication) -> Sheet:
 def dxf_document(takeaway: Takeaway, fab: Fabrication):
     """An ezdxf document of the sheet: per link a closed LWPOLYLINE outline (two half circles
     as bulges of 1) and two CIRCLE holes on layer CUT, a centred TEXT label on layer ENGRAVE;
-    header units mm; the metadata and sizes as custom header properties."""
+    per spring two CIRCLE holes and the LINE between their centres on layer SPRING, a TEXT
+    label on SPRING_ENGRAVE; header units mm; the metadata, sizes and number of springs as
+    custom header properties."""
     import ezdxf
     from ezdxf.enums import TextEntityAlignment
 
@@ -118,6 +145,8 @@ def dxf_document(takeaway: Takeaway, fab: Fabrication):
     doc.units = ezdxf.units.MM
     doc.layers.add("CUT", color=1)
     doc.layers.add("ENGRAVE", color=7)
+    doc.layers.add("SPRING", color=5)
+    doc.layers.add("SPRING_ENGRAVE", color=7)
     msp = doc.modelspace()
     r_end, r_pin = fab.link_width / 2, fab.pin_diameter / 2
     height = LABEL_HEIGHT * fab.link_width
@@ -129,10 +158,17 @@ def dxf_document(takeaway: Takeaway, fab: Fabrication):
             msp.add_circle(tuple(centre), r_pin, dxfattribs={"layer": "CUT"})
         text = msp.add_text(label, height=height, dxfattribs={"layer": "ENGRAVE"})
         text.set_placement(((x0 + x1) / 2, y0), align=TextEntityAlignment.MIDDLE_CENTER)
+    for (a, b), label in zip(layout.spring_pins, layout.spring_labels):
+        for centre in (a, b):
+            msp.add_circle(tuple(centre), r_pin, dxfattribs={"layer": "SPRING"})
+        msp.add_line(tuple(a), tuple(b), dxfattribs={"layer": "SPRING"})
+        text = msp.add_text(label, height=height, dxfattribs={"layer": "SPRING_ENGRAVE"})
+        text.set_placement(((a[0] + b[0]) / 2, a[1] + r_end), align=TextEntityAlignment.TOP_CENTER)
     properties = {
         "zeromode.mm_per_unit": f"{layout.scale:.12g}",
         "zeromode.pin_diameter_mm": f"{fab.pin_diameter:g}",
         "zeromode.link_width_mm": f"{fab.link_width:g}",
+        "zeromode.springs": str(len(layout.spring_pins)),
         "zeromode.metadata": json.dumps(dict(takeaway.metadata)),
         **({"zeromode.tolerance": takeaway.metadata["tolerance"]["summary"]} if takeaway.metadata.get("tolerance") else {}),
     }
@@ -261,19 +297,31 @@ def stl_bytes(takeaway: Takeaway, fab: Fabrication) -> bytes:
 # ----------------------------------------------------------------------------- kit list
 
 
+# The kit list's columns: a bar's first five (``kind`` "rod"), a spring's ``kind`` "spring", its
+# index ``spring``, nodes, rest length in frame units and mm, and stiffness; the other
+# cells are empty, so a spring row never reads as a bar (its ``bar`` and ``length`` are blank).
+KIT_COLUMNS = ("bar", "node_i", "node_j", "length", "length_mm", "kind", "spring", "rest_length", "rest_length_mm", "stiffness")
+
+
 def kit_csv_bytes(takeaway: Takeaway, fab: Fabrication) -> bytes:
-    """The bar list: ``bar,node_i,node_j,length,length_mm``, after ``#`` comment lines with the
-    scale and the metadata (JSON)."""
+    """The parts list (KIT_COLUMNS): the bars, then the springs, after ``#`` comment lines with
+    the counts, the scale and the metadata (JSON)."""
     lengths = takeaway.lengths
     scale = fab.scale(lengths)
+    springs = takeaway.springs
     out = io.StringIO()
-    out.write(f"# zeromode strut-and-hub kit: {takeaway.frame.n_nodes} hubs, {takeaway.frame.n_edges} struts\n")
+    out.write(
+        f"# zeromode strut-and-hub kit: {takeaway.frame.n_nodes} hubs, {takeaway.frame.n_edges} struts, "
+        f"{len(springs.pairs)} springs\n"
+    )
     out.write(f"# mm_per_unit: {scale:.12g}\n")
     if takeaway.metadata.get("tolerance"):
         out.write(f"# tolerance: {takeaway.metadata['tolerance']['summary']}\n")
     out.write(f"# metadata: {json.dumps(dict(takeaway.metadata))}\n")
     writer = csv.writer(out, lineterminator="\n")
-    writer.writerow(["bar", "node_i", "node_j", "length", "length_mm"])
+    writer.writerow(KIT_COLUMNS)
     for b, ((i, j), length) in enumerate(zip(takeaway.frame.edges.tolist(), lengths)):
-        writer.writerow([b, i, j, f"{length:.12g}", f"{length * scale:.6f}"])
+        writer.writerow([b, i, j, f"{length:.12g}", f"{length * scale:.6f}", "rod", "", "", "", ""])
+    for s, ((i, j), rest, k) in enumerate(zip(springs.pairs.tolist(), springs.rest_length, springs.stiffness)):
+        writer.writerow(["", i, j, "", "", "spring", s, f"{rest:.12g}", f"{rest * scale:.6f}", f"{k:.12g}"])
     return out.getvalue().encode()

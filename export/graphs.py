@@ -1,10 +1,13 @@
 """Graph formats through networkx: node-link JSON and GraphML.
 
 The frame is an undirected graph: node i carries its position (``x``, ``y`` and, in 3D, ``z``),
-``role`` ("specified" or "unspecified"), ``site`` (Takeaway.SITES) and the components of each
-zero mode (``mode<m>_x``, ``mode<m>_y``, …); bar (i, j) carries its ``length`` and its index
-``bar``. The graph carries the metadata: nested JSON in node-link JSON, a JSON string in GraphML
-(whose attributes are scalars).
+``role`` ("specified" or "unspecified"), ``site`` (Takeaway.SITES), the components of each
+zero mode (``mode<m>_x``, ``mode<m>_y``, …) and its position in each named configuration
+(``<name>_x``, …: a lattice's states, a multistable design's conformations ``conformation_<c>``).
+Every edge carries ``kind``: a rod (i, j) ("rod") its ``length`` and its index ``bar``; a
+spring ("spring") its ``length`` in the reference, ``rest_length`` L_s, ``stiffness`` k_s and its
+index ``spring`` (no pair is both: Takeaway.build refuses it). The graph carries the metadata:
+nested JSON in node-link JSON, a JSON string in GraphML (whose attributes are scalars).
 """
 
 from __future__ import annotations
@@ -33,9 +36,15 @@ def frame_graph(takeaway: Takeaway, nested_metadata: bool) -> nx.Graph:
         attrs["site"] = SITES[sites[i]]
         for m, mode in enumerate(takeaway.modes):
             attrs.update({f"mode{m}_{AXES[a]}": float(mode[i, a]) for a in range(frame.dim)})
+        for name, config in takeaway.configurations.items():
+            attrs.update({f"{name}_{AXES[a]}": float(config[i, a]) for a in range(frame.dim)})
         graph.add_node(i, **attrs)
     for b, ((i, j), length) in enumerate(zip(frame.edges.tolist(), takeaway.lengths)):
-        graph.add_edge(i, j, length=float(length), bar=b)
+        graph.add_edge(i, j, kind="rod", length=float(length), bar=b)
+    springs = takeaway.springs
+    for s, ((i, j), length) in enumerate(zip(springs.pairs.tolist(), takeaway.spring_lengths)):
+        graph.add_edge(i, j, kind="spring", length=float(length), rest_length=float(springs.rest_length[s]),
+                       stiffness=float(springs.stiffness[s]), spring=s)
     return graph
 
 

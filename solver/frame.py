@@ -67,9 +67,17 @@ class Frame:
     """A validated bar-and-joint frame: the paper's graph G = (V, E) of N nodes at x_i in d
     dimensions and N_B bars of lengths l_ij = ‖x_i − x_j‖ (the frame of Eqs. 1–3).
 
-    positions: (N, d) float, read-only.  edges: (N_B, 2) int, read-only, in the order given.
-    specified: indices of the specified nodes V_S (possibly empty).
+    Attributes
+    ----------
+    positions : np.ndarray
+        (N, d) float, read-only: x_i, d in {2, 3}.
+    edges : np.ndarray
+        (N_B, 2) int, read-only, in the order given: the bars (i, j).
+    specified : tuple of int
+        The indices of the specified nodes V_S (possibly empty).
 
+    Examples
+    --------
     >>> from zeromode import Frame
     >>> square = Frame.build([[0, 0], [1, 0], [1, 1], [0, 1]], [[0, 1], [1, 2], [2, 3], [3, 0]])
     >>> square.maxwell_count  # N_D = dN − N_B (Eq. 2): 3 rigid motions and 1 mechanism
@@ -82,7 +90,9 @@ class Frame:
 
     @classmethod
     def build(cls, positions, edges, specified=(), dim: int | None = None) -> Frame:
-        """Validate raw input (lists or arrays) and return a Frame; raise InvalidInput naming the bad element."""
+        """Validate raw input (lists or arrays) and return a Frame; raise InvalidInput naming the
+        bad element (shapes, finite numbers, d in {2, 3}, edges in range, no self-loop, duplicate
+        or zero-length bar, specified indices unique and in range)."""
         x = check_positions(positions, dim)
         n = len(x)
         try:
@@ -149,14 +159,17 @@ class Frame:
 
     @property
     def dim(self) -> int:
+        """d, the dimension (2 or 3)."""
         return int(self.positions.shape[1])
 
     @property
     def n_nodes(self) -> int:
+        """N, the number of nodes."""
         return int(self.positions.shape[0])
 
     @property
     def n_edges(self) -> int:
+        """N_B, the number of bars."""
         return int(self.edges.shape[0])
 
     @property

@@ -99,13 +99,21 @@ class ToleranceStage:
 
 @dataclass(frozen=True, eq=False)
 class PipelineResult:
-    """What the pipeline produced.
+    """What the design pipeline produced (design, then the stages asked for).
 
-    design: the verified linear design (its frame and modes are the contract's answer).
-    refinement: the refined frame, or after a failure the best one found (``ok`` False), or
-    None when not asked. certificate: the certificates of the linear design, or None.
-    timings_ms: wall time of each stage that ran and the total. tolerance: the fabrication
-    tolerances of the linear design, or None.
+    Attributes
+    ----------
+    design : Design
+        The verified linear design (its frame and modes are the contract's answer).
+    refinement : Refinement or None
+        The refined frame, or after a failure the best one found (``ok`` False), or None when
+        not asked.
+    certificate : Certificate or None
+        The certificates of the linear design, or None.
+    timings_ms : dict
+        Wall time of each stage that ran and the total.
+    tolerance : ToleranceReport or None
+        The fabrication tolerances of the linear design, or None.
     """
 
     design: Design
@@ -207,10 +215,26 @@ def design_pipeline(
 
 @dataclass(frozen=True, eq=False)
 class AuxeticResult:
-    """What the auxetic pipeline produced: the verified lattice (with its usable strain range and
-    finite states), its refinement or None, the refined frame's linear Poisson ratio (None when
-    not refined or when the refined frame has not exactly one nontrivial mode), certificates,
-    tolerances and the wall time of each stage."""
+    """What the auxetic pipeline produced.
+
+    Attributes
+    ----------
+    lattice : Lattice
+        The verified lattice, with its usable strain range and finite states.
+    refinement : Refinement or None
+        Its refinement, or None when not asked.
+    refined_poisson_ratio : float or None
+        The refined frame's linear Poisson ratio (None when not refined or when the refined
+        frame has not exactly one nontrivial mode).
+    certificate : Certificate or None
+        The lattice's certificates, or None.
+    timings_ms : dict
+        Wall time of each stage that ran and the total.
+    tolerance : ToleranceReport or None
+        The fabrication tolerances, or None.
+    finite_strain : FiniteStrainSheet or None
+        The sheet designed for a secant Poisson ratio at a finite strain, or None.
+    """
 
     lattice: Lattice
     refinement: Refinement | None

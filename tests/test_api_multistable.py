@@ -55,6 +55,15 @@ def test_served_design_is_tristable_by_the_definition(body):
         top = e[left : right + 1].max()
         assert top - max(e[left], e[right]) >= barrier * (1 - 1e-9)
         assert e[left] < e[left + 1] and e[right] < e[right - 1]  # strict minima on the samples
+    # The motion itself (what the viewer animates): every rod at its length at every sample, the
+    # springs' energy there the landscape's, each conformation at its sample up to a rigid motion.
+    path = np.asarray(body["landscape"]["positions"], dtype=float)
+    assert path.shape == (len(e), *confs[0].shape)
+    assert max(np.max(np.abs(bar_lengths(p, edges) / lengths[0] - 1)) for p in path) <= 1e-9
+    assert [energy(p, pairs, stiffness, rest) for p in path] == pytest.approx(e, rel=1e-9, abs=1e-12)
+    gram = lambda p: np.linalg.norm(p[:, None] - p[None], axis=-1)
+    for c, sample in zip(confs, at):
+        assert np.allclose(gram(path[sample]), gram(c), atol=1e-9)
     report = body["report"]
     assert report["analysis"]["nontrivial_zero_modes"] == 1 and report["analysis"]["self_stresses"] == 0
     assert report["springs"] == len(pairs) and report["rods"] == len(edges)

@@ -308,3 +308,18 @@ def test_the_literal_scan_sees_thresholds():
 def test_no_threshold_outside_tolerances(path):
     found = small_float_literals(path.read_text(encoding="utf-8"))
     assert not found, f"{path.relative_to(ROOT).as_posix()}: float literals {found} belong in solver/tolerances.py, named with their reason"
+
+
+def test_heavy_requests_run_the_operations_and_only_file_routes_are_called():
+    # The offload (service/rest/offload.py) answers a heavy request to an operation's endpoint
+    # by that operation on a worker (tasks.execute_request), as its route and a job do; it calls
+    # a route only where there is no operation: the routes that answer a file.
+    from fastapi.responses import Response
+
+    from zeromode.operations.endpoints import OPERATIONS
+    from zeromode.service.jobs.heavy import ALWAYS
+    from zeromode.service.rest import offload
+
+    assert offload.FILE_ROUTES.isdisjoint(OPERATIONS) and ALWAYS <= OPERATIONS.keys()
+    for path in offload.FILE_ROUTES:
+        assert offload._route(path).response_class is Response, path

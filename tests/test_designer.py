@@ -11,6 +11,7 @@ are recorded by benchmarks/bench_designer.py, not asserted here (no test races t
 
 from __future__ import annotations
 
+import itertools
 import json
 from pathlib import Path
 
@@ -18,6 +19,8 @@ import meshio
 import numpy as np
 import pytest
 from browser import browser, console_problems  # noqa: F401 (a fixture)
+from oracles.two_triangles import TwoTriangles
+from scipy.optimize import brentq
 
 from benchmarks.bench_designer import (
     ARROW,
@@ -355,5 +358,260 @@ def test_allosteric_sites_picked_on_a_network(browser, designer_url, tmp_path): 
     assert np.allclose(source_rows, scale * pulls["source"], atol=1e-9 * np.abs(u).max())
     assert design["report"]["target_error"] <= 1e-9
     assert {"source", "target"} <= legend(page)
+    assert problems == []
+    page.close()
+
+
+def affine_fit(values: np.ndarray, pixels: np.ndarray) -> tuple[float, float]:
+    """The chart's axis map pixel = a·value + b (least squares) and its worst residual in px."""
+    a, b = np.polyfit(values, pixels, 1)
+    return float(a), float(np.abs(a * values + b - pixels).max())
+
+
+def drawn_nodes(page) -> np.ndarray:
+    """Centres of the frame's node circles as drawn (SVG units)."""
+    return np.array(page.eval_on_selector_all("#canvas circle.node", "cs => cs.map(c => [+c.getAttribute('cx'), +c.getAttribute('cy')])"))
+
+
+def similarity_fit(world: np.ndarray, drawn: np.ndarray) -> tuple[np.ndarray, float]:
+    """The page's drawing map fitted from one configuration (x ↦ s·(x, −y) + t, least squares);
+    returns a function of world points and the fit's worst residual in px."""
+    rows = np.concatenate([np.column_stack([world[:, 0], np.ones(len(world)), np.zeros(len(world))]),
+                           np.column_stack([-world[:, 1], np.zeros(len(world)), np.ones(len(world))])])
+    coef, *_ = np.linalg.lstsq(rows, np.concatenate([drawn[:, 0], drawn[:, 1]]), rcond=None)
+    s, tx, ty = coef
+    to_page = lambda p: np.column_stack([s * p[:, 0] + tx, -s * p[:, 1] + ty])
+    return to_page, float(np.abs(to_page(world) - drawn).max())
+
+
+def test_multistable_design_with_its_energy_landscape(browser, designer_url):  # noqa: F811
+    """Issue #41 item 1 in the page: the tristable example's form, its rods and springs drawn
+    (springs as zig-zags, in the legend), the motion played through the conformations, and the
+    energy landscape under it checked against the body: the curve is the body's (arc length,
+    energy) through one affine map per axis, one marker per body minimum at its (s, E), one
+    barrier between each pair of neighbours at the highest sample between them, and the cursor
+    at the slider's sample as the animation moves; the report has the minima's figures."""
+    page, problems = open_page(browser, designer_url)
+    page.click("[data-testid=tab-multistable]")
+    page.wait_for_function("designer.conformations.length === 3")
+    assert page.input_value("[data-testid=name]") == "tristable_triangle_2d"
+    inputs = page.query_selector_all("[data-testid=conformations] input")
+    assert len(inputs) == 3 * 3 * 2
+    assert len(page.query_selector_all("#canvas circle.conformation-node")) == 9
+    # An edit of the form is the request: the third conformation's apex, moved and moved back.
+    apex = "[data-testid=conformations] input[data-conformation='2'][data-node='2'][data-axis='1']"
+    preview = "cs => cs.map(c => [+c.getAttribute('cx'), +c.getAttribute('cy')])"
+    before = np.array(page.eval_on_selector_all("#canvas circle.conformation-node", preview))
+    page.fill(apex, "1.3")
+    assert page.evaluate("designer.conformations[2][2][1]") == 1.3
+    after = np.array(page.eval_on_selector_all("#canvas circle.conformation-node", preview))
+    # The apex rose against the base: its height over the base in px grew by 0.15 of the base's width.
+    height = lambda p: (p[6, 1] - p[8, 1]) / (p[7, 0] - p[6, 0])
+    assert height(after) - height(before) == pytest.approx(0.15, abs=1e-3)
+    page.fill(apex, "1.15")
+    page.fill("[data-testid=barrier]", "0.0001")  # the default is 8.5e-5, the springs reach 1.7e-4
+    page.click("[data-testid=design]")
+    page.wait_for_function("(designer.response && !document.getElementById('play').disabled) || document.getElementById('status').className === 'error'",
+                           timeout=TIMEOUT_MS)
+    body = page.evaluate("designer.response")
+    assert body, page.inner_text("[data-testid=status]")
+    land, minima = body["landscape"], body["minima"]
+    assert body["report"]["barrier"] == 0.0001
+    assert np.array(body["conformations"])[2, 2, 1] == 1.15
+
+    # The drawing: every rod, every spring as a zig-zag (a path of many corners), legend entries.
+    assert len(page.query_selector_all("#canvas line.bar")) == len(body["frame"]["edges"])
+    springs = page.eval_on_selector_all("#canvas path.spring", "ps => ps.map(p => p.getAttribute('d'))")
+    assert len(springs) == len(body["springs"]["pairs"]) and all(d.count("L") >= 10 for d in springs)
+    assert {"rod", "spring", "specified", "unspecified", "conformation-0", "conformation-2"} <= legend(page)
+
+    # The landscape chart against the body.
+    s, e = np.array(land["arclength"]), np.array(land["energy"])
+    curve = np.array([[float(v) for v in p.split(",")] for p in page.get_attribute("#landscape polyline.energy", "points").split()])
+    assert len(curve) == len(s)
+    ax, x_residual = affine_fit(s, curve[:, 0])
+    ay, y_residual = affine_fit(e, curve[:, 1])
+    assert ax > 0 and ay < 0 and x_residual < 0.06 and y_residual < 0.06  # points written to 0.1 px
+    bx, by = np.polyfit(s, curve[:, 0], 1)[1], np.polyfit(e, curve[:, 1], 1)[1]
+    marks = page.eval_on_selector_all("#landscape circle.minimum", "cs => cs.map(c => [+c.getAttribute('cx'), +c.getAttribute('cy')])")
+    assert len(marks) == len(minima) == 3
+    for (cx, cy), m in zip(marks, minima, strict=True):
+        assert abs(cx - (ax * m["arclength"] + bx)) < 0.1 and abs(cy - (ay * m["energy"] + by)) < 0.1
+    tops = page.eval_on_selector_all("#landscape polygon.barrier", "ps => ps.map(p => +p.dataset.sample)")
+    at = land["conformation_samples"]
+    assert tops == [a + int(np.argmax(e[a:b + 1])) for a, b in itertools.pairwise(at)]
+
+    # The cursor follows the animation: at the slider's sample, and it moves with Play.
+    def cursor():
+        k = int(page.input_value("[data-testid=slider]"))
+        x = float(page.get_attribute("[data-testid=landscape-cursor]", "x1"))
+        return k, x
+
+    k0, x0 = cursor()
+    assert abs(x0 - (ax * s[k0] + bx)) < 0.1
+    first = drawn_nodes(page)
+    page.click("[data-testid=play]")
+    page.wait_for_function(f"+document.getElementById('slider').value !== {k0}")
+    page.click("[data-testid=play]")
+    k1, x1 = cursor()
+    assert k1 != k0 and abs(x1 - (ax * s[k1] + bx)) < 0.1 and x1 != x0
+    # The drawn nodes are the body's sample k1, through the drawing's map fitted at sample k0.
+    to_page, residual = similarity_fit(np.array(land["positions"][k0]), first)
+    assert residual < 0.01
+    assert np.abs(to_page(np.array(land["positions"][k1])) - drawn_nodes(page)).max() < 0.01
+
+    report = page.inner_text("[data-testid=report]")
+    for words in ("Minimum 1", "Minimum 3", "curvature E″(s)", "Hessian λ_min", "barrier after", "springs"):
+        assert words in report
+    titled = page.eval_on_selector_all("[data-testid=report] tr[data-row='Hessian λ_min']", "rs => rs.map(r => [r.title, r.cells[2].textContent])")
+    assert len(titled) == 3 and all(title and unit == "k" for title, unit in titled)
+
+    # 800 px: the drawing and the chart fit the window.
+    page.set_viewport_size({"width": 800, "height": 900})
+    chart = page.locator("[data-testid=landscape]").bounding_box()
+    assert chart["x"] >= 0 and chart["x"] + chart["width"] <= 800
+    assert page.evaluate("document.documentElement.scrollWidth") <= 800
+    assert problems == []
+    page.close()
+
+
+def test_chain_animated_with_its_map_as_a_cobweb(browser, designer_url, tmp_path):  # noqa: F811
+    """Issue #41 item 2 in the page: the deployable example's form (from the OpenAPI examples),
+    the chain drawn from the body and animated along its traced motion (nodes move between
+    frames; the drawn ends are the body's chain.path ends through the drawing's map fitted on the
+    chain as built), the map chart with one marker per fixed point and the cobweb of the body's
+    distances at the slider's sample, and the designed module's map asked of POST /v1/map
+    agreeing with the chain's iterates."""
+    page, problems = open_page(browser, designer_url)
+    page.click("[data-testid=tab-chain]")
+    page.wait_for_function("designer.features.length === 2")
+    assert page.input_value("[data-testid=chain-example]") == "deployable"
+    assert page.input_value("[data-testid=d0]") == "1.21"
+    assert len(page.query_selector_all("[data-testid=features] tr")) == 2
+    page.fill("[data-testid=n-modules]", "10")
+    page.click("[data-testid=design]")
+    page.wait_for_function("(designer.response && !document.getElementById('play').disabled) || document.getElementById('status').className === 'error'",
+                           timeout=TIMEOUT_MS)
+    body = page.evaluate("designer.response")
+    assert body, page.inner_text("[data-testid=status]")
+    chain = body["chain"]
+    path = np.array(chain["path"])
+    assert len(chain["pairs"]) == 11 and len(page.query_selector_all("#canvas line.pair")) == 11
+    assert len(page.query_selector_all("#canvas line.bar")) == len(chain["frame"]["edges"])
+    assert {"pair", "bar", "track"} <= legend(page)
+
+    # The chain as built at the reference sample; its drawing map fitted there.
+    assert int(page.input_value("[data-testid=slider]")) == chain["reference_index"]
+    to_page, residual = similarity_fit(np.array(chain["frame"]["positions"]), drawn_nodes(page))
+    assert residual < 0.01
+    ends = []
+    for key, k in (("Home", 0), ("End", len(path) - 1)):
+        page.focus("[data-testid=slider]")
+        page.keyboard.press(key)
+        assert int(page.input_value("[data-testid=slider]")) == k
+        drawn = drawn_nodes(page)
+        assert np.abs(to_page(path[k]) - drawn).max() < 0.01
+        ends.append(drawn)
+    assert np.abs(ends[0] - ends[1]).max() > 20  # the chain opens: far nodes move by many px
+
+    # Playing moves the nodes between frames.
+    page.click("[data-testid=play]")
+    frames = []
+    for _ in range(3):
+        k = int(page.input_value("[data-testid=slider]"))
+        page.wait_for_function(f"+document.getElementById('slider').value !== {k}")
+        frames.append(drawn_nodes(page))
+    page.click("[data-testid=play]")
+    assert all(np.abs(a - b).max() > 0.1 for a, b in itertools.pairwise(frames))
+
+    # The map chart: f's samples, one marker per fixed point, the cobweb of d at the slider's sample.
+    k = int(page.input_value("[data-testid=slider]"))
+    d = np.array(chain["distances"][k])
+    assert len(page.query_selector_all("#map-chart circle.fixed-point")) == len(body["map"]["fixed_points"]) >= 2
+    web = np.array([[float(v) for v in p.split(",")] for p in page.get_attribute("[data-testid=cobweb]", "points").split()])
+    expected = [(d[0], d[0])] + [q for i in range(len(d) - 1) for q in ((d[i], d[i + 1]), (d[i + 1], d[i + 1]))]
+    expected = np.array(expected)
+    assert web.shape == expected.shape
+    ax, x_residual = affine_fit(expected[:, 0], web[:, 0])
+    ay, y_residual = affine_fit(expected[:, 1], web[:, 1])
+    assert ax > 0 and ay < 0 and x_residual < 0.01 and y_residual < 0.01
+    assert len(page.query_selector_all("#profile rect.distance")) == len(d)
+
+    # POST /v1/map of the designed module at the iterates: f(d_k) = d_{k+1}.
+    page.wait_for_function("designer.mapCheck", timeout=TIMEOUT_MS)
+    assert page.evaluate("designer.mapCheck.deviation") <= 1e-8
+    evaluated = page.evaluate("designer.mapCheck.evaluated")
+    assert np.allclose([p["d_in"] for p in evaluated], chain["iterates"][:-1])
+    report = page.inner_text("[data-testid=report]")
+    for words in ("chain deviation", "fixed point 2", "POST /v1/map check", "usable range"):
+        assert words in report
+
+    # The chain exports as a design does, named after it.
+    with page.expect_download() as info:
+        page.click("[data-testid=download-vtk]")
+    assert info.value.suggested_filename == "deployable_chain.vtu"
+    saved = Path(tmp_path) / info.value.suggested_filename
+    info.value.save_as(saved)
+    assert np.allclose(meshio.read(saved).points[:, :2], chain["frame"]["positions"])
+
+    # 1920 and 800 px: the drawing and both charts inside the window, no sideways scrolling.
+    for width in (1920, 800):
+        page.set_viewport_size({"width": width, "height": 900})
+        for testid in ("canvas", "map-chart", "profile"):
+            box = page.locator(f"[data-testid={testid}]").bounding_box()
+            assert box["x"] >= 0 and box["x"] + box["width"] <= width and box["width"] > 150
+        assert page.evaluate("document.documentElement.scrollWidth") <= width
+
+    # A feature out of the module's reach: the service's refusal said, the old chain cleared.
+    page.locator("[data-testid=features] tr").nth(1).locator("input").nth(0).fill("9")
+    page.click("[data-testid=design]")
+    page.wait_for_selector("#status.error", timeout=TIMEOUT_MS)
+    assert "feature_out_of_reach" in page.inner_text("[data-testid=status]")
+    assert page.evaluate("designer.response") is None and page.is_hidden("#map-box")
+    assert page.query_selector_all("#canvas line.bar") == []
+    assert problems == ["Failed to load resource: the server responded with a status of 422 (Unprocessable Entity)"]
+    page.close()
+
+
+def test_a_given_module_mapped(browser, designer_url):  # noqa: F811
+    """The Chain tab's given module (POST /v1/map): the two-triangle module with its hinge moved
+    in the table; the body's map is the closed form's (tests/oracles/two_triangles.py), its ends
+    the closed form's folds, the chart draws the body's samples, and there is one marker per
+    fixed point of the closed form (roots of f(d) − d on the usable range)."""
+    page, problems = open_page(browser, designer_url)
+    page.click("[data-testid=tab-chain]")
+    page.wait_for_function("designer.features.length === 2")
+    page.check("[data-testid=chain-given]")
+    assert page.is_hidden("[data-testid=features]") and page.is_visible("[data-testid=module]")
+    page.fill("[data-testid=module] input[data-node='4'][data-axis='1']", "0.5")
+    page.click("[data-testid=design]")
+    page.wait_for_function("designer.response || document.getElementById('status').className === 'error'", timeout=TIMEOUT_MS)
+    body = page.evaluate("designer.response")
+    assert body, page.inner_text("[data-testid=status]")
+    positions = np.array(body["module"]["frame"]["positions"])
+    assert positions[4].tolist() == [0.15, 0.5]
+    exact, m = TwoTriangles(positions), body["map"]
+    d_in, d_out = np.array(m["d_in"]), np.array(m["d_out"])
+    assert max(abs(exact.f(a) - b) / b for a, b in zip(d_in, d_out, strict=True)) < 1e-8
+    assert m["lower"]["kind"] == m["upper"]["kind"] == "fold"
+    assert [m["lower"]["d_in"], m["upper"]["d_in"]] == pytest.approx(exact.range(), rel=1e-6)
+    lo, hi = exact.range()
+    grid = np.linspace(lo, hi, 2001)[1:-1]
+    gap = np.array([exact.f(d) - d for d in grid])
+    roots = [brentq(lambda d: exact.f(d) - d, a, b) for a, b, ga, gb in zip(grid, grid[1:], gap, gap[1:]) if ga * gb < 0]
+    drawn = page.eval_on_selector_all("#map-chart circle.fixed-point", "cs => cs.map(c => +c.getAttribute('cx'))")
+    assert len(drawn) == len(m["fixed_points"]) == len(roots) >= 1
+    assert sorted(p["d"] for p in m["fixed_points"]) == pytest.approx(roots, rel=1e-8)
+    curve = np.array([[float(v) for v in p.split(",")] for p in page.get_attribute("#map-chart polyline.map", "points").split()])
+    ax, x_residual = affine_fit(d_in, curve[:, 0])
+    ay, y_residual = affine_fit(d_out, curve[:, 1])
+    assert ax > 0 and ay < 0 and x_residual < 0.06 and y_residual < 0.06
+    assert len(page.query_selector_all("#canvas line.bar")) == 6 and len(page.query_selector_all("#canvas line.pair")) == 2
+    assert page.is_hidden("[data-testid=profile]") and page.query_selector("[data-testid=cobweb]") is None
+    # The multistable example in the list of examples opens its own tab, its form filled.
+    page.select_option("[data-testid=example]", "example:tristable_triangle_2d")
+    page.wait_for_function("designer.kind === 'multistable' && designer.conformations.length === 3")
+    assert page.get_attribute("[data-testid=tab-multistable]", "aria-selected") == "true"
+    assert page.evaluate("designer.response") is None and page.is_hidden("#map-box")
     assert problems == []
     page.close()

@@ -76,12 +76,15 @@ def svg_bars(result) -> int:
 def test_exported_members():
     # Like httpx's tests/test_exported_members.py: the public surface is this list, each name real.
     assert zm.__all__ == [
-        "Frame", "allosteric", "analyze", "auxetic", "certify", "design", "examples", "module_map", "motion",
+        "Frame", "Result", "allosteric", "analyze", "auxetic", "certify", "design", "examples", "module_map", "motion",
         "multistable", "refine", "sequential", "sweep", "two_configuration",
     ]
     for name in zm.__all__:
         assert getattr(zm, name) is not None
     assert zm.Frame is importlib.import_module("zeromode.solver.frame").Frame
+    assert zm.Result is importlib.import_module("zeromode._library").Result
+    square = zm.Frame.build([[0, 0], [1, 0], [1, 1], [0, 1]], [[0, 1], [1, 2], [2, 3], [3, 0]])
+    assert isinstance(zm.analyze(square), zm.Result)
     with pytest.raises(AttributeError):
         zm.not_a_member  # noqa: B018
 

@@ -6,6 +6,7 @@ heavy requests run.
 
 from __future__ import annotations
 
+import json
 import socket
 import subprocess
 import time
@@ -17,13 +18,18 @@ import httpx
 import numpy as np
 import pytest
 from fastapi.testclient import TestClient
+from oracles.frames import SQUARE_CORNERS
 from test_sweeps import zeromode_service
 
+from benchmarks.allostery_tasks import make_task
 from benchmarks.bench_offload import big_frame, heavy_load
+from zeromode.service.jobs.tasks import execute_request
 from zeromode.service.rest.app import create_app
+from zeromode.service.rest.offload import execute_file_route, execute_unvalidated
 from zeromode.service.wire.settings import Settings
 
 SHEET = {"dim": 2, "cells": [3, 3], "poisson_ratio": -0.5}
+TWO_CONFIGURATIONS = {"dim": 2, "initial": SQUARE_CORNERS, "final": (1.2 * np.array(SQUARE_CORNERS)).tolist()}
 
 
 def numbers_close(a, b, path: str = "") -> None:
@@ -73,11 +79,50 @@ def test_heavy_requests_answer_as_in_process(service):
         ("/v1/motion", {"frame": {"dim": 2, "positions": [[0, 0], [1, 0], [0, 1]], "edges": [[0, 1], [1, 2], [0, 2]]},
                         "amplitude": 0.1}),  # an endpoint's own refusal, from the worker
         ("/v1/motion", {"frame": frame, "amplitude": -1}),  # invalid: the route's own 422
+        ("/v1/design/two-configuration", TWO_CONFIGURATIONS),  # always heavy: its operation on a worker
+        ("/v1/design/two-configuration", {**TWO_CONFIGURATIONS, "final": SQUARE_CORNERS}),  # rigid_target
     ]:
         offloaded = httpx.post(service + path, json=body, timeout=60)
         direct = inline.post(path, json=body)
         assert offloaded.status_code == direct.status_code, (path, offloaded.text)
         numbers_close(offloaded.json(), direct.json())
+
+
+
+def test_a_workers_task_runs_the_endpoints_operation():
+    """The tasks a worker runs for a heavy request (execute_request; execute_unvalidated past
+    VALIDATE_HERE_BYTES) run the endpoint's operation and answer as its route, here in this
+    process for the routes that are not job endpoints: allostery in a given network (heavy only
+    past 600 degrees of freedom) and a two-configuration design, with their refusals; a plot (a
+    file, no operation) is the route's own answer."""
+    settings = Settings(offload=False)
+    inline = TestClient(create_app(settings))
+    task = make_task(40, 0, -2.0)
+    network = {"frame": {"dim": 2, "positions": task.frame.positions.tolist(), "edges": task.frame.edges.tolist()},
+               "source": list(task.source_pair), "target": list(task.target_pair), "strain_ratio": -2.0}
+    cases = [
+        ("/v1/design/allosteric/network", network),
+        ("/v1/design/allosteric/network", {**network, "target": list(task.source_pair)}),  # the endpoint's 4xx
+        ("/v1/design/two-configuration", TWO_CONFIGURATIONS),
+        ("/v1/design/two-configuration", {**TWO_CONFIGURATIONS, "final": SQUARE_CORNERS}),  # rigid_target
+    ]
+    for path, body in cases:
+        direct = inline.post(path, json=body)
+        for run in (execute_request, execute_unvalidated):
+            status, content = run(path, body, settings.model_dump_json(), 60.0)
+            assert status == direct.status_code, (path, run.__name__, content[:300])
+            numbers_close(json.loads(content), direct.json())
+    invalid = {**TWO_CONFIGURATIONS, "dim": 4}  # a schema refusal, answered by the worker
+    status, content = execute_unvalidated("/v1/design/two-configuration", invalid, settings.model_dump_json(), 60.0)
+    direct = inline.post("/v1/design/two-configuration", json=invalid)
+    assert status == direct.status_code == 422 and json.loads(content) == direct.json()
+    # A route that answers a file (no operation): called by the worker, its file as the route sends it.
+    plot = {"frame": network["frame"]}
+    direct = inline.post("/v1/plot", json=plot)
+    for run in (execute_file_route, execute_unvalidated):
+        status, content, headers = run("/v1/plot", plot, settings.model_dump_json(), 60.0)
+        assert (status, content) == (direct.status_code, direct.content) and status == 200
+        assert dict(headers)["content-type"] == direct.headers["content-type"]
 
 
 def test_the_time_budget_holds_inside_a_long_call(tmp_path):

@@ -204,6 +204,15 @@ def test_chain_conformation_is_the_orbit_of_the_closed_form_map(deployable):
     # of the way from the range's lower end to the stable fixed point 1.8
     near = np.abs(d[:, 0] - 1.2) < 0.01
     assert np.ptp(d[near, -1]) > 0.5
+    # The conformation along the motion (what the viewer animates): every bar at its length, the
+    # pairs' distances read from it are the reported d_k, and the reference sample is the chain built.
+    x, edges = result.positions, chain.frame.edges
+    assert x.shape == (len(d), chain.frame.n_nodes, 2)
+    length = lambda p: np.linalg.norm(p[edges[:, 0]] - p[edges[:, 1]], axis=1)
+    assert max(np.abs(length(p) / length(chain.frame.positions) - 1).max() for p in x) <= 1e-9
+    pairs = chain.pairs
+    assert np.allclose(np.linalg.norm(x[:, pairs[:, 0]] - x[:, pairs[:, 1]], axis=-1), d, rtol=1e-12)
+    assert np.array_equal(x[result.reference_index], chain.frame.positions)
 
 
 def test_chain_refusals(deployable):

@@ -184,7 +184,7 @@ def test_energy_along_the_drive_from_the_definition(result):
     assert len(pairs) == N_MODULES and not {tuple(sorted(p)) for p in pairs.tolist()} & {
         tuple(sorted(e)) for e in verified.chain.frame.edges.tolist()}
     for i in range(0, len(sol.drive), 7):
-        x = verified.path.positions[verified.samples[sol.rows[i]]]
+        x = verified.positions[sol.rows[i]]
         assert np.linalg.norm(x[verified.chain.pairs[:, 0]] - x[verified.chain.pairs[:, 1]], axis=1) == pytest.approx(
             sol.distances[i], rel=1e-14)
         assert energy(x, pairs, k, rest) == pytest.approx(sol.energy[i], rel=1e-10, abs=1e-15)
@@ -250,5 +250,5 @@ def test_library_soliton_and_its_picture():
     figure = s.plot()
     chains = [a for a in figure.get_axes() if a.get_title().startswith("d₀ − d_u")]
     assert len(chains) == len(sol["snapshots"]) == 4
-    for axes, shot in zip(chains, sol["snapshots"]):
-        assert f"wall at copy {sol['wall'][shot['drive_index']]:.1f}" in axes.get_title()
+    for axes, j in zip(chains, sol["snapshots"]):
+        assert f"wall at copy {sol['wall'][j]:.1f}" in axes.get_title()

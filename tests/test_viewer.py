@@ -102,7 +102,7 @@ def test_the_page_and_its_files_are_served(client):
     page = client.get("/")
     assert page.status_code == 200 and page.headers["content-type"].startswith("text/html")
     weight = len(page.content)
-    for src in ("/viewer/designer.js", "/viewer/solution_space.js", "/viewer/designer.css"):
+    for src in ("/viewer/designer.js", "/viewer/solution_space.js", "/viewer/landscape.js", "/viewer/designer.css"):
         assert src in page.text
         asset = client.get(src)
         assert asset.status_code == 200

@@ -116,12 +116,12 @@ def soliton_figure(body: dict, scale: float = 1.0) -> Figure:
     figure = Figure(figsize=(13 * scale, 6.5 * scale), layout="constrained")
     left, right = figure.subfigures(1, 2, width_ratios=[1.35, 1])
     cols = 2
-    rows = -(-len(shots) // cols)
-    for i, shot in enumerate(shots):
-        axes = left.add_subplot(rows, cols, i + 1)
-        j = shot["drive_index"]
-        d = np.asarray(chain["distances"][sol["rows"][j]])
-        draw_soliton_chain(axes, shot["positions"], edges, bars, (d - d_u) / (d_s - d_u), sol["springs"]["pairs"], pairs[0])
+    grid_rows = -(-len(shots) // cols)
+    for i, j in enumerate(shots):
+        axes = left.add_subplot(grid_rows, cols, i + 1)
+        row = sol["rows"][j]
+        d = np.asarray(chain["distances"][row])
+        draw_soliton_chain(axes, chain["path"][row], edges, bars, (d - d_u) / (d_s - d_u), sol["springs"]["pairs"], pairs[0])
         axes.set_title(f"d₀ − d_u = {drive[j] - d_u:.1e}: wall at copy {wall[j]:.1f}", fontsize="small")
     bar = ScalarMappable(cmap=colormaps["coolwarm"])
     bar.set_clim(0, 1)
@@ -134,8 +134,8 @@ def soliton_figure(body: dict, scale: float = 1.0) -> Figure:
         ref = bulk[len(bulk) // 2]
         line = wall[ref] + sol["predicted_wall_slope"] * (np.log(offset) - np.log(offset[ref]))
         top.plot(offset, line, color="0.5", ls="--", lw=1, label=f"−ln|d₀ − d_u| / ln f′(d_u), f′(d_u) = {sol['unstable']['slope']:.3g}")
-    for shot in shots:
-        top.plot([offset[shot["drive_index"]]], [wall[shot["drive_index"]]], "o", color="C3", ms=5)
+    for j in shots:
+        top.plot([offset[j]], [wall[j]], "o", color="C3", ms=5)
     top.set_xscale("log")
     top.set_ylim(-0.5, n + 0.5)
     top.set_ylabel(f"wall position (copy, of {n})")

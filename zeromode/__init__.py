@@ -10,6 +10,8 @@ continues the pipeline (``.refine()``, ``.certify()``, ``.motion()``). No server
 
 Every name is loaded on first use (PEP 562), so ``import zeromode`` loads no numpy.
 
+Examples
+--------
 >>> import zeromode as zm
 >>> zm.analyze(zm.Frame.build([[0, 0], [1, 0], [1, 1], [0, 1]], [[0, 1], [1, 2], [2, 3], [3, 0]])).nontrivial_zero_modes
 1
@@ -22,6 +24,7 @@ from typing import TYPE_CHECKING, Any
 
 __all__ = [
     "Frame",
+    "Result",
     "allosteric",
     "analyze",
     "auxetic",
@@ -41,6 +44,8 @@ __all__ = [
 _HOMES: dict[str, tuple[str, str | None]] = {
     "Frame": ("zeromode.solver.frame", "Frame"),
     "examples": ("zeromode.examples", None),
+    # What every function returns (its subclasses name the function: DesignResult, …).
+    "Result": ("zeromode._library", "Result"),
     # A sweep runs on the job engine's Dask cluster (the service's sweeps run the same code).
     "sweep": ("zeromode.service.jobs.sweeps", "sweep"),
     **{
@@ -53,6 +58,7 @@ _HOMES: dict[str, tuple[str, str | None]] = {
 if TYPE_CHECKING:  # the names as a type checker sees them, without importing them at run time
     from zeromode import examples
     from zeromode._library import (
+        Result,
         allosteric,
         analyze,
         auxetic,

@@ -38,6 +38,7 @@ if TYPE_CHECKING:
     from zeromode.viz.picture import Picture
 
 __all__ = [
+    "Result",
     "allosteric",
     "analyze",
     "auxetic",
@@ -318,6 +319,11 @@ class SequentialResult(Result):
     def document(self) -> dict:
         chain = self.body["chain"]
         return {"frame": (chain or self.body["module"])["frame"]}
+
+    def _exported(self) -> dict:
+        """The whole response: exports mark the chain's input and output pairs and carry its
+        figures (exporting.takeaway_for)."""
+        return {"document": self.body}
 
     def plot(self, scale: float = 1.0, solution_space: bool = True) -> Figure:
         """The designed map (with the chain's cobweb) and the chain's distances; for a soliton,

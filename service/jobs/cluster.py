@@ -30,6 +30,12 @@ LEAN_DASK_CONFIG = {
     "distributed.admin.system-monitor.disk": False,
     "distributed.admin.tick.interval": "200ms",
 }
+# A LocalCluster closes the nanny of a worker that has been gone from its scheduler for
+# Dask's lost-worker timeout (15 s), and the cluster shrinks for good. A worker the engine
+# restarts to stop an overrunning task (engine.stop_request) is such a worker while it starts
+# again: niced on a saturated 2-core machine it took longer than 15 s (load 12), and the cluster
+# lost it. Dask reads the timeout when the worker leaves, so it is set for the process.
+LOST_WORKER_TIMEOUT = "600s"
 
 
 
@@ -73,6 +79,7 @@ def local_cluster(settings: Settings):
     import dask
     from distributed import LocalCluster
 
+    dask.config.set({"distributed.deploy.lost-worker-timeout": LOST_WORKER_TIMEOUT})
     with dask.config.set(LEAN_DASK_CONFIG):  # the nannies hand this configuration to their workers
         return LocalCluster(
             n_workers=settings.dask_workers or os.cpu_count() or 1,

@@ -44,6 +44,10 @@ JOB_PRIORITY, SWEEP_PRIORITY = 10, 0
 REQUEST_PRIORITY = 100
 # The recorder writes progress at most this often (one transaction per batch).
 RECORD_INTERVAL_S = 0.25
+# How long a worker restarted to stop a task may take to stop and come back (stop_request runs
+# in its own thread, so nothing waits on it): a niced worker starting Python, Dask and the
+# kernels again on a saturated machine has taken more than Dask's default 30 s.
+RESTART_TIMEOUT_S = 120.0
 
 
 def _processing_on(dask_scheduler, key: str) -> str | None:
@@ -209,7 +213,7 @@ class Engine:
         future.cancel()
         if where:
             try:
-                self._client.restart_workers([where], timeout=30, raise_for_error=False)
+                self._client.restart_workers([where], timeout=RESTART_TIMEOUT_S, raise_for_error=False)
             except Exception:  # noqa: BLE001 — a worker without a nanny cannot be restarted
                 log.warning("could not restart worker %s to stop an overrunning request", where)
 

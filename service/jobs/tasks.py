@@ -1,7 +1,9 @@
 """The work of one job, as it runs on a Dask worker: an endpoint's request in, its answer out.
 
 ``RUNNABLE`` maps each job endpoint to its operation (zeromode.operations.endpoints, which the
-endpoint's route calls too) and models, so a job answers exactly what the endpoint would. ``execute_chunk`` is the task Dask runs: for each job it parses the
+endpoint's route calls too) and models, so a job answers exactly what the endpoint would; a heavy
+request (service/rest/offload.py) runs any endpoint's operation the same way (``execute_request``).
+``execute_chunk`` is the task Dask runs: for each job it parses the
 request, runs the endpoint under the job time budget and the service's settings (``execute``),
 reports progress as Dask worker events (topic ``PROGRESS_TOPIC``, read by the service's engine)
 and returns the encoded answer or the error body; it never raises for a failure of a request,
@@ -20,7 +22,7 @@ from typing import Any, get_args
 from pydantic import BaseModel, ValidationError
 
 from zeromode.operations.endpoints import OPERATIONS, Operation, wire_body
-from zeromode.operations.prechecks import precheck
+from zeromode.operations.prechecks import PRECHECKS, precheck
 from zeromode.service.wire.errors import failure_detail
 from zeromode.service.wire.schemas.jobs import JobEndpoint
 from zeromode.service.wire.settings import Settings, settings_scope
@@ -51,14 +53,13 @@ class RequestRefused(Exception):
 
 
 def validated(endpoint: str, request: dict[str, Any], prechecked: bool = False) -> BaseModel:
-    """The request parsed by the endpoint's model and passed through the endpoint's up-front
-    checks (zeromode/operations/prechecks.py; skipped when ``prechecked``: a sweep's points passed them when
-    the sweep was accepted): what the endpoint would refuse at once raises RequestRefused with
-    the endpoint's own error."""
-    runnable = RUNNABLE[endpoint]
+    """The request parsed by the model of the endpoint (one of OPERATIONS) and passed through
+    its up-front checks, if it has any (zeromode/operations/prechecks.py: the job endpoints';
+    skipped when ``prechecked``: a sweep's points passed them when the sweep was accepted): what
+    the endpoint would refuse at once raises RequestRefused with the endpoint's own error."""
     try:
-        body = runnable.request_model.model_validate(request)
-        if not prechecked:
+        body = OPERATIONS[endpoint].request_model.model_validate(request)
+        if not prechecked and endpoint in PRECHECKS:
             precheck(endpoint, body)
     except ValidationError as exc:
         errors = exc.errors(include_url=False, include_context=False)
@@ -91,7 +92,7 @@ def error_status(exc: Exception) -> int:
 def answer(endpoint: str, body: BaseModel) -> dict[str, Any]:
     """Run the endpoint's operation: the JSON body the endpoint would have answered (a domain
     failure raises, as the endpoint's 422)."""
-    return wire_body(endpoint, RUNNABLE[endpoint].run(body).body)
+    return wire_body(endpoint, OPERATIONS[endpoint].run(body).body)
 
 
 @lru_cache(maxsize=8)
@@ -134,8 +135,9 @@ def _answered(endpoint: str, request: dict[str, Any], settings: Settings, budget
 
 
 def execute_request(endpoint: str, request: dict[str, Any], settings_json: str, budget_s: float) -> tuple[int, bytes]:
-    """The Dask task of a heavy request answered through the engine (service/rest/offload.py):
-    (HTTP status, body) exactly as the endpoint answers, under the request's time budget."""
+    """The Dask task of a heavy request to an endpoint of OPERATIONS, answered through the
+    engine (service/rest/offload.py): (HTTP status, body) exactly as the endpoint answers, under
+    the request's time budget."""
     try:
         settings = settings_of(settings_json)
         return 200, _answered(endpoint, request, settings, budget_s, None, settings.time_budget_s)

@@ -27,14 +27,13 @@ from collections.abc import Callable
 from functools import cache
 from typing import Any
 
-from fastapi.responses import Response
 from fastapi.routing import APIRoute
 from pydantic import ValidationError
 from starlette.types import ASGIApp, Receive, Scope, Send
 
+from zeromode.operations.endpoints import OPERATIONS
 from zeromode.service.jobs.heavy import heavy
 from zeromode.service.jobs.tasks import (
-    RUNNABLE,
     RequestRefused,
     error_detail,
     error_status,
@@ -52,19 +51,19 @@ log = logging.getLogger("zeromode")
 # Bodies larger than this are validated by the worker, inside the budget it is stopped at, rather
 # than by the service before it takes them (uninterruptible: a 5 MB frame of 10⁵ nodes took up to 1.2 s).
 VALIDATE_HERE_BYTES = 1_000_000
-# Routes that are not job endpoints (service/jobs/tasks.py RUNNABLE) answered by a worker when heavy,
-# through ``execute_route`` (their answer may be a file).
-ROUTES = frozenset({"/v1/design/two-configuration", "/v1/design/allosteric/network", "/v1/plot", "/v1/export",
-                    "/v1/design/sequential", "/v1/map"})
+# The routes that answer a file rather than an operation's JSON body (every other heavy request
+# runs its endpoint's operation, OPERATIONS, as the route and a job do): answered by a worker
+# through ``execute_file_route``.
+FILE_ROUTES = frozenset({"/v1/plot", "/v1/export"})
 JSON_HEADERS = [("content-type", "application/json")]
 
 
 @cache
 def _route(path: str) -> APIRoute:
-    """The POST route of ``path`` among ROUTES."""
-    from zeromode.service.rest.routes import design, export, lattice, plot, sequential
+    """The POST route of ``path`` among FILE_ROUTES."""
+    from zeromode.service.rest.routes import export, plot
 
-    return next(r for module in (design, export, lattice, plot, sequential) for r in module.router.routes
+    return next(r for module in (export, plot) for r in module.router.routes
                 if isinstance(r, APIRoute) and r.path == path and "POST" in r.methods)
 
 
@@ -73,21 +72,18 @@ def _body_model(route: APIRoute):
     return param.field_info.annotation
 
 
-def execute_route(path: str, request: dict[str, Any], settings_json: str,
-                  budget_s: float) -> tuple[int, bytes, list[tuple[str, str]]]:
-    """The Dask task of a heavy request to one of ROUTES: (HTTP status, body, headers) as the
-    route answers, under the request's time budget (as tasks.execute_request for the job
-    endpoints; the answer may be a file, e.g. an export)."""
+def execute_file_route(path: str, request: dict[str, Any], settings_json: str,
+                       budget_s: float) -> tuple[int, bytes, list[tuple[str, str]]]:
+    """The Dask task of a heavy request to one of FILE_ROUTES: (HTTP status, body, headers) as
+    the route answers, under the request's time budget (as tasks.execute_request for the
+    operations)."""
     try:
         settings = settings_of(settings_json)
         route = _route(path)
         with settings_scope(settings), time_budget(budget_s, settings.time_budget_s):
             out = route.endpoint(_body_model(route).model_validate(request))
-            if isinstance(out, Response):
-                kept = [(k, v) for k, v in out.headers.items() if k in ("content-type", "content-disposition")]
-                return out.status_code, bytes(out.body), kept
-            data = route.response_model.model_validate(out).model_dump(mode="json")
-            return 200, json.dumps(data, allow_nan=False, separators=(",", ":")).encode(), JSON_HEADERS
+        kept = [(k, v) for k, v in out.headers.items() if k in ("content-type", "content-disposition")]
+        return out.status_code, bytes(out.body), kept
     except Exception as exc:  # noqa: BLE001 — every failure is the route's error answer
         return error_status(exc), json.dumps({"detail": error_detail(exc)}, separators=(",", ":")).encode(), JSON_HEADERS
 
@@ -96,16 +92,17 @@ def execute_unvalidated(endpoint: str, request: dict[str, Any], settings_json: s
                         budget_s: float) -> tuple:
     """The Dask task of a heavy request whose body the service did not validate (past
     VALIDATE_HERE_BYTES): its schema checked here first, a refusal answered as the route's
-    (invalid_request, the errors listed), then answered by ``execute_request`` (a job endpoint)
-    or ``execute_route``."""
-    model = RUNNABLE[endpoint].request_model if endpoint in RUNNABLE else _body_model(_route(endpoint))
+    (invalid_request, the errors listed), then answered by ``execute_request`` (an operation)
+    or ``execute_file_route``."""
+    model = OPERATIONS[endpoint].request_model if endpoint in OPERATIONS else _body_model(_route(endpoint))
     try:
         with settings_scope(settings_of(settings_json)):
             model.model_validate(request)
     except ValidationError as exc:
         errors = [{**e, "loc": ("body", *e["loc"])} for e in exc.errors(include_url=False, include_context=False)]
         return 422, json.dumps(invalid_request_body(errors), separators=(",", ":")).encode()
-    return (execute_request if endpoint in RUNNABLE else execute_route)(endpoint, request, settings_json, budget_s)
+    task = execute_request if endpoint in OPERATIONS else execute_file_route
+    return task(endpoint, request, settings_json, budget_s)
 
 
 class Offload:
@@ -145,7 +142,7 @@ class Offload:
 
     def _plan(self, scope: Scope, path: str, body: bytes) -> tuple[dict[str, Any], Callable] | None:
         """The request to offload and the task that answers it, or None to answer it inline."""
-        if path not in RUNNABLE and path not in ROUTES:
+        if path not in OPERATIONS and path not in FILE_ROUTES:
             return None
         try:
             request = json.loads(body)
@@ -159,11 +156,11 @@ class Offload:
         if len(body) > VALIDATE_HERE_BYTES:
             return request, execute_unvalidated
         try:
-            if path in RUNNABLE:
+            if path in OPERATIONS:
                 validated(path, request)
                 return request, execute_request
             _body_model(_route(path)).model_validate(request)
-            return request, execute_route
+            return request, execute_file_route
         except (RequestRefused, ValidationError):
             return None  # the route answers with its own error body
 

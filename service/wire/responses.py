@@ -612,6 +612,7 @@ def multistable_body(result, timings_ms: dict) -> dict:
             "arclength": land.arclength.tolist(),
             "energy": land.energy.tolist(),
             "conformation_samples": land.conformation_samples.tolist(),
+            "positions": land.positions.tolist(),
         },
         "minima": [
             {
@@ -678,6 +679,8 @@ def sequential_body(result, timings_ms: dict) -> dict:
             "pairs": verified.chain.pairs.tolist(),
             "iterates": verified.chain.iterates.tolist(),
             "distances": verified.distances.tolist(),
+            "path": verified.positions.tolist(),
+            "reference_index": verified.reference_index,
             "deviation": verified.deviation,
             "iterate_deviation": verified.iterate_deviation,
             "ends": list(verified.ends),
@@ -692,7 +695,7 @@ def sequential_body(result, timings_ms: dict) -> dict:
             for p, v, s in zip(design.points, design.achieved, design.slopes)
         ],
         "chain": chain,
-        "soliton": soliton_body(result.soliton, verified) if hasattr(result, "soliton") else None,
+        "soliton": soliton_body(result.soliton) if hasattr(result, "soliton") else None,
         "deviation": design.deviation,
         "map_rtol": MAP_RTOL,
         "solver_status": design.solver_status,
@@ -700,9 +703,9 @@ def sequential_body(result, timings_ms: dict) -> dict:
     }
 
 
-def soliton_body(soliton, verified) -> dict:
-    """The ``soliton`` part of /v1/design/sequential's body for a solver Soliton (its chain's
-    ChainVerification ``verified``): springs, uniform states, drive, wall, energy, snapshots."""
+def soliton_body(soliton) -> dict:
+    """The ``soliton`` part of /v1/design/sequential's body for a solver Soliton: springs, uniform
+    states, drive, wall, energy, snapshots (the chain's conformations are the chain's ``path``)."""
     module = soliton.module
 
     def uniform(k: int, fixed) -> dict:
@@ -729,8 +732,7 @@ def soliton_body(soliton, verified) -> dict:
         "barrier": soliton.barrier,
         "stiffness": soliton.stiffness,
         "rod_stiffness_ratio": soliton.rod_stiffness_ratio,
-        "snapshots": [{"drive_index": int(i), "positions": verified.path.positions[verified.samples[soliton.rows[i]]].tolist()}
-                      for i in soliton.snapshots],
+        "snapshots": soliton.snapshots.tolist(),
     })
 
 

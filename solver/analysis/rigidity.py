@@ -133,11 +133,32 @@ def zero_mode_residual(frame: Frame, mode: np.ndarray) -> float:
 
 @dataclass(frozen=True, eq=False)
 class Analysis:
-    """The counts and bases of /v1/analyze for one frame.
+    """The counts and bases of /v1/analyze for one frame: the rank r of its compatibility
+    matrix C (N_B × dN, Eq. 3), the zero modes (C u = 0) and self-stresses (Cᵀ s = 0).
 
-    modes: (z, N, d) orthonormal nontrivial zero modes, ⟂ rigid motions (flattened row-major).
-    stresses: (s, N_B) orthonormal self-stresses.  Bases are empty when ``bases_included`` is
-    False (too large to return); the counts are exact either way.
+    Bases are empty when ``bases_included`` is False (too large to return); the counts are exact
+    either way.
+
+    Attributes
+    ----------
+    nodes, edges, dim : int
+        N, N_B and d of the frame.
+    rank : int
+        r, the rank of C.
+    rigid_body_modes : int
+        The rigid motions the frame has (d(d+1)/2 unless its nodes span a lower dimension).
+    rank_gap : RankGap
+        The evidence for r: σ_r, σ_{r+1} and σ_r's error bound.
+    modes : np.ndarray
+        (z, N, d) orthonormal nontrivial zero modes, ⟂ rigid motions (flattened row-major).
+    stresses : np.ndarray
+        (s, N_B) orthonormal self-stresses.
+    method : str
+        "dense" (full SVD) or "sparse" (shift-invert subspace iteration): the route that ran.
+    bases_included : bool
+        Whether ``modes`` and ``stresses`` hold the bases.
+    rigid_basis : np.ndarray
+        The rigid motions' orthonormal basis (dN × ρ) of the normalised frame (rigid_motions).
     """
 
     nodes: int
@@ -154,18 +175,22 @@ class Analysis:
 
     @property
     def maxwell_count(self) -> int:
+        """N_D = dN − N_B, Maxwell's count (Eq. 2)."""
         return self.dim * self.nodes - self.edges
 
     @property
     def zero_modes(self) -> int:
+        """dN − r: the zero modes, rigid motions included."""
         return self.dim * self.nodes - self.rank
 
     @property
     def nontrivial_zero_modes(self) -> int:
+        """The zero modes beyond the rigid motions (the mechanisms)."""
         return self.zero_modes - self.rigid_body_modes
 
     @property
     def self_stresses(self) -> int:
+        """N_B − r: the independent self-stresses."""
         return self.edges - self.rank
 
 

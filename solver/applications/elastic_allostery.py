@@ -73,15 +73,41 @@ NEWTON_STEPS = 2
 
 @dataclass(frozen=True, eq=False)
 class ElasticAllostery:
-    """The edited network and its figures.
+    """Allostery in a given elastic network by editing its springs: the edited network and its
+    figures.
 
-    frame: the given positions with the kept bars (given order). stiffness (N_B',): the kept
-    bars' stiffnesses, the tuned one changed. removed_edges: indices into the given edges, in
-    removal order. tuned_edge: the given edge whose stiffness changed (None when removals alone
-    land), tuned_stiffness: (given, new). strain_ratio: η of the edited network from the
-    verification (bordered LU), ratio_error = |η − η*|/max(1, |η*|). sensitivity: dη/dk of the
-    tuned bar at its new stiffness (None without one). response (N, d): the relaxed motion for
-    ε_S = 1, ⟂ rigid motions. softest_mode: λ_min of the edited K / λ_min of the given K.
+    Attributes
+    ----------
+    frame : Frame
+        The given positions with the kept bars (given order).
+    stiffness : np.ndarray
+        (N_B′,): the kept bars' stiffnesses, the tuned one changed.
+    source_pair, target_pair : tuple of int
+        The node pairs whose strains ε_S and ε_T are coupled.
+    ratio : float
+        η*, the strain ratio ε_T/ε_S asked for.
+    initial_ratio : float
+        η of the given network.
+    strain_ratio : float
+        η of the edited network, from the verification (bordered LU).
+    ratio_error : float
+        ``|η − η*| / max(1, |η*|)``.
+    removed_edges : tuple of int
+        Indices into the given edges, in removal order.
+    tuned_edge : int or None
+        The given edge whose stiffness changed (None when removals alone land).
+    tuned_stiffness : tuple of float or None
+        (given, new) stiffness of the tuned edge.
+    sensitivity : float or None
+        dη/dk of the tuned bar at its new stiffness (None without one).
+    response : np.ndarray
+        (N, d): the relaxed motion for ε_S = 1, ⟂ rigid motions.
+    softest_mode : float
+        λ_min of the edited stiffness matrix K over λ_min of the given one.
+    max_stiffness : float
+        The bound asked for: the tuned bar's new stiffness lies in [0, max_stiffness·k_b].
+    timings_ms : dict
+        Wall time of each step.
     """
 
     frame: Frame

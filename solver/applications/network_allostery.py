@@ -76,15 +76,39 @@ COUNTS_DENSE_MAX_DOF = 200
 
 @dataclass(frozen=True, eq=False)
 class NetworkAllostery:
-    """The modified frame and what changed.
+    """Allostery in a given network as one mechanism: the modified frame and what changed.
 
-    frame: the given nodes first (same indices), then the added nodes; its edges are the kept
-    given edges (in their order) then the added ones. mode (N', d): its one nontrivial zero
-    mode, zero on the ground. removed_edges: indices into the given frame's edges; added_nodes:
-    frame indices; added_edges: (n_add, 2) frame indices; moving: given nodes that move relative
-    to the ground. achieved_target_motion: target rows of the response to the source motion
-    (solved from the modified frame); target_error relative to the prescribed target motion;
-    strain_ratio: ε_T/ε_S of that response for pairs (None for motions).
+    Attributes
+    ----------
+    frame : Frame
+        The given nodes first (same indices), then the added nodes; its edges are the kept given
+        edges (in their order) then the added ones.
+    mode : np.ndarray
+        (N′, d): its one nontrivial zero mode, zero on the ground.
+    analysis : Analysis
+        The modified frame's analysis.
+    source, target : tuple of int
+        The sites' node indices.
+    source_motion, target_motion : np.ndarray
+        The prescribed motions of the sites' nodes (k, d).
+    removed_edges : tuple of int
+        Indices into the given frame's edges.
+    added_nodes : tuple of int
+        Frame indices of the added nodes.
+    added_edges : np.ndarray
+        (n_add, 2) frame indices.
+    moving : tuple of int
+        Given nodes that move relative to the ground.
+    achieved_target_motion : np.ndarray
+        Target rows of the response to the source motion (solved from the modified frame).
+    target_error : float
+        Its error relative to the prescribed target motion.
+    strain_ratio : float or None
+        ε_T/ε_S of that response for pairs (None for motions).
+    mode_residual : float
+        ‖C u‖ / (‖C‖_F ‖u‖) of the mode on the modified frame (0 for an exact zero mode).
+    timings_ms : dict
+        Wall time of each step.
     """
 
     frame: Frame
@@ -106,6 +130,7 @@ class NetworkAllostery:
 
     @property
     def bonds_changed(self) -> int:
+        """Bars removed plus bars added."""
         return len(self.removed_edges) + len(self.added_edges)
 
 

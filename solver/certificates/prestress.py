@@ -372,7 +372,22 @@ class RigidityMargin:
 
 @dataclass(frozen=True, eq=False)
 class Certificate:
-    """The three certificates of one frame, its analysis, and timings in milliseconds."""
+    """The three certificates of one frame, its analysis, and timings in milliseconds.
+
+    Attributes
+    ----------
+    analysis : Analysis
+        The frame's analysis.
+    self_stress : SelfStressCertificate
+        The self-stress count and basis with their evidence (Cᵀ s = 0).
+    prestress : PrestressCertificate
+        Prestress stability: decided by infinitesimal rigidity, by the absence of self-stress,
+        or by the SDP with its margin.
+    rigidity_margin : RigidityMargin
+        Mode isolation: λ_min(Pᵀ K(k) P) for uniform and optimal stiffnesses k.
+    timings_ms : dict
+        Wall time of each certificate.
+    """
 
     analysis: Analysis
     self_stress: SelfStressCertificate

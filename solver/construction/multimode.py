@@ -106,14 +106,60 @@ def spatial_quadric(space: SolutionSpace) -> SpatialQuadric | None:
 
 
 def conic_intersections(q1: np.ndarray, q2: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    """All real common points of two plane conics [x y 1] Q [x y 1]ᵀ = 0 (at most four).
+    """All real common points of two plane conics [x y 1] Q [x y 1]ᵀ = 0 (at most four), (n, 2)
+    in the caller's coordinates.
 
-    Expects normalised coordinates (conics of size ~1 near the origin), as the solver uses.
+    Centred and scaled first: with p = c + s·p′ the conics become Q′ = Mᵀ Q M,
+    M = [[s, 0, c₀], [0, s, c₁], [0, 0, 1]], each then divided by a power of two near its norm
+    (exactly). The centre c is the least-squares centre of both, [A₁; A₂] c = −[b₁; b₂] (A the
+    quadratic part, b half the linear part, each conic weighted by 1/‖A‖; a direction in which
+    both are parabolic keeps c = 0), and the scale s the geometric mean of their radii about c,
+    (‖b′‖ + √(‖b′‖² + ‖A‖|c′|)) / ‖A‖ (the positive root of ‖A‖r² = 2‖b′‖r + |c′|), rounded to a
+    power of two. The points are found for Q′ (conics of size ~1 about the origin, the scale the
+    thresholds below assume) and carried back, p = c + s·p′. What no transformation recovers is
+    what the matrices no longer hold: a conic of size s at distance R from the origin has
+    entries up to ~(R/s)² times its own scale, so its points are fixed only to ~ε(1 + R/s)² of s
+    (ε the machine epsilon).
 
-    Exact route: after a seeded rotation (so no two points share an abscissa), the resultant of
-    the two quadratics in y is a quartic in x; each real root gives y from the common-root
-    formula, then one Newton polish on both conics.
+    Exact route on Q′: after a seeded rotation (so no two points share an abscissa), the
+    resultant of the two quadratics in y is a quartic in x; each real root gives y from the
+    common-root formula, then one Newton polish on both conics.
     """
+    centre, size = _centre_and_scale(q1, q2)
+    m = np.array([[size, 0.0, centre[0]], [0.0, size, centre[1]], [0.0, 0.0, 1.0]])
+    unit = [m.T @ q @ m for q in (q1, q2)]
+    # Each divided by a power of two near its norm: exact, so conics whose quadratic parts were
+    # equal stay equal (a shared point at infinity keeps the resultant's leading terms exactly 0).
+    unit = [q / 2.0 ** np.round(np.log2(np.linalg.norm(q))) for q in unit]
+    return centre + size * _unit_conic_intersections(*unit, rng)
+
+
+def _centre_and_scale(q1: np.ndarray, q2: np.ndarray) -> tuple[np.ndarray, float]:
+    """(c, s) of ``conic_intersections``: the conics' least-squares centre and their size about
+    it, a power of two (so the scaling itself is exact)."""
+    curved = [q / np.linalg.norm(q[:2, :2]) for q in (q1, q2) if np.linalg.norm(q[:2, :2]) > 0]
+    if curved:
+        a = np.vstack([q[:2, :2] for q in curved])
+        b = np.concatenate([q[:2, 2] for q in curved])
+        centre = np.linalg.lstsq(a, -b, rcond=RANK_RTOL)[0]
+    else:  # two lines: any centre
+        centre = np.zeros(2)
+    m = np.array([[1.0, 0.0, centre[0]], [0.0, 1.0, centre[1]], [0.0, 0.0, 1.0]])
+    radii = []
+    for q in (q1, q2):
+        q = m.T @ q @ m
+        a, b, c = np.linalg.norm(q[:2, :2]), np.linalg.norm(q[:2, 2]), abs(q[2, 2])
+        if a > 0:
+            radii.append((b + np.sqrt(b * b + a * c)) / a)
+        elif b > 0:  # a line: its distance from the centre
+            radii.append(c / (2 * b))
+    radii = [r for r in radii if np.isfinite(r) and r > 0]
+    size = float(np.exp(np.mean(np.log(radii)))) if radii else 1.0
+    return centre, float(2.0 ** np.round(np.log2(size)))
+
+
+def _unit_conic_intersections(q1: np.ndarray, q2: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """``conic_intersections`` of two conics of size ~1 about the origin (the resultant route)."""
     theta = rng.uniform(0, 2 * np.pi)
     rot = np.eye(3)
     rot[:2, :2] = [[np.cos(theta), -np.sin(theta)], [np.sin(theta), np.cos(theta)]]
@@ -150,7 +196,7 @@ def conic_intersections(q1: np.ndarray, q2: np.ndarray, rng: np.random.Generator
         return np.zeros((0, 2))
     pts = _newton_polish(np.asarray(points, dtype=float), [a_q, b_q])
     # A shared point at infinity leaves a resultant with a vanishing leading coefficient, whose
-    # root is huge: keep finite points only (the caller works in normalised coordinates).
+    # root is huge: keep finite points only (these are centred and scaled coordinates).
     pts = pts[np.all(np.isfinite(pts), axis=1) & (np.max(np.abs(pts), axis=1) < 1e8)]
     return pts @ rot[:2, :2].T
 

@@ -35,11 +35,26 @@ from zeromode.solver.tolerances import REACHED_EPS
 
 @dataclass(frozen=True, eq=False)
 class TwoConfigurationDesign:
-    """frame: the first configuration (specified nodes first, at x_S exactly);
-    final_positions: (N, d) the second configuration (y_S first, exactly);
-    midpoint: the infinitesimal design it comes from; max_length_mismatch: largest relative
-    difference of a bar's length between the configurations; epsilon: finite-motion fidelity of
-    the traced motion from the first configuration towards y_S (None if it could not be traced)."""
+    """One frame realising two configurations of its specified nodes, x_S and y_S.
+
+    Attributes
+    ----------
+    frame : Frame
+        The first configuration (specified nodes first, at x_S exactly).
+    final_positions : np.ndarray
+        (N, d): the second configuration (y_S first, exactly).
+    midpoint : Design
+        The infinitesimal design it comes from (at (x_S + y_S)/2, motion (y_S − x_S)/2).
+    analysis_initial : Analysis
+        The first configuration's analysis.
+    max_length_mismatch : float
+        The largest relative difference of a bar's length between the configurations.
+    epsilon : float or None
+        Finite-motion fidelity ε of the traced motion from the first configuration towards y_S
+        (None if it could not be traced).
+    path_note : str
+        One sentence on that motion: reached, on another branch, or why it was not traced.
+    """
 
     frame: Frame
     final_positions: np.ndarray

@@ -156,17 +156,33 @@ class Singularity:
 
 @dataclass(frozen=True, eq=False)
 class MotionPath:
-    """A traced finite motion.
+    """A traced finite motion: configurations that keep every bar's length.
 
-    positions: (P, N, d) configurations in the frame's coordinates, ordered by ``parameter``
-    (P,), strictly increasing, 0 at the reference configuration (index ``reference_index``,
-    the input positions exactly). Every other configuration is aligned to the reference by the
-    proper rigid motion that minimises the sum of squared node distances (Kabsch).
-    method: "dense" or "sparse", the linear algebra the continuation used.
-    singular_start: the reference itself as a singular point (``step`` = ``reference_index``,
-    parameter 0), when C has more zero modes there than just off it along the path (the path
-    starts at a branch point: two zero modes crossing, a flattened linkage); None otherwise.
-    It does not end the path and is not one of ``singularities``.
+    Every configuration but the reference is aligned to it by the proper rigid motion that
+    minimises the sum of squared node distances (Kabsch).
+
+    Attributes
+    ----------
+    positions : np.ndarray
+        (P, N, d) configurations in the frame's coordinates, ordered by ``parameter``.
+    parameter : np.ndarray
+        (P,), strictly increasing, 0 at the reference configuration.
+    reference_index : int
+        The reference's index in ``positions`` (the input positions exactly).
+    max_relative_bar_error : float
+        The largest relative change of a bar's length over the path.
+    singularities : tuple of Singularity
+        The singular points met, each ending the path on its side (a rank drop, or a corrector
+        that cannot go on even with the smallest step); empty for status "ok".
+    edges : np.ndarray
+        (N_B, 2): the frame's bars.
+    method : str
+        "dense" or "sparse": the linear algebra the continuation used.
+    singular_start : Singularity or None
+        The reference itself as a singular point (``step`` = ``reference_index``, parameter
+        0), when C has more zero modes there than just off it along the path (the path starts
+        at a branch point: two zero modes crossing, a flattened linkage); None otherwise. It
+        does not end the path and is not one of ``singularities``.
     """
 
     positions: np.ndarray
@@ -180,6 +196,7 @@ class MotionPath:
 
     @property
     def status(self) -> str:
+        """"singular_path" when a singular point ended the path, else "ok"."""
         return "singular_path" if self.singularities else "ok"
 
 

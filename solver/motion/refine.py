@@ -81,15 +81,44 @@ NLP_EXPECTED_S = 1.0
 
 @dataclass(frozen=True, eq=False)
 class Refinement:
-    """The result of refine().
+    """The result of refine(): a frame whose finite motion follows the target.
 
-    frame: the refined frame (or, after a failure, the best frame found: the refined one if its
-    ε is smaller than the original's, else the original, with epsilon_after = epsilon_before).
-    path: (K+1, N, d) IPOPT's last iterate X_0 … X_K in the frame's coordinates, kept for
-    diagnosis after a failure too.  displacement: Δ_S (k × d).  mode: the refined frame's
-    nontrivial zero mode (N, d) at its reference, None when it has not exactly one.
-    iterations: IPOPT's iteration count (0 when IPOPT stopped before iterating, or was not run:
-    a target that is a rigid motion of x_S is reached by the frame as it is, ε = 0).
+    Attributes
+    ----------
+    frame : Frame
+        The refined frame (or, after a failure, the best frame found: the refined one if its ε
+        is smaller than the original's, else the original, with epsilon_after = epsilon_before).
+    displacement : np.ndarray
+        Δ_S (k × d), the specified nodes' target displacement.
+    amplitude : float
+        Its relative amplitude a.
+    epsilon_before, epsilon_after : float
+        Finite-motion fidelity ε of the original and of the refined frame.
+    ipopt_status : str
+        IPOPT's status ("not_needed" when it was not run).
+    iterations : int
+        IPOPT's iteration count (0 when IPOPT stopped before iterating, or was not run: a target
+        that is a rigid motion of x_S is reached by the frame as it is, ε = 0).
+    K : int
+        The steps of the discretised path.
+    attempts : int
+        How many IPOPT runs were made.
+    time_ms, ipopt_time_ms : float
+        Wall time of the refinement and of IPOPT in it.
+    path : np.ndarray
+        (K+1, N, d): IPOPT's last iterate X_0 … X_K in the frame's coordinates, kept for
+        diagnosis after a failure too.
+    max_relative_bar_error : float
+        The largest relative change of a bar's length along ``path``.
+    analysis_reference, analysis_end : Analysis or None
+        The analyses of the path's first and last configurations.
+    ok : bool
+        Whether the refinement succeeded (re-verified).
+    message : str
+        One sentence on the outcome.
+    mode : np.ndarray or None
+        (N, d): the refined frame's nontrivial zero mode at its reference, None when it has not
+        exactly one.
     """
 
     frame: Frame

@@ -127,17 +127,20 @@ def chain_at(the_map: ModuleMap, distances) -> Chain:
 class ChainVerification:
     """The chain's traced motion and its comparison with the module's map.
 
+    positions: (P, N_chain, 2) the chain's conformation at those samples (a subset of
+    ``path.positions``, in the same order); reference_index: the sample that is ``chain.frame``
+    (the chain as built, at the orbit from d_0);
     distances: (P, n + 1) d_k along the path (samples with every input in the map's range);
-    predicted: (P, n) f(d_k) from the single module; samples: (P,) their indices in ``path``;
-    deviation: max |d_{k+1} − f(d_k)|/d_{k+1}
+    predicted: (P, n) f(d_k) from the single module; deviation: max |d_{k+1} − f(d_k)|/d_{k+1}
     (promised ≤ MAP_RTOL); iterate_deviation: max |d_k − f^k(d_0)|/d_k over the iterates that
     stay in range (reported: it grows like Π|f′|); ends: why each direction ended."""
 
     chain: Chain
     path: MotionPath
+    positions: np.ndarray
+    reference_index: int
     distances: np.ndarray
     predicted: np.ndarray
-    samples: np.ndarray
     deviation: float
     iterate_deviation: float
     ends: tuple[str, str]
@@ -164,6 +167,7 @@ def verify_chain(chain: Chain, the_map: ModuleMap, horizon: float = CHAIN_HORIZO
         for i in (0, len(d) - 1)
     )
     d = d[inside]
+    reference = int(np.count_nonzero(inside[:path.reference_index]))
     predicted = the_map.evaluate(d[:, :-1])[0]
     deviation = float(np.max(np.abs(d[:, 1:] - predicted) / d[:, 1:]))
     orbit = d[:, 0].copy()
@@ -175,7 +179,7 @@ def verify_chain(chain: Chain, the_map: ModuleMap, horizon: float = CHAIN_HORIZO
         orbit[live] = the_map.evaluate(orbit[live])[0]
         orbit[~live] = np.nan
         iterate_deviation = max(iterate_deviation, float(np.nanmax(np.abs(d[:, k] - orbit) / d[:, k])))
-    result = ChainVerification(chain, path, d, predicted, np.flatnonzero(inside), deviation, iterate_deviation, ends)
+    result = ChainVerification(chain, path, path.positions[inside], reference, d, predicted, deviation, iterate_deviation, ends)
     if not deviation <= MAP_RTOL:
         error = DomainError(
             "chain_mismatch",

@@ -164,7 +164,7 @@ class ModuleMap:
         return np.asarray(out)
 
     def fixed_points(self) -> list[tuple[float, float]]:
-        """(d*, f′(d*)) for every sign change of f(d) − d between samples, located by Brent's
+        """``(d*, f′(d*))`` for every sign change of f(d) − d between samples, located by Brent's
         method on the exact f."""
         from scipy.optimize import brentq
 

@@ -318,7 +318,7 @@ def _drive(verification: ChainVerification, springs: Springs, the_map: ModuleMap
     keep = np.flatnonzero((d0 - d_u) * (d_s - d0) > 0)
     keep = keep[np.argsort(np.abs(d0[keep] - d_u))]
     distances = verification.distances[keep]
-    positions = verification.path.positions[verification.samples[keep]]
+    positions = verification.positions[keep]
     wall = wall_position(distances, d_u, d_s)
     energy = np.array([springs.energy(x) for x in positions])
     n = chain.n_modules

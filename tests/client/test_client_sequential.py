@@ -127,8 +127,8 @@ def test_soliton_through_the_client_by_the_definition(client: Client) -> None:
             assert wall == pytest.approx(up[0] + (0.5 - s[up[0]]) / (s[up[0] + 1] - s[up[0]]), abs=1e-12)
     walls = [w for w in sol["wall"] if w is not None]
     assert all(b < a for a, b in itertools.pairwise(walls)) and max(walls) - min(walls) >= sol["required_travel"] == 6
-    for shot in sol["snapshots"]:
-        assert energy(shot["positions"]) == pytest.approx(sol["energy"][shot["drive_index"]], rel=1e-10)
+    for i, row in enumerate(sol["rows"]):
+        assert energy(chain["path"][row]) == pytest.approx(sol["energy"][i], rel=1e-10)
     for state in (sol["unstable"], sol["stable"]):
         assert energy(state["positions"]) < 1e-20 and state["hessian_min_eigenvalue"] > 0
     with pytest.raises(ZeromodeError) as both:

@@ -73,3 +73,30 @@ def test_async_exports_an_animation(service_url: str) -> None:
 
     gif = Image.open(io.BytesIO(asyncio.run(scenario())))
     assert gif.n_frames == 10  # 6 configurations there and back
+
+
+def test_a_multistable_design_exports_its_springs_as_springs(client: Client, tmp_path) -> None:
+    """Rods and springs through the real service: the VTU's line cells of kind 1 are the
+    answer's springs with their stiffness and rest length, those of kind 0 its rods; the kit
+    list's spring rows carry the same numbers; a chain exports rods only."""
+    request = client.example("tristable_triangle_2d")
+    design = client.design_multistable(**request)
+    springs = design["springs"]
+    mesh = meshio.read(client.export(design, "vtk").save(tmp_path / "tristable.vtu"))
+    kind = np.concatenate(mesh.cell_data["kind"])
+    cells = np.vstack([block.data for block in mesh.cells])
+    assert np.array_equal(cells[kind == 0], design["frame"]["edges"])
+    assert np.array_equal(cells[kind == 1], springs["pairs"])
+    assert np.array_equal(np.concatenate(mesh.cell_data["stiffness"])[kind == 1], springs["stiffness"])
+    assert np.array_equal(np.concatenate(mesh.cell_data["rest_length"])[kind == 1], springs["rest_length"])
+    rows = [line.split(",") for line in client.export(design, "kit_csv").content.decode().splitlines()
+            if not line.startswith("#")]
+    header, rows = rows[0], rows[1:]
+    spring_rows = [dict(zip(header, r)) for r in rows if r[header.index("kind")] == "spring"]
+    assert [[int(r["node_i"]), int(r["node_j"])] for r in spring_rows] == springs["pairs"]
+    assert [float(r["stiffness"]) for r in spring_rows] == pytest.approx(springs["stiffness"], rel=1e-11)
+    chain = client.design_sequential(features=[{"kind": "fixed_point", "d": 1.5, "slope": -0.5}],
+                                     chain={"n_modules": 3})
+    graph = nx.read_graphml(io.BytesIO(client.export(chain, "graphml").content), node_type=int)
+    assert set(nx.get_edge_attributes(graph, "kind").values()) == {"rod"}
+    assert graph.number_of_edges() == len(chain["chain"]["frame"]["edges"])

@@ -18,13 +18,14 @@ from zeromode.service.wire.schemas.allostery import AllostericRequest
 from zeromode.service.wire.schemas.common import FrameModel, Points
 from zeromode.service.wire.schemas.design import DesignRequest
 from zeromode.service.wire.schemas.lattice import AuxeticRequest, LatticeState
-from zeromode.service.wire.schemas.multistable import MultistableRequest
+from zeromode.service.wire.schemas.multistable import MinimumModel, MultistableRequest, SpringsModel
+from zeromode.service.wire.schemas.sequential import ChainBody, DesignedModule
 from zeromode.solver.errors import InvalidInput
 from zeromode.solver.pipeline import RefineStage, ToleranceStage
 
 # What a document is, by its fields (``kind``).
-DESIGN, AUXETIC, ALLOSTERIC, REFINEMENT, MOTION, FRAME = (
-    "design", "auxetic", "allosteric", "refinement", "motion", "frame"
+DESIGN, AUXETIC, ALLOSTERIC, REFINEMENT, MOTION, FRAME, MULTISTABLE, SEQUENTIAL = (
+    "design", "auxetic", "allosteric", "refinement", "motion", "frame", "multistable", "sequential"
 )
 
 
@@ -55,6 +56,39 @@ class AllostericDocument(DesignDocument):
     report: AllostericReportFields
 
 
+class MultistableDocument(DesignDocument):
+    """A /v1/design/multistable response: the rods (``frame``), every node in each conformation
+    and the springs."""
+
+    conformations: list[Points]
+    springs: SpringsModel
+    minima: list[MinimumModel] = []
+
+
+class UniformStateFields(BaseModel):
+    positions: Points
+
+
+class SolitonFields(BaseModel):
+    """A soliton's part of a /v1/design/sequential response (issue #41 item 2): one spring per
+    copy on the chain's nodes, and the chain with every copy at each fixed point."""
+
+    springs: SpringsModel
+    unstable: UniformStateFields | None = None
+    stable: UniformStateFields | None = None
+
+
+class SequentialDocument(BaseModel):
+    """A /v1/design/sequential response: the designed module, its chain (or None) and, for a
+    soliton, the springs that make its uniform states minima."""
+
+    module: DesignedModule
+    chain: ChainBody | None = None
+    soliton: SolitonFields | None = None
+    deviation: float | None = None
+    map_rtol: float | None = None
+
+
 class PathDocument(BaseModel):
     """A finite motion: a /v1/motion response, or the path of a /v1/refine response."""
 
@@ -65,12 +99,17 @@ class PathDocument(BaseModel):
 
 def kind(doc: dict) -> str:
     """The kind of a response document: AUXETIC (``states`` and ``poisson_ratio``), ALLOSTERIC
-    (``report`` with ``source``, ``target``, ``relays``), DESIGN (any other ``report``),
-    REFINEMENT (``path`` and ``epsilon_after``), MOTION (``path`` and ``parameter``, no
-    ``frame``), else FRAME."""
+    (``report`` with ``source``, ``target``, ``relays``), MULTISTABLE (``frame``,
+    ``conformations`` and ``springs``), DESIGN (any other ``report``), REFINEMENT (``path`` and
+    ``epsilon_after``), MOTION (``path`` and ``parameter``, no ``frame``), SEQUENTIAL
+    (``module`` and ``map``, no ``frame``), else FRAME."""
     report = doc.get("report") if isinstance(doc.get("report"), dict) else {}
     if "frame" not in doc and "path" in doc and "parameter" in doc:
         return MOTION
+    if "frame" not in doc and "module" in doc and "map" in doc:
+        return SEQUENTIAL
+    if {"frame", "conformations", "springs"} <= doc.keys():
+        return MULTISTABLE
     if "states" in doc and "poisson_ratio" in doc:
         return AUXETIC
     if {"source", "target", "relays"} <= report.keys():

@@ -1,24 +1,36 @@
 """What POST /v1/export and ``zeromode export`` write: a document (documents.py) read into a
-zeromode.export Takeaway — its frame, modes, sites, states and report — with its finite motion
-traced (solver.finite_motion, as POST /v1/motion does) when a motion format needs one and the
-document carries none, and its fabrication tolerances (solver.tolerance) in the metadata when
+zeromode.export Takeaway — its frame, modes, sites, states, springs and report — with its finite
+motion traced (solver.finite_motion, as POST /v1/motion does) when a motion format needs one and
+the document carries none, and its fabrication tolerances (solver.tolerance) in the metadata when
 asked, then written by zeromode.export.
+
+A multistable design exports its rods as the frame and its springs as springs (their own element
+type in every format), each conformation as a configuration ``conformation_<c>`` and, for the
+motion formats, the conformations in turn as the path (parameter: each minimum's arc length s
+along the motion; placed as the design gives them, not re-posed). A sequential design exports its
+chain (or, without one, its module): its rods, the input pair as source and the last output
+pair as target; a soliton's springs (one per copy) as springs, and its two uniform states as
+configurations ``unstable`` and ``stable``.
 """
 
 from __future__ import annotations
 
 from zeromode.export import FORMATS, AnimationOptions, Fabrication, check_writable, export_bytes
-from zeromode.export.takeaway import Takeaway
+from zeromode.export.takeaway import SpringSet, Takeaway
 from zeromode.operations import endpoints
 from zeromode.operations.documents import (
     ALLOSTERIC,
     AUXETIC,
     FRAME,
     MOTION,
+    MULTISTABLE,
+    SEQUENTIAL,
     AllostericDocument,
     AuxeticDocument,
     DesignDocument,
+    MultistableDocument,
     PathDocument,
+    SequentialDocument,
     kind,
     validated,
 )
@@ -54,20 +66,43 @@ def export_file(request: ExportRequest) -> tuple[bytes, str, str]:
 
 def takeaway_for(request: ExportRequest) -> Takeaway:
     """The request's document (designed first when it is a request) with the request's own
-    frame, modes and path taking precedence; the path traced when the format needs one."""
+    frame, modes, path and springs taking precedence; the path traced when the format needs one."""
     doc = request.document or {}
-    if doc and "frame" not in doc and kind(doc) != MOTION:
+    if doc and "frame" not in doc and kind(doc) not in (MOTION, SEQUENTIAL):
         doc, _ = endpoints.respond(doc)
     what = kind(doc) if doc else FRAME
-    frame_model = request.frame or (validated(doc, DesignDocument).frame if "frame" in doc else None)
-    if frame_model is None:
-        raise InvalidInput("invalid_request", "the export needs a frame: give `frame`, or a document with one.")
-    frame = frame_from_model(frame_model)
-    modes = request.modes if request.modes is not None else (doc.get("modes") or [])
     metadata: dict = {"kind": what}
     if isinstance(doc.get("report"), dict):
         metadata["report"] = doc["report"]
-    sites, configurations, boundary = {}, {}, None
+    sites, configurations, boundary, springs, placed = {}, {}, None, None, None
+    frame_model = validated(doc, DesignDocument).frame if "frame" in doc else None
+    if what == SEQUENTIAL:
+        sequential = validated(doc, SequentialDocument)
+        chain, module = sequential.chain, sequential.module
+        frame_model = (chain or module).frame
+        pairs = chain.pairs if chain else [module.input_pair, module.output_pair]
+        sites = {"source": pairs[0], "target": pairs[-1]}
+        metadata["report"] = {"deviation": sequential.deviation, "map_rtol": sequential.map_rtol}
+        if chain:
+            metadata["report"]["chain"] = {"deviation": chain.deviation, "iterate_deviation": chain.iterate_deviation}
+            metadata["chain"] = {"pairs": chain.pairs, "iterates": chain.iterates}
+        if sequential.soliton is not None:
+            springs = sequential.soliton.springs
+            states = {"unstable": sequential.soliton.unstable, "stable": sequential.soliton.stable}
+            configurations = {name: state.positions for name, state in states.items() if state is not None}
+    elif what == MULTISTABLE:
+        multistable = validated(doc, MultistableDocument)
+        springs = multistable.springs
+        configurations = {f"conformation_{c}": x for c, x in enumerate(multistable.conformations)}
+        if multistable.minima:
+            metadata["minima"] = [m.model_dump() for m in multistable.minima]
+            placed = multistable.conformations, [m.arclength for m in multistable.minima]
+    frame_model = request.frame or frame_model
+    if frame_model is None:
+        raise InvalidInput("invalid_request", "the export needs a frame: give `frame`, or a document with one.")
+    frame = frame_from_model(frame_model)
+    springs = request.springs or springs
+    modes = request.modes if request.modes is not None else (doc.get("modes") or [])
     if what == ALLOSTERIC:
         report = validated(doc, AllostericDocument).report
         sites = {"source": report.source, "target": report.target, "relays": report.relays}
@@ -87,6 +122,8 @@ def takeaway_for(request: ExportRequest) -> Takeaway:
     path, parameter, reference = None, None, None
     if request.path is not None:
         path, parameter = request.path, request.parameter
+    elif placed is not None:
+        path, parameter = placed
     elif "path" in doc:
         traced = validated(doc, PathDocument)
         path, parameter, reference = traced.path, traced.parameter, traced.reference_index
@@ -104,5 +141,7 @@ def takeaway_for(request: ExportRequest) -> Takeaway:
             "singularities": len(motion.singularities),
         }
     return Takeaway.build(
-        frame, modes, path, parameter, reference, configurations, **sites, metadata=json_safe(metadata)
+        frame, modes, path, parameter, reference, configurations, **sites, metadata=json_safe(metadata),
+        springs=None if springs is None else SpringSet(springs.pairs, springs.stiffness, springs.rest_length),
+        align=placed is None or request.path is not None,
     )

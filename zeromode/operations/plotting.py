@@ -13,6 +13,7 @@ from zeromode.operations.documents import (
     ALLOSTERIC,
     AUXETIC,
     DESIGN,
+    MULTISTABLE,
     AllostericDocument,
     AuxeticDocument,
     DesignDocument,
@@ -70,7 +71,7 @@ def picture_for_document(doc: dict, solution_space: bool = True) -> Picture:
         return allosteric_picture(
             frame_from_model(a.frame), a.modes, a.report.source, a.report.target, a.report.achieved_target_motion
         )
-    if what == DESIGN:
+    if what in (DESIGN, MULTISTABLE):
         d = validated(doc, DesignDocument)
         return design_picture(frame_from_model(d.frame), d.modes, solution_space)
     request = validated(doc, PlotRequest)

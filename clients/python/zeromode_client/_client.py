@@ -237,8 +237,10 @@ class Client(_BaseClient):
         """POST /v1/export: ``document`` — a result of this client (its JSON answer is sent), a
         response or request body, or None with ``frame=`` — written in ``format`` (vtk, xdmf,
         graphml, node_link_json, dxf, cut_svg, stl, kit_csv, svg_animation, gif, mp4);
-        ``fields`` are the request's other fields (frame, modes, path, fabrication, animation,
-        motion, tolerance). Returns an ExportFile (``.content``, ``.save(path)``)."""
+        ``fields`` are the request's other fields (frame, modes, path, springs, fabrication,
+        animation, motion, tolerance). A multistable design's springs are exported as springs
+        (their own cell kind, edge kind, DXF layer and kit rows), never as rods. Returns an
+        ExportFile (``.content``, ``.save(path)``)."""
         return self._send(ep.export(document, format, fields))
 
     def export_formats(self) -> list[dict[str, Any]]:

@@ -1,4 +1,4 @@
-"""POST /v1/export — a design, lattice, allosteric design, motion or refinement as a file for
+"""POST /v1/export — a design, lattice, allosteric or multistable design, chain, motion or refinement as a file for
 ParaView, a graph library, a laser cutter, a 3D printer or a talk; parse → write → serialise."""
 
 from __future__ import annotations
@@ -27,9 +27,10 @@ router = APIRouter(prefix="/v1", tags=["export"])
     },
 )
 def post_export(request: ExportRequest) -> Response:
-    """Write a document (a response of /v1/design, /v1/design/auxetic, /v1/design/allosteric or
-    /v1/refine, a request of the first three — designed first — or a /v1/motion response with its
-    `frame`), or a frame with modes and a path, in `format`: VTK or XDMF for ParaView (meshio),
+    """Write a document (a response of /v1/design, /v1/design/auxetic, /v1/design/allosteric,
+    /v1/design/multistable or /v1/refine, a request of the first four — designed first — a
+    /v1/design/sequential response, or a /v1/motion response with its `frame`), or a frame with
+    modes, a path and springs, in `format` (springs always as springs, never as rods): VTK or XDMF for ParaView (meshio),
     GraphML or node-link JSON (networkx), a DXF or SVG cut file, STL plates or a CSV kit list in mm,
     or the finite motion as an animated SVG, GIF or MP4 (traced first when the document has no
     path)."""

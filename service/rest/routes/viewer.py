@@ -15,7 +15,8 @@ router = APIRouter(tags=["viewer"], include_in_schema=False)
 
 STATIC = files("zeromode.service.rest") / "static"
 # The files the page loads, with their media types; nothing else is served from the folder.
-ASSETS = {"designer.js": "text/javascript", "solution_space.js": "text/javascript", "designer.css": "text/css"}
+ASSETS = {"designer.js": "text/javascript", "solution_space.js": "text/javascript", "landscape.js": "text/javascript",
+          "designer.css": "text/css"}
 
 
 @router.get("/", response_class=HTMLResponse)

@@ -51,6 +51,7 @@ const state = {
   example: null, response: null, frame: null, modes: [], mode: 0, sites: {}, motionPath: null,
   refined: null, refinedPath: null, certificate: null, timer: null, drag: null, view: VIEW_3D.slice(),
   formats: null, jobs: 0, timings: { live: [], design: [] }, progressLog: [], map: null, fresh: true,
+  conformations: [], features: [], chainExamples: null, jobEndpoints: [], mapCheck: null, module: null,
 };
 window.designer = state;  // for outside tests and the curious
 
@@ -133,17 +134,20 @@ function projector(dim) {
 // to hold the frame along its whole motion, so a design drawn in the window stays in place.
 function makeMap() {
   const dim = state.frame ? state.frame.dim : sketchDim(), project = projector(dim);
-  let lo = dim === 2 ? WINDOW.lo.slice() : [Infinity, Infinity], hi = dim === 2 ? WINDOW.hi.slice() : [-Infinity, -Infinity];
+  // Conformations and chains are typed, not drawn: their drawing fits them.
+  const fit = dim === 3 || state.kind === "multistable" || state.kind === "chain";
+  let lo = fit ? [Infinity, Infinity] : WINDOW.lo.slice(), hi = fit ? [-Infinity, -Infinity] : WINDOW.hi.slice();
   const tips = state.nodes.map((n, i) => n.x.map((v, a) => v + (state.motions[0][i] || [0, 0, 0])[a]));
   const configs = state.frame ? (state.motionPath ? state.motionPath.path : [state.frame.positions])
-    : dim === 3 ? [state.nodes.map((n) => n.x), tips] : state.network ? [state.network.positions] : [];
+    : dim === 3 ? [state.nodes.map((n) => n.x), tips] : state.kind === "multistable" ? state.conformations
+    : state.network ? [state.network.positions] : [];
   for (const points of configs) for (const p of points) {
     const s = project(p);
     lo = [Math.min(lo[0], s[0]), Math.min(lo[1], s[1])];
     hi = [Math.max(hi[0], s[0]), Math.max(hi[1], s[1])];
   }
   if (!Number.isFinite(lo[0])) { lo = WINDOW.lo.slice(); hi = WINDOW.hi.slice(); }
-  const inWindow = dim === 2 && lo[0] >= WINDOW.lo[0] && hi[0] <= WINDOW.hi[0] && lo[1] >= WINDOW.lo[1] && hi[1] <= WINDOW.hi[1];
+  const inWindow = !fit && lo[0] >= WINDOW.lo[0] && hi[0] <= WINDOW.hi[0] && lo[1] >= WINDOW.lo[1] && hi[1] <= WINDOW.hi[1];
   const pad = inWindow ? 0 : PAD;
   const scale = Math.min((WIDTH - 2 * pad) / ((hi[0] - lo[0]) || 1), (HEIGHT - 2 * pad) / ((hi[1] - lo[1]) || 1));
   const ox = (WIDTH - (hi[0] - lo[0]) * scale) / 2, oy = (HEIGHT - (hi[1] - lo[1]) * scale) / 2;
@@ -246,15 +250,48 @@ function draw() {
   const defs = el("defs", {}, svg);
   arrowHeads(defs, COLOURS.motions);
   const shown = new Set();
-  if (!state.frame && !state.nodes.length && !state.example) {
+  if (!state.frame && !state.nodes.length && !state.example && !(state.kind === "multistable" && state.conformations.length)) {
     const t = el("text", { x: WIDTH / 2, y: HEIGHT / 2, "text-anchor": "middle", fill: "#999", "font-size": 18 }, svg);
     t.textContent = state.kind === "auxetic" ? "Set the sheet on the left, then press Design."
+      : state.kind === "chain" ? "Choose the map's features on the left, then press Design."
+      : state.kind === "multistable" ? "Type the conformations on the left, then press Design."
       : "Click to place a node; drag from it to set its motion.";
   }
   drawSpaces(svg, toPage, shown);
   if (state.frame) drawFrame(svg, toPage, shown);
+  else if (state.kind === "multistable") drawConformations(svg, toPage, shown);
   else drawSketch(svg, toPage, shown);
   legend(shown);
+  drawCharts();
+}
+
+// Before a multistable design: the conformations of the form, each in its colour, the nodes of
+// one joined in order (dashed).
+function drawConformations(svg, toPage, shown) {
+  const g = el("g", { class: "conformations" }, svg);
+  state.conformations.forEach((points, c) => {
+    const colour = CONFORMATION_COLOURS[c % 3], p = points.map(toPage);
+    el("polygon", { points: p.map((q) => q.join(",")).join(" "), fill: "none", stroke: colour, "stroke-dasharray": "5 4", "stroke-width": 1.5 }, g);
+    p.forEach(([x, y], i) => el("circle", { class: "conformation-node", "data-conformation": c, "data-node": i, cx: x, cy: y, r: 6,
+                                            fill: c ? "#fff" : COLOURS.specified[0], stroke: colour, "stroke-width": 2 }, g));
+    shown.add(`conformation-${c}`);
+  });
+}
+
+// The charts under the drawing, at the slider's sample: the energy landscape of a multistable
+// design; the module's map with the chain's cobweb, and d_k along the chain.
+function drawCharts() {
+  const r = state.response, k = state.motionPath ? Number($("slider").value) : null;
+  $("landscape-box").hidden = !(r && r.landscape && k !== null);
+  $("map-box").hidden = !(r && r.map);
+  if (r && r.landscape && k !== null) drawLandscape($("landscape"), r, k);
+  if (r && r.map) {
+    const d = r.chain && k !== null ? r.chain.distances[k] : null;
+    drawMapChart($("map-chart"), r.map, d);
+    $("profile").parentNode.hidden = !d;
+    $("map-caption").textContent = d ? "the module's map f, the chain as a cobweb" : "the module's map f, its fixed points and folds";
+    if (d) drawProfile($("profile"), r.map, d);
+  }
 }
 
 function drawSpaces(svg, toPage, shown) {
@@ -340,7 +377,16 @@ function marker(parent, kind, cx, cy) {
 function drawFrame(svg, toPage, shown) {
   const x = state.frame.positions, edges = state.frame.edges;
   const mode = state.modes[state.mode];
-  if (state.motionPath) {
+  const own = state.motionPath && state.motionPath.own;
+  if (own) {
+    // Long paths of many nodes: one light polyline per node.
+    const g = el("g", { class: "trajectories" }, svg);
+    for (let i = 0; i < x.length; i++) {
+      const pts = state.motionPath.path.map((c) => toPage(c[i]).map((v) => v.toFixed(1)).join(",")).join(" ");
+      el("polyline", { points: pts, fill: "none", stroke: "#c6dbef", "stroke-width": 1.2 }, g);
+    }
+    shown.add("track");
+  } else if (state.motionPath) {
     const g = el("g", { class: "trajectories" }, svg);
     const path = state.motionPath.path, steps = path.length - 1;
     for (let i = 0; i < x.length; i++) {
@@ -352,12 +398,37 @@ function drawFrame(svg, toPage, shown) {
     shown.add("path");
   }
   const p = currentPositions().map(toPage);
+  const r = state.response;
+  if (r.landscape) {
+    // Where the designed minima are: the specified nodes at each conformation's sample.
+    const g = el("g", { class: "conformations" }, svg);
+    r.landscape.conformation_samples.forEach((sample, c) => {
+      for (const i of state.frame.specified) {
+        const [cx, cy] = toPage(r.landscape.positions[sample][i]);
+        el("circle", { class: "conformation", "data-conformation": c, cx, cy, r: 10, fill: "none", stroke: CONFORMATION_COLOURS[c % 3], "stroke-width": 2 }, g);
+      }
+      shown.add(`conformation-${c}`);
+    });
+  }
+  if (r.springs) {
+    const g = el("g", { class: "springs" }, svg);
+    r.springs.pairs.forEach(([i, j], s) => el("path", { class: "spring", "data-spring": s, d: springPath(p[i], p[j]), fill: "none",
+                                                          stroke: CHART.spring, "stroke-width": 1, opacity: 0.6 }, g));
+    shown.add("spring");
+  }
   const bars = el("g", { class: "bars" }, svg);
   edges.forEach(([i, j], b) => el("line", {
     class: "bar", "data-edge": b, x1: p[i][0], y1: p[i][1], x2: p[j][0], y2: p[j][1],
-    stroke: COLOURS.bar, "stroke-width": 2, "stroke-linecap": "round",
+    stroke: COLOURS.bar, "stroke-width": r.springs ? 3 : 2, "stroke-linecap": "round",
   }, bars));
-  shown.add("bar");
+  shown.add(r.springs ? "rod" : "bar");
+  const pairs = r.chain ? r.chain.pairs : r.module ? [r.module.input_pair, r.module.output_pair] : null;
+  if (pairs) {
+    const g = el("g", { class: "pairs" }, svg);
+    pairs.forEach(([i, j], k) => el("line", { class: "pair", "data-pair": k, x1: p[i][0], y1: p[i][1], x2: p[j][0], y2: p[j][1],
+                                                     stroke: CHART.pair, "stroke-width": 1.5, "stroke-dasharray": "4 3" }, g));
+    shown.add("pair");
+  }
   const atReference = !state.motionPath || Number($("slider").value) === state.motionPath.reference_index;
   if (mode && atReference) {
     const size = Math.max(...[0, 1, 2].slice(0, state.frame.dim).map((a) => {
@@ -393,7 +464,9 @@ function drawFrame(svg, toPage, shown) {
   if (state.motionPath) {
     const k = Number($("slider").value), m = state.motionPath;
     const signed = (v) => `${v >= 0 ? "+" : "−"}${Math.abs(v).toFixed(3)}`;
-    $("where").textContent = `t ${signed(m.parameter[k])}${m.strains ? ` · ε_x ${signed(m.strains[k][0])}` : ""}`;
+    $("where").textContent = m.own === "landscape" ? `s ${m.parameter[k].toFixed(3)} · E ${fmt(r.landscape.energy[k], 3)}`
+      : m.own === "chain" ? `d₀ ${m.parameter[k].toFixed(3)} · d_n ${r.chain.distances[k][r.chain.distances[k].length - 1].toFixed(3)}`
+      : `t ${signed(m.parameter[k])}${m.strains ? ` · ε_x ${signed(m.strains[k][0])}` : ""}`;
   }
 }
 
@@ -415,6 +488,12 @@ function legend(shown) {
   entry("source", "source site", (s) => el("rect", { x: 6, y: 1, width: 10, height: 10, fill: "none", stroke: COLOURS.source, "stroke-width": 2 }, s));
   entry("target", "target site", (s) => el("polygon", { points: "11,0 17,6 11,12 5,6", fill: "none", stroke: COLOURS.target, "stroke-width": 2 }, s));
   entry("bar", "bar", line(COLOURS.bar));
+  entry("rod", "rod", line(COLOURS.bar));
+  entry("spring", "spring", (s) => el("path", { d: springPath([1, 6], [21, 6]), fill: "none", stroke: CHART.spring, "stroke-width": 1.2 }, s));
+  entry("pair", "pair d_k", (s) => el("line", { x1: 1, y1: 6, x2: 21, y2: 6, stroke: CHART.pair, "stroke-width": 2, "stroke-dasharray": "4 3" }, s));
+  CONFORMATION_COLOURS.forEach((colour, c) => entry(`conformation-${c}`, `conformation ${c + 1}`,
+    (s) => el("circle", { cx: 11, cy: 6, r: 4.5, fill: "none", stroke: colour, "stroke-width": 2 }, s)));
+  entry("track", "node paths", line("#c6dbef", 2));
   state.motions.forEach((_, m) => entry(`motion-${m}`, `motion ${m + 1}`, line(COLOURS.motions[m % 4])));
   entry("mode", "zero mode", line(COLOURS.motions[0]));
   state.spaces.forEach((_, m) => entry(`space-${m}`, `solution space${state.spaces.length > 1 ? " " + (m + 1) : ""}`, line(COLOURS.spaces[m % 4], 2)));
@@ -438,7 +517,7 @@ function onPointerDown(event) {
     $("canvas").setPointerCapture(event.pointerId);
     return;
   }
-  if (state.kind === "auxetic" || state.example) return;
+  if (["auxetic", "multistable", "chain"].includes(state.kind) || state.example) return;
   const w = pointerWorld(event), target = event.target;
   if (state.kind === "draw" && document.querySelector("input[name=place]:checked").value === "unspecified") {
     if (!state.frame) placeUnspecified(w, target.classList.contains("crossing") ? Number(target.dataset.crossing) : null);
@@ -541,6 +620,20 @@ function drawnRequest() {
     if ($("tolerance").checked) request.tolerance = {};
     return ["/v1/design/auxetic", request];
   }
+  if (state.kind === "multistable") {
+    const options = { seed: 0 }, barrier = $("barrier").value.trim();
+    if (barrier) options.barrier = Number(barrier);
+    return ["/v1/design/multistable", { dim: 2, conformations: state.conformations, options }];
+  }
+  if (state.kind === "chain" && chainSource() === "given") {
+    const m = state.module;
+    return ["/v1/map", { frame: { dim: 2, positions: m.positions, edges: m.edges }, input_pair: m.input_pair, output_pair: m.output_pair }];
+  }
+  if (state.kind === "chain") {
+    const chain = { n_modules: Number($("n-modules").value) }, d0 = $("d0").value.trim();
+    if (d0) chain.d0 = Number(d0);
+    return ["/v1/design/sequential", { features: state.features, chain }];
+  }
   const options = $("tolerance").checked ? { tolerance: {} } : {};
   if (state.example) return ["/v1/design", { ...state.example, options: { ...state.example.options, ...options } }];
   if (state.kind === "allostery") {
@@ -578,11 +671,19 @@ async function design(event) {
   say(`designing (${endpoint}) …`);
   // A drawn 2D design answers in milliseconds; the rest may take seconds: a job with progress.
   // (Allostery in a given network has no job endpoint: it is asked directly too.)
-  const direct = (endpoint === "/v1/design" && request.dim === 2) || endpoint === "/v1/design/allosteric/network";
+  // (So are a module's map and a sequential design unless the service runs it as a job: on a
+  // worker all the same, the service offloads it.)
+  const direct = (endpoint === "/v1/design" && request.dim === 2) || endpoint === "/v1/design/allosteric/network"
+    || endpoint === "/v1/map" || (endpoint === "/v1/design/sequential" && !state.jobEndpoints.includes(endpoint));
   try {
-    const response = direct ? await post(endpoint, request) : await runJob(endpoint, request, "designing");
+    const kind = state.kind;
+    let response = direct ? await post(endpoint, request) : await runJob(endpoint, request, "designing");
+    if (state.kind !== kind) return;  // another tab was chosen meanwhile
+    // A given module's map is drawn as a designed module's is, without features or chain.
+    if (endpoint === "/v1/map") response = { map: response, module: { ...request, frame: { ...request.frame, specified: [] } }, features: [], chain: null };
+    const own = ownMotion(response);
     state.response = response;
-    state.frame = response.frame;
+    state.frame = own ? own.frame : response.frame;
     state.modes = response.modes || [];
     state.mode = 0;
     const modeSelect = $("mode-select");
@@ -596,9 +697,15 @@ async function design(event) {
     draw();
     requestAnimationFrame(() => state.timings.design.push(performance.now() - t0));
     state.fresh = false;
-    say(`designed: ${state.frame.positions.length} nodes, ${state.frame.edges.length} bars; tracing the finite motion …`);
     $("refine").disabled = !(state.modes.length === 1 && state.frame.specified.length >= 2);
-    $("certify").disabled = false;
+    $("certify").disabled = Boolean(own);
+    if (own) {
+      showOwnMotion(own.motion);
+      // Rods and springs, and a chain, export as designs do (springs as their own cells).
+      await Promise.all([response.landscape || response.chain ? listDownloads() : null, checkMap(response)]);
+      return;
+    }
+    say(`designed: ${state.frame.positions.length} nodes, ${state.frame.edges.length} bars; tracing the finite motion …`);
     report_();
     await Promise.all([traceMotion(), listDownloads()]);
   } catch (e) {
@@ -610,13 +717,59 @@ async function design(event) {
 function clearDesign() {
   stop();
   Object.assign(state, { response: null, frame: null, modes: [], sites: {}, motionPath: null,
-                         refined: null, refinedPath: null, certificate: null, fromDrawing: false });
+                         refined: null, refinedPath: null, certificate: null, fromDrawing: false, mapCheck: null });
   for (const id of ["slider", "play", "refine", "certify"]) $(id).disabled = true;
   $("where").textContent = "";
   $("downloads").replaceChildren();
   $("compare").hidden = true;
   report_();
   draw();
+}
+
+// A multistable design and a verified chain come with their motion (the landscape's samples,
+// the chain's conformations along its traced motion): played as the service traced it.
+function ownMotion(response) {
+  if (response.landscape) {
+    const land = response.landscape;
+    return { frame: response.frame, motion: { own: "landscape", path: land.positions, parameter: land.arclength,
+                                                reference_index: land.conformation_samples[0] } };
+  }
+  if (response.map) {
+    const c = response.chain;
+    if (!c) return { frame: response.module.frame, motion: null };
+    return { frame: c.frame, motion: { own: "chain", path: c.path, parameter: c.distances.map((d) => d[0]), reference_index: c.reference_index } };
+  }
+  return null;
+}
+
+function showOwnMotion(motion) {
+  state.motionPath = motion;
+  const slider = $("slider");
+  if (motion) {
+    slider.max = motion.path.length - 1;
+    slider.value = motion.reference_index;
+  }
+  slider.disabled = $("play").disabled = !motion;
+  const f = state.frame, springs = state.response.springs;
+  const mapped = state.response.features && !state.response.features.length;
+  say(`${mapped ? "mapped" : "designed"}: ${f.positions.length} nodes, ${f.edges.length} ${springs ? `rods, ${springs.pairs.length} springs` : "bars"}`
+      + (motion ? `; its motion in ${motion.path.length} samples: press Play or drag the slider.` : "."));
+  draw();
+  report_();
+}
+
+// The designed module's map asked of POST /v1/map at the chain's iterates d_0 … d_{n−1}: f(d_k)
+// from the single module against the chain's d_{k+1} (the report's "/v1/map check").
+async function checkMap(response) {
+  const c = response.chain, m = response.module;
+  if (!c) return;
+  const frame = state.frame;
+  const body = await post("/v1/map", { frame: { dim: 2, positions: m.frame.positions, edges: m.frame.edges },
+                                       input_pair: m.input_pair, output_pair: m.output_pair, at: c.iterates.slice(0, -1) });
+  if (state.frame !== frame) return;
+  const deviation = Math.max(...body.evaluated.map((e, k) => Math.abs(e.d_out - c.iterates[k + 1]) / c.iterates[k + 1]));
+  state.mapCheck = { evaluated: body.evaluated, deviation };
+  report_();
 }
 
 async function traceMotion() {
@@ -667,11 +820,12 @@ function stop() {
 function play() {
   if (state.timer) { stop(); return; }
   const slider = $("slider");
-  let direction = 1;
+  // About 100 frames a sweep: a chain's long path plays in seconds too.
+  let direction = Math.max(1, Math.round((Number(slider.max) + 1) / 100));
   $("play").textContent = "Pause";
   state.timer = setInterval(() => {
     let k = Number(slider.value) + direction;
-    if (k > Number(slider.max) || k < 0) { direction = -direction; k += 2 * direction; }
+    if (k > Number(slider.max) || k < 0) { direction = -direction; k = Math.min(Math.max(k + 2 * direction, 0), Number(slider.max)); }
     slider.value = k;
     draw();
   }, 50);
@@ -850,8 +1004,9 @@ function reportRows() {
     add("tolerance, pins", tol.pin_positions, "× mean bar", `How far each pin may be off, as a fraction of the mean bar length (${fmt(tol.mean_bar_length)}), ${budget}`);
   }
   if (rep.timings_ms && rep.timings_ms.total !== undefined) add("design time", rep.timings_ms.total, "ms", "Time the service spent designing.");
+  beyondOneMotion(r, rows, add);
   const m = state.motionPath;
-  if (m) {
+  if (m && !m.own) {
     rows.push(["Finite motion"]);
     add("configurations", m.path.length, "", "Points traced along the nonlinear motion.");
     add("parameter range", `${fmt(m.parameter[0])} … ${fmt(m.parameter[m.parameter.length - 1])}`, "", "Pseudo-arclength, RMS node displacement over the frame's RMS radius.");
@@ -884,10 +1039,57 @@ function reportRows() {
   return rows;
 }
 
+// Report rows of a multistable design (its minima) and of a module map with its chain.
+function beyondOneMotion(r, rows, add) {
+  const rep = r.report || {};
+  if (r.minima) {
+    rows.push(["Rods and springs"]);
+    add("springs", rep.springs, "", "Springs (zig-zags), E = Σ k_s (|x_i − x_j| − L_s)² / 2; never where a rod is.");
+    add("gap along the motion", rep.gap, "relative", "Smallest σ_r/σ_max of C along the motion: one non-rigid zero mode at every sample.");
+    add("rod length mismatch", rep.max_length_mismatch, "relative", "Largest relative difference of a rod's length between the conformations.");
+    add("barrier asked", rep.barrier, "k·L²", "The least energy barrier between neighbouring minima asked for (or its default); k = the largest spring stiffness, L = the unit of length.");
+    r.minima.forEach((m) => {
+      rows.push([`Minimum ${m.index + 1} (conformation ${m.index + 1})`]);
+      add("energy E", m.energy, "k·L²", "The springs' energy in this conformation.");
+      add("curvature E″(s)", m.curvature, "k", "Second derivative of E along the motion (s its arc length): > 0, a strict minimum along the motion.");
+      add("slope E′(s)", m.slope, "k·L", "First derivative of E along the motion: 0 at a minimum, up to round-off.");
+      add("barrier before", m.barrier_before, "k·L²", "Highest energy between the previous minimum and this one, minus E here.");
+      add("barrier after", m.barrier_after, "k·L²", "Highest energy between this minimum and the next, minus E here.");
+      add("Hessian λ_min", m.hessian_min_eigenvalue, "k", "Smallest eigenvalue of the full energy's Hessian (rods as stiff springs), rigid motions aside: > 0, stable against every small push, not only along the motion.");
+      add("worst landing", m.worst_landing, "relative", "Farthest end of a relaxation from a seeded push from the relaxed minimum (over RMS radius · √N): small, it falls back.");
+    });
+  }
+  if (r.map) {
+    const m = r.map;
+    rows.push(["Module map"]);
+    add("module", `${r.module.frame.positions.length} nodes, ${r.module.frame.edges.length} bars`, "", `Input pair ${r.module.input_pair.join("–")}, output pair ${r.module.output_pair.join("–")}: d_out = f(d_in) along its motion.`);
+    for (const f of r.features) {
+      add(`f(${fmt(f.d_in, 4)})`, f.achieved_d_out, "L", `The designed module's f at d_in = ${fmt(f.d_in, 4)}, exact (Newton on its branch); asked ${fmt(f.d_out, 6)}.`);
+      if (f.slope !== null) add(`f′(${fmt(f.d_in, 4)})`, f.achieved_slope, "", `Its slope there; asked ${fmt(f.slope, 6)} (|f′| < 1: stable).`);
+    }
+    add("feature deviation", r.deviation, "relative", `Largest relative miss of a feature: within map_rtol = ${fmt(r.map_rtol)}, checked by continuation.`);
+    add("usable range", `${fmt(m.lower.d_in, 4)} … ${fmt(m.upper.d_in, 4)}`, "L", `d_in between the ends of the map's branch: ${m.lower.kind} below, ${m.upper.kind} above.`);
+    m.fixed_points.forEach((p, i) => add(`fixed point ${i + 1}`, `${fmt(p.d, 6)}, f′ ${fmt(p.slope, 3)}`, "L", `f(d*) = d*; ${p.stable ? "stable (|f′| < 1): orbits near it converge" : "unstable (|f′| > 1): orbits leave it"}.`));
+    add("IPOPT", r.solver_status, "", "The optimiser's status (the answer is verified by continuation, not by it).");
+    const c = r.chain;
+    if (c) {
+      rows.push(["Chain"]);
+      add("copies", c.pairs.length - 1, "", "Modules chained, the output pair of one the input pair of the next.");
+      add("nodes, bars", `${c.frame.positions.length}, ${c.frame.edges.length}`, "", "The chained frame: one non-rigid zero mode.");
+      add("samples", c.path.length, "", "Conformations of the chain along its traced motion (the animation).");
+      add("chain deviation", c.deviation, "relative", "max |d_{k+1} − f(d_k)| / d_{k+1} along the chain's traced motion, f from the single module.");
+      add("iterate deviation", c.iterate_deviation, "relative", "max |d_k − f^k(d_0)| / d_k: round-off amplified by Π|f′| (reported, not promised).");
+      add("motion ends", c.ends.join(", "), "", "Why the traced motion ended each way: map_range (a copy reached its fold), singular_point or horizon.");
+    }
+    if (state.mapCheck) add("POST /v1/map check", state.mapCheck.deviation, "relative", "f(d_k) of the designed module asked of POST /v1/map against the chain's d_{k+1}, largest relative difference.");
+  }
+}
+
 function report_() {
   const body = $("report").tBodies[0];
   body.replaceChildren();
-  const rows = reportRows();
+  // A section without rows (a module map has no "Design" counts) is not shown.
+  const rows = reportRows().filter((row, i, all) => row.length > 1 || (all[i + 1] && all[i + 1].length > 1));
   $("report-empty").hidden = rows.length > 0;
   for (const [label, value, unit, meaning] of rows) {
     const tr = el("tr", {}, body, true);
@@ -951,8 +1153,155 @@ function setKind(kind) {
     : "Click on the canvas to place a specified node; drag from a node to give it a motion.";
   state.example = null;
   if (kind === "auxetic" && $("name").value === "my_design") $("name").value = "auxetic_sheet";
+  $("amplitude-row").hidden = kind === "multistable" || kind === "chain";
+  for (const id of ["refine", "certify"]) $(id).hidden = kind === "multistable" || kind === "chain";
   clearSketch();
   if (kind === "space3d") fillTable(DEFAULT_3D.positions, DEFAULT_3D.motion);
+  if (kind === "multistable" && !state.conformations.length) loadConformations(MULTISTABLE_EXAMPLE).catch((e) => say(e.message, true));
+  if (kind === "chain" && !state.features.length) loadChainExamples().catch((e) => say(e.message, true));
+  if (kind === "chain" && !state.module) {
+    state.module = JSON.parse(JSON.stringify(GIVEN_MODULE));
+    renderModule();
+  }
+}
+
+// The given module of the Chain tab: the two-triangle module of docs/module_maps.md.
+const GIVEN_MODULE = {
+  positions: [[-1, 0], [1, 0], [-0.8, 1], [0.8, 1], [0.15, 0.45]],
+  edges: [[0, 2], [0, 4], [2, 4], [1, 3], [1, 4], [3, 4]], input_pair: [0, 1], output_pair: [2, 3],
+};
+const chainSource = () => document.querySelector("input[name=chain-source]:checked").value;
+
+function renderModule() {
+  const body = $("module").tBodies[0];
+  body.replaceChildren();
+  state.module.positions.forEach((p, i) => {
+    const tr = el("tr", {}, body, true);
+    el("td", {}, tr, true).textContent = String(i + 1);
+    p.forEach((v, a) => {
+      const input = el("input", { type: "number", step: "0.05", value: v, "aria-label": `node ${i + 1}, ${"xy"[a]}`, "data-node": i, "data-axis": a },
+                       el("td", {}, tr, true), true);
+      input.addEventListener("input", () => { if (Number.isFinite(input.valueAsNumber)) { p[a] = input.valueAsNumber; clearDesign(); } });
+    });
+  });
+}
+
+// ----------------------------------------------------------------------------- multistable, chain forms
+
+// The multistable form starts from this named example (GET /v1/examples).
+const MULTISTABLE_EXAMPLE = "tristable_triangle_2d";
+
+async function loadConformations(name) {
+  const request = await (await api("GET", `/v1/examples/${encodeURIComponent(name)}/request`)).json();
+  state.conformations = request.conformations.map((c) => c.map((p) => p.slice()));
+  $("n-conformations").value = String(state.conformations.length);
+  $("barrier").value = request.options && request.options.barrier ? String(request.options.barrier) : "";
+  $("name").value = name;
+  renderConformations();
+  edited();
+}
+
+// One row per specified node: x, y in each conformation; every edit redraws the preview.
+function renderConformations() {
+  const table = $("conformations"), C = state.conformations.length;
+  const head = el("tr", {}, null, true);
+  el("th", {}, head, true);
+  for (let c = 0; c < C; c++) {
+    const th = el("th", { colspan: 2, style: `color: ${CONFORMATION_COLOURS[c % 3]}` }, head, true);
+    th.textContent = `conformation ${c + 1}`;
+  }
+  table.tHead.replaceChildren(head);
+  const body = table.tBodies[0];
+  body.replaceChildren();
+  (state.conformations[0] || []).forEach((_, i) => {
+    const tr = el("tr", {}, body, true);
+    el("td", {}, tr, true).textContent = String(i + 1);
+    state.conformations.forEach((points, c) => points[i].forEach((v, a) => {
+      const input = el("input", { type: "number", step: "0.05", value: v, "aria-label": `conformation ${c + 1}, node ${i + 1}, ${"xy"[a]}`,
+                                  "data-conformation": c, "data-node": i, "data-axis": a }, el("td", {}, tr, true), true);
+      input.addEventListener("input", () => { if (Number.isFinite(input.valueAsNumber)) { points[i][a] = input.valueAsNumber; edited(); } });
+    }));
+    const remove = el("button", { type: "button", title: "remove this node" }, el("td", {}, tr, true), true);
+    remove.textContent = "×";
+    remove.addEventListener("click", () => { state.conformations.forEach((c) => c.splice(i, 1)); renderConformations(); edited(); });
+  });
+}
+
+function conformationCount() {
+  const want = Number($("n-conformations").value), cs = state.conformations;
+  while (cs.length > want) cs.pop();
+  // A new conformation starts as the last one with its last node moved up a little.
+  while (cs.length < want) cs.push(cs[cs.length - 1].map((p, i, all) => (i === all.length - 1 ? [p[0], p[1] + 0.15] : p.slice())));
+  renderConformations();
+  edited();
+}
+
+// The named examples of POST /v1/design/sequential are its OpenAPI examples (read once).
+async function loadChainExamples() {
+  if (!state.chainExamples) {
+    const spec = await (await api("GET", "/openapi.json")).json();
+    state.chainExamples = spec.paths["/v1/design/sequential"].post.requestBody.content["application/json"].examples;
+    state.jobEndpoints = spec.components.schemas.JobRequest.properties.endpoint.enum || [];
+    const select = $("chain-example");
+    for (const [name, ex] of Object.entries(state.chainExamples)) {
+      el("option", { value: name, title: ex.description }, select, true).textContent = ex.summary;
+    }
+  }
+  pickChainExample($("chain-example").value || Object.keys(state.chainExamples)[0]);
+}
+
+function pickChainExample(name) {
+  const ex = state.chainExamples[name];
+  $("chain-example").value = name;
+  $("chain-example-text").textContent = ex.description;
+  state.features = JSON.parse(JSON.stringify(ex.value.features));
+  const chain = ex.value.chain || {};
+  $("n-modules").value = String(chain.n_modules || 16);
+  $("d0").value = chain.d0 === undefined ? "" : String(chain.d0);
+  $("name").value = `${name}_chain`;
+  renderFeatures();
+  clearDesign();
+}
+
+// Each feature kind's fields: [path into the feature, label, default].
+const FEATURE_FIELDS = {
+  fixed_point: [[["d"], "d*", 1.5], [["slope"], "f′(d*)", 0.5]],
+  period_two: [[["d1"], "d₁", 1.3], [["d2"], "d₂", 1.7]],
+  range: [[["source", 0], "a", 1.2], [["source", 1], "b", 1.6], [["target", 0], "f(a)", 1.3], [["target", 1], "f(b)", 1.7]],
+};
+const FEATURE_NAMES = { fixed_point: "fixed pt", period_two: "2-cycle", range: "range" };
+
+function renderFeatures() {
+  const body = $("features").tBodies[0];
+  body.replaceChildren();
+  state.features.forEach((feature, n) => {
+    const tr = el("tr", {}, body, true);
+    const kind = el("select", { "aria-label": `feature ${n + 1}` }, el("td", {}, tr, true), true);
+    for (const [k, label] of Object.entries(FEATURE_NAMES)) el("option", { value: k }, kind, true).textContent = label;
+    kind.value = feature.kind;
+    kind.addEventListener("change", () => {
+      const fresh = { kind: kind.value };
+      for (const [[key, i], , v] of FEATURE_FIELDS[kind.value]) {
+        if (i === undefined) fresh[key] = v; else (fresh[key] = fresh[key] || [])[i] = v;
+      }
+      state.features[n] = fresh;
+      renderFeatures();
+      clearDesign();
+    });
+    for (const [[key, i], label] of FEATURE_FIELDS[feature.kind]) {
+      const cell = el("td", {}, tr, true);
+      el("span", { class: "field" }, cell, true).textContent = label;
+      const input = el("input", { type: "number", step: "0.05", value: i === undefined ? feature[key] : feature[key][i], "aria-label": label }, cell, true);
+      input.addEventListener("input", () => {
+        if (!Number.isFinite(input.valueAsNumber)) return;
+        if (i === undefined) feature[key] = input.valueAsNumber; else feature[key][i] = input.valueAsNumber;
+        clearDesign();
+      });
+    }
+    const remove = el("button", { type: "button", title: "remove this feature" }, el("td", {}, tr, true), true);
+    remove.textContent = "×";
+    remove.addEventListener("click", () => { state.features.splice(n, 1); renderFeatures(); clearDesign(); });
+  });
 }
 
 // The 3D target as a table: one row per specified node, positions then motion; every edit
@@ -1036,6 +1385,7 @@ async function loadExamples() {
   const select = $("example");
   const examples = await (await api("GET", "/v1/examples")).json();
   state.examples = Object.fromEntries(examples.map((e) => [e.name, e.description]));
+  state.exampleEndpoints = Object.fromEntries(examples.map((e) => [e.name, e.endpoint]));
   for (const { name, description } of examples) {
     el("option", { value: "example:" + name, title: description }, select, true).textContent = name;
   }
@@ -1057,6 +1407,12 @@ async function pickExample() {
         preset[role].positions.forEach((x, i) => { state.nodes.push({ x, role }); state.motions[0].push(preset[role].motion[i]); });
       }
     }
+  } else if (state.exampleEndpoints[name] === "/v1/design/multistable") {
+    setKind("multistable");
+    $("example-text").textContent = state.examples[name];
+    await loadConformations(name);
+    $("example").value = value;
+    return;
   } else {
     const request = await (await api("GET", `/v1/examples/${encodeURIComponent(name)}/request`)).json();
     setKind("draw");
@@ -1118,6 +1474,26 @@ $("add-row").addEventListener("click", () => {
 });
 $("mode-select").addEventListener("change", () => { stop(); state.mode = Number($("mode-select").value); traceMotion(); });
 $("motion-index").addEventListener("change", () => { state.motion = Number($("motion-index").value); draw(); });
+$("add-node-ms").addEventListener("click", () => {
+  state.conformations.forEach((c) => { const last = c[c.length - 1]; c.push([last[0] + 0.5, last[1]]); });
+  renderConformations();
+  edited();
+});
+$("n-conformations").addEventListener("change", conformationCount);
+$("chain-example").addEventListener("change", () => pickChainExample($("chain-example").value));
+for (const radio of document.querySelectorAll("input[name=chain-source]")) {
+  radio.addEventListener("change", () => {
+    for (const p of document.querySelectorAll("[data-source]")) p.hidden = p.dataset.source !== chainSource();
+    if (chainSource() === "given") $("name").value = "two_triangle_module";
+    clearDesign();
+  });
+}
+$("add-feature").addEventListener("click", () => {
+  if (state.features.length >= 4) { say("at most four features, met together by one module.", true); return; }
+  state.features.push({ kind: "fixed_point", d: 1.5, slope: 0.5 });
+  renderFeatures();
+  clearDesign();
+});
 $("raw-toggle").addEventListener("change", () => { $("raw").hidden = !$("raw-toggle").checked; });
 $("amplitude").addEventListener("input", () => {
   $("amplitude-text").textContent = Number($("amplitude").value).toFixed(2);

@@ -4,10 +4,11 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import BaseModel, Field, FiniteFloat
+from pydantic import BaseModel, ConfigDict, Field, FiniteFloat
 
 from zeromode.export import FORMATS
 from zeromode.service.wire.schemas.common import FrameModel, Points, RequestModel
+from zeromode.service.wire.schemas.multistable import SpringsModel
 from zeromode.service.wire.schemas.tolerance import ToleranceOptions
 
 ExportFormat = Literal[tuple(FORMATS)]  # the names of zeromode.export.FORMATS
@@ -44,18 +45,31 @@ class MotionOptions(RequestModel):
     max_step: FiniteFloat = Field(default=0.02, gt=0, le=1, description="As POST /v1/motion.")
 
 
+class ExportSprings(SpringsModel):
+    """Springs given with a frame: a multistable response's ``springs``, an unknown field refused."""
+
+    model_config = ConfigDict(extra="forbid")
+
+
 class ExportRequest(RequestModel):
     format: ExportFormat = Field(description="The file to write (GET /v1/export/formats lists them).")
     document: dict | None = Field(
         default=None,
         description=(
-            "A response of /v1/design, /v1/design/auxetic, /v1/design/allosteric or /v1/refine (or a "
-            "request of the first three, designed first), or a /v1/motion response together with `frame`."
+            "A response of /v1/design, /v1/design/auxetic, /v1/design/allosteric, /v1/design/multistable "
+            "(its springs exported as springs, its conformations as configurations), /v1/design/sequential "
+            "(the chain, or the module without one) or /v1/refine (or a request of the first four, designed "
+            "first), or a /v1/motion response together with `frame`."
         ),
     )
     frame: FrameModel | None = Field(default=None, description="The frame, when no document gives it (or to go with a /v1/motion response).")
     modes: list[Points] | None = Field(default=None, description="Zero modes (each N×d); default: the document's.")
     path: list[Points] | None = Field(default=None, description="A finite motion (configurations, each N×d); default: the document's.")
+    springs: ExportSprings | None = Field(
+        default=None,
+        description="Springs beside the frame's rods (pairs, stiffness, rest_length; never on a rod's pair); "
+        "default: the document's (a multistable design's), else none.",
+    )
     parameter: list[FiniteFloat] | None = Field(default=None, description="Path parameter of each configuration (default 0, 1, …).")
     fabrication: FabricationOptions = Field(default_factory=FabricationOptions)
     animation: AnimationOptions = Field(default_factory=AnimationOptions)

@@ -45,6 +45,9 @@ class LandscapeModel(BaseModel):
     arclength: list[float] = Field(description="s along the motion (Euclidean arc length in R^{dN}), 0 at the first conformation.")
     energy: list[float] = Field(description="E(s) of the springs at each sample (every rod at its length).")
     conformation_samples: list[int] = Field(description="The sample index of each conformation.")
+    positions: list[list[list[float]]] = Field(
+        description="Every node (N × d) at each sample: the motion itself, each conformation (up to a rigid motion) at its sample."
+    )
 
 
 class MinimumModel(BaseModel):

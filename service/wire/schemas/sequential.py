@@ -131,6 +131,11 @@ class ChainBody(BaseModel):
     pairs: list[list[int]] = Field(description="(n + 1) node pairs: pair k is copy k's input, the last the last output.")
     iterates: list[float] = Field(description="d_0 … d_n the chain was built with: d_{k+1} = f(d_k).")
     distances: list[list[float]] = Field(description="d_k of every pair at each sample of the chain's traced motion.")
+    path: list[list[list[float]]] = Field(
+        description="The chain's conformation (every node, N_chain × 2) at each of those samples, in the same order: "
+        "its motion as the input pair is driven (d_0 = distances[s][0]); aligned to `frame` by the best rigid motion."
+    )
+    reference_index: int = Field(description="The sample that is `frame` (the chain as built, at the orbit from d0).")
     deviation: float = Field(description="max |d_{k+1} − f(d_k)| / d_{k+1} over the traced motion (≤ map_rtol).")
     iterate_deviation: float = Field(
         description="max |d_k − f^k(d_0)| / d_k: grows like Π|f′| (amplified round-off at an unstable fixed point); reported, not promised."
@@ -154,11 +159,6 @@ class UniformStateModel(BaseModel):
     positions: list[list[float]] = Field(description="The chain's nodes in this state.")
 
 
-class SnapshotModel(BaseModel):
-    drive_index: int = Field(description="Index into `drive`.")
-    positions: list[list[float]] = Field(description="The chain's nodes at that drive (a configuration of its verified motion).")
-
-
 class SolitonBody(BaseModel):
     module: DesignedModule = Field(description="The designed module with its spring anchor (the last node, a dyad on `anchor_bar`).")
     anchor_bar: list[int] = Field(description="The module's bar whose ends hold the anchor.")
@@ -167,7 +167,7 @@ class SolitonBody(BaseModel):
     unstable: UniformStateModel = Field(description="Every copy at the unstable fixed point d_u.")
     stable: UniformStateModel = Field(description="Every copy at the stable fixed point d_s.")
     drive: list[float] = Field(description="d_0 at each sample of the verified motion strictly between d_u and d_s, from d_u.")
-    rows: list[int] = Field(description="Each drive sample's row in chain.distances.")
+    rows: list[int] = Field(description="Each drive sample's row in chain.distances and chain.path.")
     wall: list[float | None] = Field(
         description="The domain wall: the fractional index k where (d_k − d_u)/(d_s − d_u) crosses ½ (null: the chain is on one side)."
     )
@@ -179,7 +179,9 @@ class SolitonBody(BaseModel):
     barrier: float = Field(description="The largest E along the drive (the wall's energy) above the uniform states' 0.")
     stiffness: float
     rod_stiffness_ratio: float = Field(description="K/k of the rods as stiff springs in the Hessian check.")
-    snapshots: list[SnapshotModel] = Field(description="The chain at drives whose wall is at evenly spaced places.")
+    snapshots: list[int] = Field(
+        description="Drive indices whose wall is nearest k·n/5, k = 1…4 (the chain there: chain.path[rows[i]])."
+    )
 
 
 class SequentialResponse(BaseModel):
