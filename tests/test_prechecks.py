@@ -73,6 +73,7 @@ TRISTABLE = {
                       [[0.0, 0.0], [1.0, 0.0], [0.65, 1.15]]],
 }
 
+SOLITON = [{"kind": "fixed_point", "d": 1.2, "slope": 1.8}, {"kind": "fixed_point", "d": 1.8, "slope": 0.4}]
 # The two-triangle module (solver.sequential.module_map.two_triangle_module): 5 nodes, 6 bars.
 MODULE = {"frame": {"dim": 2, "positions": [[-1, 0], [1, 0], [-0.8, 1], [0.8, 1], [0.15, 0.45]],
                     "edges": [[0, 2], [0, 4], [2, 4], [1, 3], [1, 4], [3, 4]]},
@@ -107,6 +108,11 @@ BAD = [
                                "start": {**MODULE, "frame": {**MODULE["frame"], "edges": [*MODULE["frame"]["edges"], [0, 3]]}}},
      "invalid_module"),
     ("/v1/design/sequential", {"features": FIXED, "chain": {}, "start": {**MODULE, "output_pair": [1, 2]}}, "invalid_pair"),
+    # The soliton: both a chain and a soliton; features that are not one unstable and one stable
+    # fixed point; more copies than the wall reaches, ln(0.6/(2ε·1.2))/ln 1.8 ≈ 59 < 64 − 2.
+    ("/v1/design/sequential", {"features": SOLITON, "chain": {}, "soliton": {}}, "invalid_soliton"),
+    ("/v1/design/sequential", {"features": FIXED, "soliton": {}}, "invalid_soliton"),
+    ("/v1/design/sequential", {"features": SOLITON, "soliton": {"n_modules": 64}}, "soliton_out_of_reach"),
     # /v1/analyze: the frame itself.
     ("/v1/analyze", {"frame": {**TRIANGLE, "edges": [[0, 1], [1, 7]]}}, "edge_out_of_range"),
     ("/v1/analyze", {"frame": {**TRIANGLE, "edges": [[0, 1], [1, 0]]}}, "duplicate_edge"),

@@ -107,6 +107,17 @@ def chain_of(the_map: ModuleMap, n: int, d0: float | None = None) -> Chain:
             f"the orbit from d_0 = {d0:.10g} leaves the map's usable range [{lo:.6g}, {hi:.6g}] at d_{k} = "
             f"{iterates[-1]:.10g}, before the chain's {n} copies.",
         )
+    return chain_at(the_map, iterates)
+
+
+def chain_at(the_map: ModuleMap, distances) -> Chain:
+    """The chain of n = len(distances) − 1 copies (module docstring) with copy k at d_in =
+    distances[k]: an orbit of f in the usable range (d_{k+1} = f(d_k), so that copy k + 1's input
+    pair fits copy k's output pair), as chain_of computes it, or the uniform state d_k = d* at a
+    fixed point."""
+    module = the_map.module
+    iterates = np.asarray(distances, dtype=float)
+    n = len(iterates) - 1
     configs = the_map.configurations(iterates[:n])
     m = module.frame.n_nodes
     (a, b), (c, e) = module.input_pair, module.output_pair

@@ -174,8 +174,11 @@ def multistable_arguments(r: MultistableRequest) -> dict:
 def sequential_arguments(r: SequentialRequest) -> dict:
     """design_sequential's arguments for a /v1/design/sequential request (its operation and the
     prechecks' check_sequential take them): the features' map points, the start module (None:
-    the two-triangle module), reach and the chain's n_modules and d0 (None without a chain)."""
+    the two-triangle module), reach and the chain's n_modules and d0 (None without a chain).
+    InvalidInput ``invalid_soliton`` for a request with both a chain and a soliton."""
     chain = r.chain
+    if chain is not None and r.soliton is not None:
+        raise InvalidInput("invalid_soliton", "ask for either a chain or a soliton, not both.")
     return {
         "points": feature_points(r.features), "start": None if r.start is None else module_from_model(r.start),
         "reach": r.reach, "n_modules": None if chain is None else chain.n_modules,

@@ -341,14 +341,21 @@ def module_map(r: MapRequest) -> Outcome:
 
 def sequential(r: SequentialRequest) -> Outcome:
     """POST /v1/design/sequential: a module designed for the features (IPOPT, verified by
-    continuation) and, with ``chain``, its chain verified against the map's iterates; a refusal
-    carries its best figures (``feature_out_of_reach``, ``chain_mismatch``)."""
+    continuation) and, with ``chain``, its chain verified against the map's iterates, or with
+    ``soliton``, the soliton chain with its springs, drive and wall (solver.sequential.soliton); a
+    refusal carries its best figures (``feature_out_of_reach``, ``chain_mismatch``,
+    ``soliton_not_verified``)."""
     from zeromode.solver.sequential.chain import design_sequential
+    from zeromode.solver.sequential.soliton import design_soliton
 
     t0 = time.perf_counter()
+    a = sequential_arguments(r)
     try:
         with progress_stage(0.0, 1.0, "sequential design"):
-            result = design_sequential(**sequential_arguments(r))
+            if r.soliton is not None:
+                result = design_soliton(a["points"], a["start"], a["reach"], r.soliton.n_modules, r.soliton.stiffness)
+            else:
+                result = design_sequential(**a)
     except DomainError as exc:
         best = sequential_refusal_best(exc)
         if best is None:

@@ -86,6 +86,7 @@ from zeromode.solver.multistable.linkage import check_conformations
 from zeromode.solver.pipeline import check_auxetic_request, check_design_request
 from zeromode.solver.sequential.chain import check_sequential
 from zeromode.solver.sequential.module_map import check_map_size
+from zeromode.solver.sequential.soliton import check_soliton
 
 
 def motion_frame(request: MotionRequest) -> Frame:
@@ -130,6 +131,8 @@ def _map(r: MapRequest) -> None:
 def _sequential(r: SequentialRequest) -> None:
     a = sequential_arguments(r)
     check_sequential(a["points"], a["start"], a["reach"], a["n_modules"])
+    if r.soliton is not None:
+        check_soliton(a["points"], r.soliton.n_modules, r.soliton.stiffness)
 
 
 def _motion(r: MotionRequest) -> None:
