@@ -694,7 +694,7 @@ def module_map_body(the_map, at=()) -> dict:
 
 
 def sequential_body(result, timings_ms: dict) -> dict:
-    """/v1/design/sequential's body for a solver SequentialDesign."""
+    """/v1/design/sequential's body for a solver SequentialDesign (a SolitonDesign adds ``soliton``)."""
     from zeromode.solver.tolerances import MAP_RTOL
 
     design, verified = result.design, result.chain
@@ -721,11 +721,45 @@ def sequential_body(result, timings_ms: dict) -> dict:
             for p, v, s in zip(design.points, design.achieved, design.slopes)
         ],
         "chain": chain,
+        "soliton": soliton_body(result.soliton) if hasattr(result, "soliton") else None,
         "deviation": design.deviation,
         "map_rtol": MAP_RTOL,
         "solver_status": design.solver_status,
         "timings_ms": timings_ms,
     }
+
+
+def soliton_body(soliton) -> dict:
+    """The ``soliton`` part of /v1/design/sequential's body for a solver Soliton: springs, uniform
+    states, drive, wall, energy, snapshots (the chain's conformations are the chain's ``path``)."""
+    module = soliton.module
+
+    def uniform(k: int, fixed) -> dict:
+        return {"d": fixed[0], "slope": fixed[1], "energy": float(soliton.uniform_energy[k]),
+                "hessian_min_eigenvalue": float(soliton.uniform_hessian[k]), "positions": soliton.uniform[k].tolist()}
+
+    return json_safe({
+        "module": {"frame": frame_body(module.frame), "input_pair": list(module.input_pair),
+                   "output_pair": list(module.output_pair)},
+        "anchor_bar": list(soliton.anchor_bar),
+        "spring_node": soliton.spring_node,
+        "springs": {"pairs": soliton.springs.pairs.tolist(), "stiffness": soliton.springs.stiffness.tolist(),
+                    "rest_length": soliton.springs.rest_length.tolist()},
+        "unstable": uniform(0, soliton.unstable),
+        "stable": uniform(1, soliton.stable),
+        "drive": soliton.drive.tolist(),
+        "rows": soliton.rows.tolist(),
+        "wall": soliton.wall.tolist(),
+        "energy": soliton.energy.tolist(),
+        "travel": soliton.travel,
+        "required_travel": soliton.required_travel,
+        "wall_slope": soliton.wall_slope,
+        "predicted_wall_slope": -1.0 / float(np.log(soliton.unstable[1])),
+        "barrier": soliton.barrier,
+        "stiffness": soliton.stiffness,
+        "rod_stiffness_ratio": soliton.rod_stiffness_ratio,
+        "snapshots": soliton.snapshots.tolist(),
+    })
 
 
 def sequential_refusal_best(exc) -> dict | None:
@@ -743,5 +777,11 @@ def sequential_refusal_best(exc) -> dict | None:
             "deviation": best.deviation,
             "solver_status": best.solver_status,
             "positions": best.configurations[0].tolist(),
+        })
+    if hasattr(best, "soliton"):
+        soliton = best.soliton
+        return json_safe({
+            "travel": soliton.travel, "required_travel": soliton.required_travel, "monotone": soliton.monotone,
+            "hessian_min_eigenvalues": soliton.uniform_hessian.tolist(), "deviation": best.chain.deviation,
         })
     return json_safe({"deviation": best.deviation, "iterate_deviation": best.iterate_deviation})

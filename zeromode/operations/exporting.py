@@ -32,6 +32,7 @@ from zeromode.operations.documents import (
     PathDocument,
     SequentialDocument,
     kind,
+    refuse_map_answer,
     validated,
 )
 from zeromode.service.wire.convert import frame_from_model
@@ -66,8 +67,10 @@ def export_file(request: ExportRequest) -> tuple[bytes, str, str]:
 
 def takeaway_for(request: ExportRequest) -> Takeaway:
     """The request's document (designed first when it is a request) with the request's own
-    frame, modes, path and springs taking precedence; the path traced when the format needs one."""
+    frame, modes, path and springs taking precedence; the path traced when the format needs one.
+    A /v1/map request exports its module's frame (its pairs are read by no format)."""
     doc = request.document or {}
+    refuse_map_answer(doc)
     if doc and "frame" not in doc and kind(doc) not in (MOTION, SEQUENTIAL):
         doc, _ = endpoints.respond(doc)
     what = kind(doc) if doc else FRAME
