@@ -96,6 +96,11 @@ def size_probes() -> list[Probe]:
     toleranced_sheet = {"dim": 2, "cells": [10, 10], "poisson_ratio": -0.5, "tolerance": {}}
     refined_sheet = {"dim": 2, "cells": [20, 20], "poisson_ratio": -0.5, "refine": {"K": 64}}
     specified = [[float(i), float(i * i % 11)] for i in range(65)]
+    big_module = {"frame": scattered(201), "input_pair": [0, 1], "output_pair": [2, 3]}  # d·N 402 > MAP_MAX_DOF
+    big_start = {"features": [{"kind": "fixed_point", "d": 1.2, "slope": 0.5}],
+                 "start": {"frame": chain(17), "input_pair": [0, 16], "output_pair": [1, 15]}}  # > DESIGN_MAX_NODES
+    long_ladder = {"features": [{"kind": "range", "source": [0.1, 150.0], "target": [0.1, 150.0]}],
+                   "reach": 100.0}  # the NLP's ladder > MAX_LADDER
     codes_nodes = ("invalid_request",)
     return [
         Probe("analyze: nodes", "/v1/analyze", {"frame": too_many_nodes}, codes=codes_nodes),
@@ -119,6 +124,9 @@ def size_probes() -> list[Probe]:
               {"dim": 2, "initial": specified, "final": specified}, codes=codes_nodes),
         Probe("allosteric network: nodes", "/v1/design/allosteric/network",
               {"frame": too_many_nodes, "source": [0, 1], "target": [5, 6], "strain_ratio": 2.0}, codes=codes_nodes),
+        Probe("map: degrees of freedom", "/v1/map", big_module, codes=("too_expensive",)),
+        Probe("sequential: start nodes", "/v1/design/sequential", big_start, codes=("too_expensive",)),
+        Probe("sequential: NLP ladder", "/v1/design/sequential", long_ladder, codes=("too_expensive",)),
         Probe("plot: nodes", "/v1/plot", {"frame": too_many_nodes}, codes=codes_nodes),
         Probe("export: nodes", "/v1/export", {"format": "graphml", "frame": too_many_nodes}, codes=codes_nodes),
         Probe("sweeps: points", "/v1/sweeps",
@@ -130,6 +138,9 @@ def size_probes() -> list[Probe]:
         _job("LMI size", "/v1/certify", {"frame": lmi}, ("too_expensive",)),
         _job("sheet cells", "/v1/design/auxetic", sheet, ("invalid_size",)),
         _job("dense SVD size", "/v1/analyze", {"frame": dense_3d, "options": {"method": "dense"}}, ("too_expensive",)),
+        _job("map degrees of freedom", "/v1/map", big_module, ("too_expensive",)),
+        _job("sequential start nodes", "/v1/design/sequential", big_start, ("too_expensive",)),
+        _job("sequential NLP ladder", "/v1/design/sequential", long_ladder, ("too_expensive",)),
     ]
 
 

@@ -1,6 +1,6 @@
 """Regenerate the pictures of docs/module_maps.md:
 
-    .venv/bin/python docs/sequential_pictures.py [bifurcation] [deployable] [curvature]
+    .venv/bin/python docs/sequential_pictures.py [bifurcation] [deployable] [curvature] [soliton]
 
 docs/img/sequential_bifurcation.png  the orbit of f (iterates 300…399 from next to the fixed
                                      point) against the hinge's height h of the two-triangle
@@ -11,6 +11,9 @@ docs/img/sequential_deployable.png   the deployable example's map with the chain
                                      d_k along the 16-module chain over its verified motion
 docs/img/sequential_curvature.png    the curvature example's chain where it turns least and most
                                      along its verified motion
+docs/img/sequential_soliton.png      the soliton example: the chain at four drives coloured by how
+                                     far each copy has switched, the wall against the drive, the
+                                     springs' energy along it
 """
 
 from __future__ import annotations
@@ -140,8 +143,18 @@ def curvature() -> None:
     print(f"curvature: total turning from {np.abs(turns).min():.1f}° to {np.abs(turns).max():.1f}° over {n} copies")
 
 
+def soliton() -> None:
+    body = SEQUENTIAL_EXAMPLES["soliton"]["value"]
+    result = zm.sequential(body["features"], soliton=body["soliton"])
+    result.plot().savefig(IMG / "sequential_soliton.png", dpi=100)
+    sol = result.to_dict()["soliton"]
+    print(f"soliton: wall travels {sol['travel']:.2f} copies, slope {sol['wall_slope']:.3f} "
+          f"(linearised {sol['predicted_wall_slope']:.3f}), barrier {sol['barrier']:.4f}, Hessian floors "
+          f"{sol['unstable']['hessian_min_eigenvalue']:.4f} (d_u), {sol['stable']['hessian_min_eigenvalue']:.4f} (d_s)")
+
+
 if __name__ == "__main__":
     import sys
 
-    for name in sys.argv[1:] or ["bifurcation", "deployable", "curvature"]:
+    for name in sys.argv[1:] or ["bifurcation", "deployable", "curvature", "soliton"]:
         globals()[name]()

@@ -339,8 +339,9 @@ def build_parser() -> argparse.ArgumentParser:
     ex.add_argument("name", nargs="?")
     ex.set_defaults(func=cmd_example)
     pl = sub.add_parser(
-        "plot", help="draw a response (or request, designed first) of /v1/design, /v1/design/auxetic or "
-        "/v1/design/allosteric, or a /v1/plot body, as SVG, PNG or PDF"
+        "plot", help="draw a response (or request, designed first) of /v1/design, /v1/design/auxetic, "
+        "/v1/design/allosteric, /v1/design/multistable or /v1/design/sequential (its chain), a /v1/map "
+        "request (its module) or a /v1/plot body, as SVG, PNG or PDF"
     )
     pl.add_argument("design", help="JSON file (or - for stdin)")
     pl.add_argument("-o", "--output", required=True, help="out.svg, out.png or out.pdf")
@@ -373,15 +374,16 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("--poll", type=float, default=0.5, help="seconds between status requests (--url)")
     sw.set_defaults(func=cmd_sweep)
     de = sub.add_parser(
-        "design", help="run a /v1/design, /v1/design/auxetic or /v1/design/allosteric request here (no "
-        "service needed) and print its response"
+        "design", help="run a /v1/design, /v1/design/auxetic, /v1/design/allosteric, /v1/design/multistable, "
+        "/v1/design/sequential or /v1/map request here (no service needed) and print its response"
     )
     de.add_argument("request", help="the request body: JSON file (or - for stdin)")
     de.add_argument("-o", "--output", default=None, help="write the response here instead of stdout")
     de.set_defaults(func=cmd_design)
     exp = sub.add_parser(
-        "export", help="write a design, lattice, allosteric design, refinement or motion (a response, or a "
-        "request designed first) for ParaView, networkx, a laser cutter, a 3D printer, or as an animation"
+        "export", help="write a design, lattice, allosteric, multistable or sequential design (its chain), "
+        "refinement or motion (a response, or a request designed first) for ParaView, networkx, a laser "
+        "cutter, a 3D printer, or as an animation"
     )
     exp.add_argument("document", help="JSON file (or - for stdin)")
     exp.add_argument("-o", "--output", required=True, help="e.g. out.vtu, out.graphml, out.dxf, out.stl, out.gif")

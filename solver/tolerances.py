@@ -392,3 +392,12 @@ FIXED_POINT_RTOL = 1e-15
 # IPOPT's KKT tolerance in a module's design (sequential/design.py): the map points are equality
 # constraints met to round-off long before; the answer is verified to MAP_RTOL by continuation.
 MAP_IPOPT_TOL = 1e-12
+
+# --- branched motions (multistable/bifurcation.py) --------------------------------------------
+
+# A branching dyad's spanned distance d counts as largest (smallest) over the traced motion at
+# the branch conformation when no path sample exceeds (undercuts) it by more than this fraction:
+# the samples carry the continuation's bar error (~1e-10) and d is only stationary there, so
+# the nearest sample sits below (above) it by ~d″·step², far above this.  The same bound, on
+# the unit tangent's scale, declares a relative velocity g zero (no line of stationary d).
+STATIONARY_RTOL = 1e-9

@@ -119,6 +119,7 @@ LAYERS: list[dict[str, tuple[str, ...]]] = [
     {"construction": ("zeromode.solver.construction",)},
     {"applications": ("zeromode.solver.applications", "zeromode.solver.multistable"),  # multistable: a linkage by construction, springs on its motion
      "sequential": ("zeromode.solver.sequential",)},  # modules as maps, chains (over motion)
+    {"soliton": ("zeromode.solver.sequential.soliton",)},  # springs (multistable) on a chain (sequential)
     {"certificates": ("zeromode.solver.certificates",)},
     {"pipeline": ("zeromode.solver.pipeline",)},
     {"viz": ("zeromode.viz",)},                     # pictures of arrays

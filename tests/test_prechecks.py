@@ -73,7 +73,46 @@ TRISTABLE = {
                       [[0.0, 0.0], [1.0, 0.0], [0.65, 1.15]]],
 }
 
+SOLITON = [{"kind": "fixed_point", "d": 1.2, "slope": 1.8}, {"kind": "fixed_point", "d": 1.8, "slope": 0.4}]
+# The two-triangle module (solver.sequential.module_map.two_triangle_module): 5 nodes, 6 bars.
+MODULE = {"frame": {"dim": 2, "positions": [[-1, 0], [1, 0], [-0.8, 1], [0.8, 1], [0.15, 0.45]],
+                    "edges": [[0, 2], [0, 4], [2, 4], [1, 3], [1, 4], [3, 4]]},
+          "input_pair": [0, 1], "output_pair": [2, 3]}
+FIXED = [{"kind": "fixed_point", "d": 1.5, "slope": -0.5}]
+
+
+def strip_module(n: int, dim: int = 2) -> dict:
+    """A module of n nodes on a zig-zag strip, the pairs its ends (a size, a dimension only)."""
+    positions = [[float(i), float(i % 2)] + [0.0] * (dim - 2) for i in range(n)]
+    edges = [[i, i + 1] for i in range(n - 1)] + [[i, i + 2] for i in range(n - 3)]
+    return {"frame": {"dim": dim, "positions": positions, "edges": edges}, "input_pair": [0, n - 1],
+            "output_pair": [1, n - 2]}
+
+
 BAD = [
+    # /v1/map: the pairs (Module.build), the size.
+    ("/v1/map", {**MODULE, "input_pair": [0, 2]}, "invalid_pair"),  # a bar
+    ("/v1/map", {**MODULE, "input_pair": [1, 1]}, "invalid_pair"),
+    ("/v1/map", {**MODULE, "output_pair": [1, 0]}, "invalid_pair"),  # the input pair again
+    ("/v1/map", {**MODULE, "input_pair": [0, 5]}, "invalid_pair"),  # no node 5
+    ("/v1/map", {"frame": many_nodes(201), "input_pair": [0, 1], "output_pair": [2, 3]}, "too_expensive"),  # 402 > 400
+    # /v1/design/sequential: the features, the start, the NLP's ladder, a chain's module.
+    ("/v1/design/sequential", {"features": [{"kind": "period_two", "d1": 1.5, "d2": 1.5}]}, "invalid_feature"),
+    ("/v1/design/sequential", {"features": [{"kind": "fixed_point", "d": 9.0, "slope": 0.5}]},
+     "feature_out_of_reach"),  # 9 > 2 · 3 RMS radii (0.83) of the two-triangle module
+    ("/v1/design/sequential", {"features": FIXED, "start": strip_module(17)}, "too_expensive"),  # 17 > 16 nodes
+    ("/v1/design/sequential", {"features": [{"kind": "range", "source": [0.1, 150.0], "target": [0.1, 150.0]}],
+                               "reach": 100.0}, "too_expensive"),  # 150 / (0.05 · 0.83) ≫ 200 configurations
+    ("/v1/design/sequential", {"features": FIXED, "start": strip_module(6, dim=3), "chain": {}}, "invalid_dim"),
+    ("/v1/design/sequential", {"features": FIXED, "chain": {},  # 7 bars on 5 nodes: 7 + 1 + 3 ≠ 10
+                               "start": {**MODULE, "frame": {**MODULE["frame"], "edges": [*MODULE["frame"]["edges"], [0, 3]]}}},
+     "invalid_module"),
+    ("/v1/design/sequential", {"features": FIXED, "chain": {}, "start": {**MODULE, "output_pair": [1, 2]}}, "invalid_pair"),
+    # The soliton: both a chain and a soliton; features that are not one unstable and one stable
+    # fixed point; more copies than the wall reaches, ln(0.6/(2ε·1.2))/ln 1.8 ≈ 59 < 64 − 2.
+    ("/v1/design/sequential", {"features": SOLITON, "chain": {}, "soliton": {}}, "invalid_soliton"),
+    ("/v1/design/sequential", {"features": FIXED, "soliton": {}}, "invalid_soliton"),
+    ("/v1/design/sequential", {"features": SOLITON, "soliton": {"n_modules": 64}}, "soliton_out_of_reach"),
     # /v1/analyze: the frame itself.
     ("/v1/analyze", {"frame": {**TRIANGLE, "edges": [[0, 1], [1, 7]]}}, "edge_out_of_range"),
     ("/v1/analyze", {"frame": {**TRIANGLE, "edges": [[0, 1], [1, 0]]}}, "duplicate_edge"),
@@ -126,6 +165,8 @@ BAD = [
     ("/v1/design/multistable", {"dim": 2, "conformations": [[[0, 0], [1, 0]], [[0, 0], [2, 0]]]}, "too_few_nodes"),
     ("/v1/design/multistable", {"dim": 2, "conformations": [[[i, i * i % 7] for i in range(17)],
                                                              [[i, i * i % 5] for i in range(17)]]}, "too_expensive"),
+    ("/v1/design/multistable", {"dim": 2, "conformations": TRISTABLE["conformations"][:2], "options": {"bifurcation": 0}},
+     "invalid_bifurcation"),  # a branch point needs two minima beside it: three conformations
     # /v1/motion.
     ("/v1/motion", {"frame": SQUARE, "boundary": {"left": [0], "right": [1], "bottom": [0], "top": [9]}}, "invalid_boundary"),
     ("/v1/motion", {"frame": {**SQUARE, "positions": [[0.0, 0.0], [1e160, 0.0], [1e160, 1e160], [0.0, 1e160]]}}, "out_of_range"),
@@ -162,6 +203,8 @@ GOOD = [
     ("/v1/design/auxetic", {"dim": 3, "cells": [2], "poisson_ratio": -0.5, "tolerance": {}, "refine": {}}, False),
     ("/v1/design/allosteric", request_body(x_src, u_src, x_tgt, u_tgt), False),
     ("/v1/design/multistable", TRISTABLE, False),  # answered in test_api_multistable
+    ("/v1/map", {**MODULE, "at": [1.8]}, True),
+    ("/v1/design/sequential", {"features": FIXED, "chain": {"n_modules": 4}}, False),  # test_jobs_sequential
     ("/v1/motion", {"frame": SQUARE, "boundary": {"left": [0, 3], "right": [1, 2], "bottom": [0, 1], "top": [2, 3]}}, True),
     ("/v1/refine", {"frame": {**SQUARE, "specified": [0, 1]}, "motion": [[0.0, 1.0], [0.0, -1.0]]}, False),
     ("/v1/certify", {"frame": K4_PLANE}, True),

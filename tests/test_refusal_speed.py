@@ -33,7 +33,7 @@ def test_every_endpoint_refuses_what_is_too_large_within_50_ms(served):
     assert {p.path for p in probes} >= {
         "/v1/analyze", "/v1/motion", "/v1/refine", "/v1/certify", "/v1/design", "/v1/design/auxetic",
         "/v1/design/allosteric", "/v1/design/allosteric/network", "/v1/design/two-configuration",
-        "/v1/solution-space", "/v1/plot", "/v1/export", "/v1/sweeps", "/v1/jobs",
+        "/v1/solution-space", "/v1/plot", "/v1/export", "/v1/sweeps", "/v1/jobs", "/v1/map", "/v1/design/sequential",
     }
     rows = refusal_times(url, probes, server_pid=server_pid)
     wrong = [r for r in rows if not r["ok"]]

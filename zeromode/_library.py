@@ -326,10 +326,12 @@ class SequentialResult(Result):
         return {"document": self.body}
 
     def plot(self, scale: float = 1.0, solution_space: bool = True) -> Figure:
-        """The designed map (with the chain's cobweb) and the chain's distances."""
-        from zeromode.viz.sequential import sequential_figure
+        """The designed map (with the chain's cobweb) and the chain's distances; for a soliton,
+        the chain at several drives with its switched copies coloured, the wall and the energy
+        against the drive."""
+        from zeromode.viz.sequential import sequential_figure, soliton_figure
 
-        return sequential_figure(self.body, scale)
+        return (soliton_figure if self.body.get("soliton") else sequential_figure)(self.body, scale)
 
 
 # ----------------------------------------------------------------------------- helpers
@@ -576,7 +578,7 @@ def two_configuration(initial: Points, final: Points, *, dim: int | None = None,
 
 
 def multistable(conformations: Sequence[Points], *, barrier: float | None = None, max_stiffness: float = 1.0,
-                dim: int | None = None, seed: int = 0) -> MultistableResult:
+                dim: int | None = None, seed: int = 0, bifurcation: int | None = None) -> MultistableResult:
     """Rods and springs whose specified nodes rest in each of 2 or 3 conformations: a strict
     local minimum of the elastic energy E = Σ_s k_s (|x_i − x_j| − L_s)²/2 along the rods'
     one-degree-of-freedom motion, which passes through them in order (POST
@@ -601,6 +603,10 @@ def multistable(conformations: Sequence[Points], *, barrier: float | None = None
         The dimension (by default the width of the first conformation).
     seed : int
         Seed of the placement and the relaxations.
+    bifurcation : int, optional
+        Index of one of three 2D conformations where the rods' motion is to branch (the body's
+        ``bifurcation``: both tangents, the rank drop, both continuations); the other two are
+        the minima.
 
     Returns
     -------
@@ -617,7 +623,7 @@ def multistable(conformations: Sequence[Points], *, barrier: float | None = None
     """
     return _run("/v1/design/multistable", {
         "dim": _dim(conformations[0], dim), "conformations": conformations,
-        "options": {"barrier": barrier, "max_stiffness": max_stiffness, "seed": seed},
+        "options": {"barrier": barrier, "max_stiffness": max_stiffness, "seed": seed, "bifurcation": bifurcation},
     }, MultistableResult)
 
 
@@ -776,7 +782,7 @@ def module_map(frame: Frame | Result | Mapping, input_pair: Sequence[int], outpu
 
 
 def sequential(features: Sequence[Mapping], *, n_modules: int | None = None, d0: float | None = None,
-               start: Mapping | None = None, reach: float = 3.0) -> SequentialResult:
+               start: Mapping | None = None, reach: float = 3.0, soliton: Mapping | None = None) -> SequentialResult:
     """A module whose map has the requested features, and optionally a chain of ``n_modules``
     copies verified by continuation against the map's iterates (POST /v1/design/sequential).
 
@@ -795,12 +801,18 @@ def sequential(features: Sequence[Mapping], *, n_modules: int | None = None, d0:
         two-triangle module).
     reach : float
         Nodes stay within this many RMS radii of the start's centre.
+    soliton : dict, optional
+        ``{"n_modules": n, "stiffness": k}`` (instead of ``n_modules``): a soliton chain, for two
+        fixed-point features (one slope > 1, one in (0, 1)); one spring per copy makes both
+        uniform states zero-energy minima and the domain wall travels along the chain as d_0 is
+        driven (solver.sequential.soliton; docs/module_maps.md).
 
     Returns
     -------
     SequentialResult
-        ``solution`` is the solver's SequentialDesign; a feature out of reach raises
-        DomainError ``feature_out_of_reach`` with ``best``.
+        ``solution`` is the solver's SequentialDesign (``solution.soliton`` the Soliton); a
+        feature out of reach raises DomainError ``feature_out_of_reach`` with ``best``, a soliton
+        that fails its checks ``soliton_not_verified``.
 
     Examples
     --------
@@ -812,4 +824,5 @@ def sequential(features: Sequence[Mapping], *, n_modules: int | None = None, d0:
     chain = None if n_modules is None else {"n_modules": n_modules, "d0": d0}
     return _run("/v1/design/sequential", {
         "features": list(features), "start": start, "chain": chain, "reach": reach,
+        "soliton": None if soliton is None else dict(soliton),
     }, SequentialResult)

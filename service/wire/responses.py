@@ -616,7 +616,7 @@ def multistable_body(result, timings_ms: dict) -> dict:
         },
         "minima": [
             {
-                "index": m.index,
+                "index": result.minimum_indices[m.index] if result.minimum_indices else m.index,
                 "arclength": m.arclength,
                 "energy": m.energy,
                 "slope": m.slope,
@@ -629,6 +629,7 @@ def multistable_body(result, timings_ms: dict) -> dict:
             }
             for m, c in zip(land.minima, result.checks)
         ],
+        "bifurcation": None if result.bifurcation is None else bifurcation_body(result),
         "report": {
             "construction": link.construction,
             "analysis": counts_body(link.analysis),
@@ -646,6 +647,31 @@ def multistable_body(result, timings_ms: dict) -> dict:
             "timings_ms": timings_ms,
         },
     }
+
+def bifurcation_body(result) -> dict:
+    """The branch point of a branched MultistableDesign: where it sits on the landscape, the
+    rank drop, the stress and second-order form, both tangents and both continuations."""
+    b, link = result.bifurcation, result.linkage
+    first = link.parameters[result.minimum_indices[0]]
+    followed = lambda f: {"reach": list(f.reach), "max_relative_bar_error": f.max_relative_bar_error, "separation": f.separation}
+    return {
+        "index": b.index,
+        "arclength": float((link.parameters[b.index] - first) * link.arclength_scale),
+        "energy": result.springs.energy(link.conformations[b.index]),
+        "rank": b.point.rank,
+        "sigma_kept": b.point.sigma_kept,
+        "sigma_dropped": b.point.sigma_dropped,
+        "stress": b.point.stress.tolist(),
+        "form": list(b.point.form),
+        "taken_tangent": b.taken_tangent.tolist(),
+        "other_tangent": b.other_tangent.tolist(),
+        "angle_degrees": b.point.angle,
+        "dyad": list(b.dyad_nodes),
+        "kind": b.dyad_kind,
+        "taken_branch": followed(b.taken_branch),
+        "other_branch": followed(b.other_branch),
+    }
+
 
 def module_map_body(the_map, at=()) -> dict:
     """/v1/map's body (without timings) for a solver ModuleMap: samples, range, fixed points and
@@ -668,7 +694,7 @@ def module_map_body(the_map, at=()) -> dict:
 
 
 def sequential_body(result, timings_ms: dict) -> dict:
-    """/v1/design/sequential's body for a solver SequentialDesign."""
+    """/v1/design/sequential's body for a solver SequentialDesign (a SolitonDesign adds ``soliton``)."""
     from zeromode.solver.tolerances import MAP_RTOL
 
     design, verified = result.design, result.chain
@@ -695,11 +721,45 @@ def sequential_body(result, timings_ms: dict) -> dict:
             for p, v, s in zip(design.points, design.achieved, design.slopes)
         ],
         "chain": chain,
+        "soliton": soliton_body(result.soliton) if hasattr(result, "soliton") else None,
         "deviation": design.deviation,
         "map_rtol": MAP_RTOL,
         "solver_status": design.solver_status,
         "timings_ms": timings_ms,
     }
+
+
+def soliton_body(soliton) -> dict:
+    """The ``soliton`` part of /v1/design/sequential's body for a solver Soliton: springs, uniform
+    states, drive, wall, energy, snapshots (the chain's conformations are the chain's ``path``)."""
+    module = soliton.module
+
+    def uniform(k: int, fixed) -> dict:
+        return {"d": fixed[0], "slope": fixed[1], "energy": float(soliton.uniform_energy[k]),
+                "hessian_min_eigenvalue": float(soliton.uniform_hessian[k]), "positions": soliton.uniform[k].tolist()}
+
+    return json_safe({
+        "module": {"frame": frame_body(module.frame), "input_pair": list(module.input_pair),
+                   "output_pair": list(module.output_pair)},
+        "anchor_bar": list(soliton.anchor_bar),
+        "spring_node": soliton.spring_node,
+        "springs": {"pairs": soliton.springs.pairs.tolist(), "stiffness": soliton.springs.stiffness.tolist(),
+                    "rest_length": soliton.springs.rest_length.tolist()},
+        "unstable": uniform(0, soliton.unstable),
+        "stable": uniform(1, soliton.stable),
+        "drive": soliton.drive.tolist(),
+        "rows": soliton.rows.tolist(),
+        "wall": soliton.wall.tolist(),
+        "energy": soliton.energy.tolist(),
+        "travel": soliton.travel,
+        "required_travel": soliton.required_travel,
+        "wall_slope": soliton.wall_slope,
+        "predicted_wall_slope": -1.0 / float(np.log(soliton.unstable[1])),
+        "barrier": soliton.barrier,
+        "stiffness": soliton.stiffness,
+        "rod_stiffness_ratio": soliton.rod_stiffness_ratio,
+        "snapshots": soliton.snapshots.tolist(),
+    })
 
 
 def sequential_refusal_best(exc) -> dict | None:
@@ -717,5 +777,11 @@ def sequential_refusal_best(exc) -> dict | None:
             "deviation": best.deviation,
             "solver_status": best.solver_status,
             "positions": best.configurations[0].tolist(),
+        })
+    if hasattr(best, "soliton"):
+        soliton = best.soliton
+        return json_safe({
+            "travel": soliton.travel, "required_travel": soliton.required_travel, "monotone": soliton.monotone,
+            "hessian_min_eigenvalues": soliton.uniform_hessian.tolist(), "deviation": best.chain.deviation,
         })
     return json_safe({"deviation": best.deviation, "iterate_deviation": best.iterate_deviation})

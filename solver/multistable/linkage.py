@@ -129,6 +129,17 @@ class Linkage:
         return Normalisation.of(self.frame.positions).length * np.sqrt(self.frame.n_nodes)
 
 
+class NoPath(DomainError):
+    """``no_path``: linkages realise the conformations but no continuous motion found visits
+    them in order; ``best`` (dict or None): the closest attempt's finite-motion fidelity ε of
+    each conformation on the motion traced from the first (``epsilons``), their path
+    parameters, how far it was traced and where it met a singular point (None: nowhere)."""
+
+    def __init__(self, message: str, best: dict | None):
+        super().__init__("no_path", message)
+        self.best = best
+
+
 def check_conformations(conformations, dim: int | None = None) -> np.ndarray:
     """(C, k, d) specified positions in C ∈ {2, 3} conformations, or InvalidInput/DomainError:
     equal shapes, d + 1 ≤ k ≤ MAX_SPECIFIED (``too_expensive``) distinct nodes in each, no two
@@ -172,7 +183,7 @@ def design_linkage(conformations, dim: int | None = None, seed: int = 0) -> Link
         construction = "two-configuration design (averaging principle)"
     else:
         construction = "three conformations (2 linear equations per anchor and two quadrics per node)"
-    best_why, placed_any = "no node could be placed", False
+    best_why, best, placed_any = "no node could be placed", None, False
     for attempt in range(ATTEMPTS):
         check_budget()
         rng = np.random.default_rng([seed, attempt])
@@ -190,17 +201,18 @@ def design_linkage(conformations, dim: int | None = None, seed: int = 0) -> Link
         positions = norm.positions_out(positions)
         positions[:, :k] = x  # exact, not rounded through the normalisation
         frame = Frame.build(positions[0], edges, specified=range(k))
-        linkage, why = _verified(frame, positions, construction)
+        linkage, why, figures = _verified(frame, positions, construction)
         if linkage is not None:
             return linkage
-        best_why = why
+        if best is None or (figures is not None and max(figures["epsilons"]) < max(best["epsilons"])):
+            best_why, best = why, figures
     if not placed_any:
         raise DomainError(
             "no_linkage",
             "no node can be joined to the specified nodes with equal bar lengths in all three conformations "
             "(the two quadrics have no admissible real common point on any anchor set): no linkage of this construction passes through them.",
         )
-    raise DomainError("no_path", f"every linkage found realises the conformations but {best_why}.")
+    raise NoPath(f"every linkage found realises the conformations but {best_why}.", best)
 
 
 def _build(xn: np.ndarray, rng: np.random.Generator):
@@ -401,8 +413,9 @@ def _polish(a: np.ndarray, b: np.ndarray, z: np.ndarray, d: int) -> np.ndarray |
 
 
 def _verified(frame: Frame, conformations: np.ndarray, construction: str):
-    """(Linkage, "") when the continuation from conformation a (``frame``) meets every later
-    conformation in order with one nontrivial mode all the way; (None, why) otherwise."""
+    """(Linkage, "", None) when the continuation from conformation a (``frame``) meets every
+    later conformation in order with one nontrivial mode all the way; (None, why, figures)
+    otherwise, figures (NoPath.best) once the motion was traced, else None."""
     lengths = [bar_lengths(c, frame.edges) for c in conformations]
     mismatch = float(max(np.max(np.abs(ell - lengths[0]) / lengths[0]) for ell in lengths[1:]))
     a = conformations[0]
@@ -412,31 +425,35 @@ def _verified(frame: Frame, conformations: np.ndarray, construction: str):
     try:
         mode = _mode_towards(frame, conformations[1])
     except DomainError as exc:
-        return None, exc.message
+        return None, exc.message, None
     amplitude = PATH_MARGIN * chord
     for _ in range(EXTENSIONS + 1):
         step = amplitude / (SAMPLES_PER_LEG * (len(conformations) - 1))
         try:
             path = trace_motion(frame, mode=mode, amplitude=amplitude, max_step=step, direction="forward")
         except DomainError as exc:
-            return None, f"the motion cannot be traced ({exc.message})"
+            return None, f"the motion cannot be traced ({exc.message})", None
         fids = [fidelity(path, range(n), a, c - a, 1.0) for c in conformations[1:]]
         if not fids[-1].at_end or path.singularities:
             break
         amplitude *= 2
     eps = np.array([0.0] + [f.epsilon for f in fids])
     taus = np.array([0.0] + [f.parameter for f in fids])
+    figures = {
+        "epsilons": eps.tolist(), "parameters": taus.tolist(), "traced_to": float(path.parameter[-1]),
+        "singular_at": path.singularities[0].parameter if path.singularities else None,
+    }
     if not np.all(eps <= REACHED_EPS):
         j = int(np.argmax(eps))
         where = f"at a singular point (parameter {path.singularities[0].parameter:.4g})" if path.singularities else "without meeting it"
-        return None, f"the motion from conformation 0 passes conformation {j} at ε = {eps[j]:.2e} (> {REACHED_EPS:g}) and ends {where}"
+        return None, f"the motion from conformation 0 passes conformation {j} at ε = {eps[j]:.2e} (> {REACHED_EPS:g}) and ends {where}", figures
     if not np.all(np.diff(taus) > 0):
-        return None, f"the motion from conformation 0 meets the conformations out of order (parameters {np.round(taus, 6).tolist()})"
+        return None, f"the motion from conformation 0 meets the conformations out of order (parameters {np.round(taus, 6).tolist()})", figures
     gap = _gap_along(path, frame.edges, taus[-1])
     if gap is None:
-        return None, "the frame has more than one nontrivial zero mode somewhere along the motion"
+        return None, "the frame has more than one nontrivial zero mode somewhere along the motion", figures
     path = _with_lead_in(frame, mode, path, OUTER_MARGIN * taus[-1] / (len(taus) - 1), step)
-    return Linkage(frame, conformations, path, taus, eps, gap, mismatch, construction, analyze(frame, bases=False)), ""
+    return Linkage(frame, conformations, path, taus, eps, gap, mismatch, construction, analyze(frame, bases=False)), "", None
 
 
 def _with_lead_in(frame: Frame, mode: np.ndarray, path: MotionPath, amplitude: float, step: float) -> MotionPath:
@@ -486,11 +503,16 @@ def _mode_towards(frame: Frame, target: np.ndarray) -> np.ndarray:
 
 
 def _gap_along(path: MotionPath, edges: np.ndarray, until: float) -> float | None:
-    """Smallest σ_r/σ_max of C (normalised positions) over the path samples from τ = 0 to the
-    one nearest ``until``, or None when a sample has other than one nontrivial zero mode."""
-    gap = np.inf
+    """gap_along over the path samples from τ = 0 to the one nearest ``until``."""
     last = int(np.argmin(np.abs(path.parameter - until)))
-    for x in path.positions[path.reference_index : last + 1]:
+    return gap_along(path.positions[path.reference_index : last + 1], edges)
+
+
+def gap_along(positions: np.ndarray, edges: np.ndarray) -> float | None:
+    """Smallest σ_r/σ_max of C (normalised positions) over configurations (P, N, d), or None
+    when one of them has other than one nontrivial zero mode."""
+    gap = np.inf
+    for x in positions:
         y = Normalisation.of(x).positions_in(x)
         s = np.linalg.svd(compatibility_matrix(y, edges, dense=True), compute_uv=False)
         r, _ = decide_rank(s)

@@ -40,9 +40,10 @@ import casadi as ca
 import numpy as np
 
 from zeromode.solver.analysis.normalisation import rms_radius
-from zeromode.solver.budget import remaining
+from zeromode.solver.budget import check_budget, remaining
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame
+from zeromode.solver.progress import progress_heartbeat, progress_stage
 from zeromode.solver.sequential.module_map import Module, ModuleMap, module_map, two_triangle_module
 from zeromode.solver.tolerances import DISTINCT_RTOL, MAP_IPOPT_TOL, MAP_RTOL
 
@@ -67,6 +68,15 @@ DESIGN_MAX_NODES = 16
 IPOPT_MAX_ITER = 400
 # ... and its time limit (CPU and wall; the request's budget if shorter): a design takes ~1 s.
 IPOPT_MAX_S = 60.0
+# ... and at least this (IPOPT refuses a limit of 0: a budget that ends between check_budget and
+# IPOPT's start is overrun by this at most, then refused by check_budget after it).
+IPOPT_MIN_S = 0.01
+# Progress shares of a design and IPOPT's expected time for its heartbeat (measured on the
+# deployable pair of fixed points, wall at load 8: the start's map 0.9–1.2 s, the NLP's
+# construction 0.5 s and IPOPT 0.6–0.9 s, the designed module's map 1.1–1.3 s).
+START_MAP_SHARE = 0.3
+IPOPT_SHARE = 0.65
+IPOPT_EXPECTED_S = 1.0
 
 
 @dataclass(frozen=True)
@@ -170,22 +180,20 @@ def _slope_expression(module: Module, x) -> ca.SX:
     return ca.dot(out, (v[c, :] - v[e, :]).T) / ca.norm_2(out)
 
 
-def design_module(points, start: Module | None = None, reach: float = REACH) -> ModuleDesign:
-    """A module (``start``'s bars, default the two-triangle module) whose map meets ``points``
-    (module docstring); FeatureOutOfReach with the best figures if it is not met, DomainError
-    ``feature_out_of_reach`` before any work for a distance beyond 2·reach·r (no two nodes within
-    reach·r of the centre are farther apart), ``too_expensive`` for a start of more than
-    DESIGN_MAX_NODES nodes or a ladder of more than MAX_LADDER configurations."""
+def check_design(points, start: Module | None = None, reach: float = REACH) -> tuple[tuple[MapPoint, ...], Module]:
+    """What design_module refuses before any work (milliseconds; POST /v1/jobs refuses it at
+    submit too): the points (check_points); ``too_expensive`` for a start of more than
+    DESIGN_MAX_NODES nodes or a ladder of more than MAX_LADDER configurations;
+    ``invalid_reach``; ``feature_out_of_reach`` for a distance beyond 2·reach·r (no two nodes
+    within reach·r of the centre are farther apart).  Returns (points, start), the start
+    defaulting to the two-triangle module."""
     points = check_points(points)
     start = two_triangle_module() if start is None else start
     if start.frame.n_nodes > DESIGN_MAX_NODES:
         raise DomainError("too_expensive", f"modules of up to {DESIGN_MAX_NODES} nodes are designed; the start has {start.frame.n_nodes}.")
     if not (np.isfinite(reach) and reach > 0):
         raise InvalidInput("invalid_reach", "reach must be a positive number.")
-    ref = start.frame.positions
-    n, dim = ref.shape
-    edges = start.frame.edges
-    r, centre = rms_radius(ref), ref.mean(axis=0)
+    r = rms_radius(start.frame.positions)
     widest = max(max(p.d_in, p.d_out) for p in points)
     if widest > 2 * reach * r:
         raise DomainError(
@@ -199,7 +207,21 @@ def design_module(points, start: Module | None = None, reach: float = REACH) -> 
             f"the features span more than {MAX_LADDER} configurations of the NLP's ladder (inputs {BRANCH_STEP:g} "
             "RMS radii apart): ask for closer input distances.",
         )
-    start_map = module_map(start)
+    return points, start
+
+
+def design_module(points, start: Module | None = None, reach: float = REACH) -> ModuleDesign:
+    """A module (``start``'s bars, default the two-triangle module) whose map meets ``points``
+    (module docstring); refusals before any work as check_design's, FeatureOutOfReach with the
+    best figures if the points are not met.  Progress: the start's map, IPOPT (a heartbeat: one
+    opaque call, under the time budget left), the designed module's map."""
+    points, start = check_design(points, start, reach)
+    ref = start.frame.positions
+    n, dim = ref.shape
+    edges = start.frame.edges
+    r, centre = rms_radius(ref), ref.mean(axis=0)
+    with progress_stage(0.0, START_MAP_SHARE, "the start's map"):
+        start_map = module_map(start)
     ladder = _ladder(points, r)
     seeds = [start_map.positions[int(np.argmin(np.abs(start_map.d_in - x)))] for x, _ in ladder]
     xs = [ca.SX.sym(f"x{j}", n, dim) for j in range(len(ladder))]
@@ -233,17 +255,21 @@ def design_module(points, start: Module | None = None, reach: float = REACH) -> 
         add(ca.sumsqr(xs[k] - xs[j]) / (n * r**2), -np.inf, BRANCH_JUMP**2)
     w = ca.vertcat(*[ca.reshape(x.T, -1, 1) for x in xs])
     objective = sum(ca.sumsqr(x - s) for x, s in zip(xs, seeds)) / r**2
+    check_budget()  # spent already (the start's map): too_expensive before IPOPT
     budget = remaining()
-    left = IPOPT_MAX_S if budget is None else min(IPOPT_MAX_S, budget)
+    left = IPOPT_MAX_S if budget is None else min(IPOPT_MAX_S, max(budget, IPOPT_MIN_S))
     # IPOPT's default (monotone) barrier update: refine.ipopt_solver's adaptive one misses the
     # deployable pair of fixed points (measured), so the options are this NLP's own.
     options = {"ipopt.tol": MAP_IPOPT_TOL, "ipopt.max_iter": IPOPT_MAX_ITER, "ipopt.max_cpu_time": left,
                "ipopt.max_wall_time": left, "ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": False}
     solver = ca.nlpsol("module_design", "ipopt", {"x": w, "f": objective, "g": ca.vertcat(*g)}, options)
-    got = solver(x0=np.concatenate([s.ravel() for s in seeds]), lbg=lo, ubg=hi)
+    with progress_stage(START_MAP_SHARE, IPOPT_SHARE, "IPOPT"), progress_heartbeat(IPOPT_EXPECTED_S, "solving"):
+        got = solver(x0=np.concatenate([s.ravel() for s in seeds]), lbg=lo, ubg=hi)
     status = solver.stats()["return_status"]
+    check_budget()  # IPOPT stopped at the budget's end: too_expensive, not a verdict on the feature
     configurations = np.asarray(got["x"]).reshape(len(ladder), n, dim)
-    return _verified(start, points, configurations[: len(points)], status, reach)
+    with progress_stage(IPOPT_SHARE, 1.0, "verification"):
+        return _verified(start, points, configurations[: len(points)], status, reach)
 
 
 def _ladder(points: tuple[MapPoint, ...], r: float) -> list[tuple[float, MapPoint | None]]:

@@ -315,6 +315,22 @@ def sample_slopes(module: Module, positions: np.ndarray) -> np.ndarray:
     return np.asarray(slopes)
 
 
+def check_map_size(module: Module) -> None:
+    """What module_map refuses before tracing (its pairs are Module.build's): ``too_expensive``
+    above MAP_MAX_DOF degrees of freedom d·N."""
+    dof = module.frame.dim * module.frame.n_nodes
+    if dof > MAP_MAX_DOF:
+        raise DomainError("too_expensive", f"maps are computed for modules of up to {MAP_MAX_DOF} degrees of freedom (d·N); this one has {dof}.")
+
+
+def has_branch(module: Module) -> bool:
+    """Whether the bordered Jacobian J of the exact evaluation (module docstring) is square, so
+    that sign det J tells the map's branch: B bars + 1 input row + ρ rigid motions = d·N
+    (a one-mode module without self-stress)."""
+    dim = module.frame.dim
+    return len(module.frame.edges) + 1 + dim * (dim + 1) // 2 == dim * module.frame.n_nodes
+
+
 def module_map(module: Module, horizon: float = MAP_HORIZON, max_step: float = MAP_MAX_STEP) -> ModuleMap:
     """The map of ``module`` on its usable range (module docstring): its motion traced both ways
     from the reference until d_in turns back (a fold, located on the curve between samples),
@@ -322,9 +338,7 @@ def module_map(module: Module, horizon: float = MAP_HORIZON, max_step: float = M
     several nontrivial zero modes; ``input_fixed`` if d_in does not change along the motion,
     ``reference_at_fold`` if it turns back at the reference itself, ``too_expensive`` above
     MAP_MAX_DOF."""
-    dof = module.frame.dim * module.frame.n_nodes
-    if dof > MAP_MAX_DOF:
-        raise DomainError("too_expensive", f"maps are computed for modules of up to {MAP_MAX_DOF} degrees of freedom (d·N); this one has {dof}.")
+    check_map_size(module)
     last: dict[int, tuple[float, float]] = {}
     d_ref = float(module.distances(module.frame.positions)[0])
 
@@ -357,8 +371,7 @@ def module_map(module: Module, horizon: float = MAP_HORIZON, max_step: float = M
     idx = np.arange(keep[0], keep[1] + 1)
     if d_in[idx[-1]] < d_in[idx[0]]:
         idx, ends = idx[::-1], ends[::-1]
-    square = len(module.frame.edges) + 1 + _rigid_rows(path.positions[:1]).shape[1] == path.positions[0].size
-    branch = int(branch_signs(module, module.frame.positions[None])[0]) if square else 0
+    branch = int(branch_signs(module, module.frame.positions[None])[0]) if has_branch(module) else 0
     if branch:  # a sample within round-off of a fold may lie just past it: not a warm start
         idx = idx[branch_signs(module, path.positions[idx]) == branch]
     positions = path.positions[idx]

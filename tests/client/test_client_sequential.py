@@ -3,6 +3,8 @@ loopback, checked against the two-triangle module's closed-form map (tests/oracl
 
 from __future__ import annotations
 
+import itertools
+
 import httpx
 import numpy as np
 import pytest
@@ -94,3 +96,46 @@ def test_named_examples_are_served(client: Client, name: str) -> None:
         assert exact.f(f["d_in"]) == pytest.approx(f["d_out"], rel=1e-8)
     if result["chain"] is not None:
         assert result["chain"]["deviation"] <= result["map_rtol"]
+
+
+def test_soliton_through_the_client_by_the_definition(client: Client) -> None:
+    result = client.design_sequential(
+        features=[{"kind": "fixed_point", "d": 1.2, "slope": 1.8}, {"kind": "fixed_point", "d": 1.8, "slope": 0.4}],
+        soliton={"n_modules": 8, "stiffness": 2.0},
+    )
+    sol, chain = result["soliton"], result["chain"]
+    exact = TwoTriangles(result["module"]["frame"]["positions"])
+    d_u, d_s = sol["unstable"]["d"], sol["stable"]["d"]
+    assert exact.f(d_u) == pytest.approx(d_u, rel=1e-12) and exact.f(d_s) == pytest.approx(d_s, rel=1e-12)
+    pairs = np.asarray(sol["springs"]["pairs"])
+    k, rest = np.asarray(sol["springs"]["stiffness"]), np.asarray(sol["springs"]["rest_length"])
+    assert len(pairs) == 8 and np.all(k == 2.0)
+
+    def energy(x):  # E = Σ k (|x_i − x_j| − L)²/2
+        x = np.asarray(x)
+        return 0.5 * np.sum(k * (np.linalg.norm(x[pairs[:, 0]] - x[pairs[:, 1]], axis=1) - rest) ** 2)
+
+    distances = np.asarray(chain["distances"])[sol["rows"]]
+    for row, wall in zip(distances, sol["wall"]):
+        # the chain's conformation is the orbit of the module's closed-form map …
+        assert [exact.f(d) for d in row[:-1]] == pytest.approx(row[1:], rel=result["map_rtol"])
+        # … and the wall is where (d_k − d_u)/(d_s − d_u) crosses ½
+        s = (row - d_u) / (d_s - d_u)
+        up = [i for i in range(8) if s[i] < 0.5 <= s[i + 1]]
+        assert (wall is None) == (not up)
+        if up:
+            assert wall == pytest.approx(up[0] + (0.5 - s[up[0]]) / (s[up[0] + 1] - s[up[0]]), abs=1e-12)
+    walls = [w for w in sol["wall"] if w is not None]
+    assert all(b < a for a, b in itertools.pairwise(walls)) and max(walls) - min(walls) >= sol["required_travel"] == 6
+    for i, row in enumerate(sol["rows"]):
+        assert energy(chain["path"][row]) == pytest.approx(sol["energy"][i], rel=1e-10)
+    for state in (sol["unstable"], sol["stable"]):
+        assert energy(state["positions"]) < 1e-20 and state["hessian_min_eigenvalue"] > 0
+    with pytest.raises(ZeromodeError) as both:
+        client.design_sequential(features=[{"kind": "fixed_point", "d": 1.2, "slope": 1.8},
+                                           {"kind": "fixed_point", "d": 1.8, "slope": 0.4}],
+                                 chain={"n_modules": 8}, soliton={"n_modules": 8})
+    assert both.value.code == "invalid_soliton"
+    with pytest.raises(ZeromodeError) as one:
+        client.design_sequential(features=[{"kind": "fixed_point", "d": 1.2, "slope": 1.8}], soliton={})
+    assert one.value.code == "invalid_soliton"

@@ -2,8 +2,9 @@
 POST /v1/plot and POST /v1/export accept besides their own bodies.
 
 A document is a request or response body of /v1/design, /v1/design/auxetic,
-/v1/design/allosteric or /v1/design/multistable — a request is designed first (``endpoints.respond``), so a request and its response
-give the same document — a /v1/refine response, a /v1/motion response (which has no frame: the
+/v1/design/allosteric, /v1/design/multistable or /v1/design/sequential — a request is designed
+first (``endpoints.respond``), so a request and its response give the same document — a /v1/map
+request (its module), a /v1/refine response, a /v1/motion response (which has no frame: the
 frame it moved comes with it), or any other body with a ``frame``.
 """
 
@@ -14,12 +15,13 @@ from typing import Any
 
 from pydantic import BaseModel, ValidationError
 
+from zeromode.service.wire.convert import feature_points, module_from_model
 from zeromode.service.wire.schemas.allostery import AllostericRequest
 from zeromode.service.wire.schemas.common import FrameModel, Points
 from zeromode.service.wire.schemas.design import DesignRequest
 from zeromode.service.wire.schemas.lattice import AuxeticRequest, LatticeState
 from zeromode.service.wire.schemas.multistable import MinimumModel, MultistableRequest, SpringsModel
-from zeromode.service.wire.schemas.sequential import ChainBody, DesignedModule
+from zeromode.service.wire.schemas.sequential import ChainBody, DesignedModule, SequentialRequest
 from zeromode.solver.errors import InvalidInput
 from zeromode.solver.pipeline import RefineStage, ToleranceStage
 
@@ -121,6 +123,32 @@ def kind(doc: dict) -> str:
     return FRAME
 
 
+def refuse_map_answer(doc) -> None:
+    """A /v1/map response (``d_in``, ``d_out``, ``lower``, ``upper``, no ``frame``) holds the map,
+    not a frame: nothing to draw or export (InvalidInput ``invalid_document``)."""
+    if isinstance(doc, dict) and "frame" not in doc and {"d_in", "d_out", "lower", "upper"} <= doc.keys():
+        raise InvalidInput(
+            "invalid_document", "a /v1/map response holds the map, not a frame: plot or export its request "
+            "(the module's frame and pairs) instead.",
+        )
+
+
+def framed(doc: dict) -> dict:
+    """What a picture shows of a module map's documents (others unchanged): a
+    /v1/design/sequential response (SEQUENTIAL) as its chain's frame at the orbit from d0 when it
+    was chained, else the designed module's; a /v1/map request (``frame``, ``input_pair``,
+    ``output_pair``) as its module's frame; a /v1/map response refused (refuse_map_answer)."""
+    refuse_map_answer(doc)
+    if not isinstance(doc, dict):
+        return doc
+    if kind(doc) == SEQUENTIAL:
+        sequential = validated(doc, SequentialDocument)
+        return {"frame": (sequential.chain or sequential.module).frame.model_dump()}
+    if "frame" in doc and {"input_pair", "output_pair"} <= doc.keys():
+        return {"frame": doc["frame"]}
+    return doc
+
+
 def design_arguments(r: DesignRequest) -> dict:
     """design_pipeline's arguments for a /v1/design request (its operation and the prechecks'
     check_design_request take them)."""
@@ -139,7 +167,22 @@ def multistable_arguments(r: MultistableRequest) -> dict:
     o = r.options
     return {
         "conformations": r.conformations, "barrier": o.barrier, "max_stiffness": o.max_stiffness,
-        "dim": r.dim, "seed": o.seed,
+        "dim": r.dim, "seed": o.seed, "bifurcation": o.bifurcation,
+    }
+
+
+def sequential_arguments(r: SequentialRequest) -> dict:
+    """design_sequential's arguments for a /v1/design/sequential request (its operation and the
+    prechecks' check_sequential take them): the features' map points, the start module (None:
+    the two-triangle module), reach and the chain's n_modules and d0 (None without a chain).
+    InvalidInput ``invalid_soliton`` for a request with both a chain and a soliton."""
+    chain = r.chain
+    if chain is not None and r.soliton is not None:
+        raise InvalidInput("invalid_soliton", "ask for either a chain or a soliton, not both.")
+    return {
+        "points": feature_points(r.features), "start": None if r.start is None else module_from_model(r.start),
+        "reach": r.reach, "n_modules": None if chain is None else chain.n_modules,
+        "d0": None if chain is None else chain.d0,
     }
 
 

@@ -24,10 +24,11 @@ from zeromode.operations.documents import (
     auxetic_arguments,
     design_arguments,
     multistable_arguments,
+    sequential_arguments,
     validated,
 )
 from zeromode.operations.prechecks import motion_frame
-from zeromode.service.wire.convert import feature_points, frame_from_model, module_from_model
+from zeromode.service.wire.convert import frame_from_model, module_from_model
 from zeromode.service.wire.errors import with_best
 from zeromode.service.wire.responses import (
     allosteric_body,
@@ -164,11 +165,17 @@ def multistable(r: MultistableRequest) -> Outcome:
     """POST /v1/design/multistable: a one-freedom linkage through the 2 or 3 conformations
     (verified by continuation), springs making each a strict minimum of the elastic energy
     along its motion with barriers between neighbours, every minimum verified by the full
-    energy's Hessian and seeded relaxations (solver.multistable)."""
+    energy's Hessian and seeded relaxations (solver.multistable); NoPath and a branched
+    design's NoBifurcation carry the best attempt's figures."""
+    from zeromode.solver.multistable.bifurcation import NoBifurcation
     from zeromode.solver.multistable.design import design_multistable
+    from zeromode.solver.multistable.linkage import NoPath
 
     t0 = time.perf_counter()
-    result = design_multistable(**multistable_arguments(r))
+    try:
+        result = design_multistable(**multistable_arguments(r))
+    except (NoBifurcation, NoPath) as exc:
+        raise with_best(exc, json_safe(exc.best)) from None
     return Outcome(result, multistable_body(result, _ms_since(t0)))
 
 
@@ -249,6 +256,8 @@ def respond(doc: dict) -> tuple[dict, BaseModel]:
         (("poisson_ratio",), AuxeticRequest, auxetic),
         (("positions", "motions"), DesignRequest, design),
         (("conformations",), MultistableRequest, multistable),
+        (("features",), SequentialRequest, sequential),
+        (("frame", "input_pair", "output_pair"), MapRequest, module_map),
     ):
         if all(f in doc for f in fields):
             r = validated(doc, model)
@@ -256,7 +265,8 @@ def respond(doc: dict) -> tuple[dict, BaseModel]:
     raise InvalidInput(
         "invalid_document",
         "the document is neither a body with a frame nor a request or response of /v1/design, "
-        "/v1/design/auxetic, /v1/design/allosteric or /v1/design/multistable.",
+        "/v1/design/auxetic, /v1/design/allosteric, /v1/design/multistable, /v1/design/sequential "
+        "or /v1/map.",
     )
 
 
@@ -330,26 +340,28 @@ def module_map(r: MapRequest) -> Outcome:
     from zeromode.solver.sequential.module_map import module_map as map_of
 
     t0 = time.perf_counter()
-    result = map_of(module_from_model(r))
+    with progress_stage(0.0, 1.0, "module map"):
+        result = map_of(module_from_model(r))
     return Outcome(result, {**module_map_body(result, r.at), "timings_ms": _ms_since(t0)})
 
 
 def sequential(r: SequentialRequest) -> Outcome:
     """POST /v1/design/sequential: a module designed for the features (IPOPT, verified by
-    continuation) and, with ``chain``, its chain verified against the map's iterates; a refusal
-    carries its best figures (``feature_out_of_reach``, ``chain_mismatch``)."""
+    continuation) and, with ``chain``, its chain verified against the map's iterates, or with
+    ``soliton``, the soliton chain with its springs, drive and wall (solver.sequential.soliton); a
+    refusal carries its best figures (``feature_out_of_reach``, ``chain_mismatch``,
+    ``soliton_not_verified``)."""
     from zeromode.solver.sequential.chain import design_sequential
+    from zeromode.solver.sequential.soliton import design_soliton
 
     t0 = time.perf_counter()
-    chain = r.chain
+    a = sequential_arguments(r)
     try:
-        result = design_sequential(
-            feature_points(r.features),
-            None if r.start is None else module_from_model(r.start),
-            r.reach,
-            None if chain is None else chain.n_modules,
-            None if chain is None else chain.d0,
-        )
+        with progress_stage(0.0, 1.0, "sequential design"):
+            if r.soliton is not None:
+                result = design_soliton(a["points"], a["start"], a["reach"], r.soliton.n_modules, r.soliton.stiffness)
+            else:
+                result = design_sequential(**a)
     except DomainError as exc:
         best = sequential_refusal_best(exc)
         if best is None:

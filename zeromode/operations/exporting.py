@@ -32,6 +32,7 @@ from zeromode.operations.documents import (
     PathDocument,
     SequentialDocument,
     kind,
+    refuse_map_answer,
     validated,
 )
 from zeromode.service.wire.convert import frame_from_model
@@ -66,8 +67,10 @@ def export_file(request: ExportRequest) -> tuple[bytes, str, str]:
 
 def takeaway_for(request: ExportRequest) -> Takeaway:
     """The request's document (designed first when it is a request) with the request's own
-    frame, modes, path and springs taking precedence; the path traced when the format needs one."""
+    frame, modes, path and springs taking precedence; the path traced when the format needs one.
+    A /v1/map request exports its module's frame (its pairs are read by no format)."""
     doc = request.document or {}
+    refuse_map_answer(doc)
     if doc and "frame" not in doc and kind(doc) not in (MOTION, SEQUENTIAL):
         doc, _ = endpoints.respond(doc)
     what = kind(doc) if doc else FRAME
@@ -96,7 +99,8 @@ def takeaway_for(request: ExportRequest) -> Takeaway:
         configurations = {f"conformation_{c}": x for c, x in enumerate(multistable.conformations)}
         if multistable.minima:
             metadata["minima"] = [m.model_dump() for m in multistable.minima]
-            placed = multistable.conformations, [m.arclength for m in multistable.minima]
+            # minima name their conformation: a branched design's branch point is none of them
+            placed = [multistable.conformations[m.index] for m in multistable.minima], [m.arclength for m in multistable.minima]
     frame_model = request.frame or frame_model
     if frame_model is None:
         raise InvalidInput("invalid_request", "the export needs a frame: give `frame`, or a document with one.")

@@ -17,6 +17,7 @@ from zeromode.operations.documents import (
     AllostericDocument,
     AuxeticDocument,
     DesignDocument,
+    framed,
     kind,
     validated,
 )
@@ -44,15 +45,19 @@ def picture_for_document(doc: dict, solution_space: bool = True) -> Picture:
     - a /v1/design response (``frame``, ``modes``, ``report``): viz.designs.design_picture;
     - any other document with a ``frame``: a /v1/plot body, whose ``solution_space`` defaults
       to true here;
+    - a /v1/design/sequential response: its chain's frame (else its module's), a /v1/map
+      request: its module's frame (documents.framed);
     - requests of /v1/design/allosteric (``source``, ``target``), /v1/design/auxetic (``cells``
-      or ``poisson_ratio``) and /v1/design (``positions``, ``motions``) are designed first; an
-      allosteric request's own target motion is then drawn as the requested one.
+      or ``poisson_ratio``), /v1/design (``positions``, ``motions``), /v1/design/multistable and
+      /v1/design/sequential (``features``) are designed first; an allosteric request's own
+      target motion is then drawn as the requested one.
 
     ``solution_space`` false never draws the solution space; true draws it for designs and
     plot bodies with a motion and specified nodes.  Raises InvalidInput on anything else.
     """
     if not isinstance(doc, dict):
         raise InvalidInput("invalid_document", "the document must be a JSON object.")
+    doc = framed(doc)
     if "frame" not in doc:
         response, request = endpoints.respond(doc)
         if isinstance(request, AllostericRequest):

@@ -29,8 +29,19 @@ What is decided here, and what only the run can decide:
                          (too_expensive).  Run time: inaccurate_design, the tolerance stage.
   /v1/design/multistable the conformations (2 or 3, equal shapes, k ≥ d + 1 distinct nodes,
                          at most MAX_SPECIFIED: too_expensive; none a rigid motion of another:
-                         rigid_target).  Run time: no_linkage, no_path, no_springs,
-                         not_verified.
+                         rigid_target), a bifurcation's (three 2D conformations:
+                         invalid_bifurcation).  Run time: no_linkage, no_path, no_bifurcation,
+                         no_springs, not_verified.
+  /v1/map                the frame, the pairs (two distinct nodes each, not a bar, the pairs
+                         different: Module.build), the size (d·N ≤ MAP_MAX_DOF: too_expensive).
+                         Run time: the module's modes (no_motion, ambiguous_mode),
+                         input_fixed, reference_at_fold, out_of_range of `at`.
+  /v1/design/sequential  the features (invalid_feature), the start module as /v1/map's and at
+                         most DESIGN_MAX_NODES nodes, reach, a distance beyond the start's
+                         reach (feature_out_of_reach), the NLP's ladder (MAX_LADDER:
+                         too_expensive); with a chain, the module chainable (planar, no
+                         self-stress, disjoint pairs).  Run time: feature_out_of_reach of the
+                         design, chain_leaves_range, chain_mismatch.
   /v1/motion             the frame, its extent, direction / amplitude / max_step, the size
                          (too_expensive), the given mode's shape, the boundary sets.  Run time:
                          everything about the frame's modes (no_motion, ambiguous_mode,
@@ -54,8 +65,9 @@ from zeromode.operations.documents import (
     auxetic_arguments,
     design_arguments,
     multistable_arguments,
+    sequential_arguments,
 )
-from zeromode.service.wire.convert import frame_from_model
+from zeromode.service.wire.convert import frame_from_model, module_from_model
 from zeromode.service.wire.schemas.allostery import AllostericRequest
 from zeromode.service.wire.schemas.analyze import AnalyzeRequest
 from zeromode.service.wire.schemas.certify import CertifyRequest
@@ -63,6 +75,7 @@ from zeromode.service.wire.schemas.design import DesignRequest
 from zeromode.service.wire.schemas.lattice import AuxeticRequest
 from zeromode.service.wire.schemas.motion import MotionRequest, RefineRequest
 from zeromode.service.wire.schemas.multistable import MultistableRequest
+from zeromode.service.wire.schemas.sequential import MapRequest, SequentialRequest
 from zeromode.solver.analysis.rigidity import check_dense_size
 from zeromode.solver.applications.allostery import allosteric_inputs
 from zeromode.solver.certificates.prestress import check_certify_request
@@ -70,8 +83,12 @@ from zeromode.solver.frame import Frame, check_extent
 from zeromode.solver.motion.boundary_strain import boundary_sets
 from zeromode.solver.motion.finite_motion import check_trace_arguments, given_mode
 from zeromode.solver.motion.refine import refinement_target
+from zeromode.solver.multistable.bifurcation import check_bifurcation
 from zeromode.solver.multistable.linkage import check_conformations
 from zeromode.solver.pipeline import check_auxetic_request, check_design_request
+from zeromode.solver.sequential.chain import check_sequential
+from zeromode.solver.sequential.module_map import check_map_size
+from zeromode.solver.sequential.soliton import check_soliton
 
 
 def motion_frame(request: MotionRequest) -> Frame:
@@ -106,7 +123,20 @@ def _allosteric(r: AllostericRequest) -> None:
 
 def _multistable(r: MultistableRequest) -> None:
     a = multistable_arguments(r)
-    check_conformations(a["conformations"], a["dim"])
+    x = check_conformations(a["conformations"], a["dim"])
+    if a["bifurcation"] is not None:
+        check_bifurcation(a["bifurcation"], x)
+
+
+def _map(r: MapRequest) -> None:
+    check_map_size(module_from_model(r))
+
+
+def _sequential(r: SequentialRequest) -> None:
+    a = sequential_arguments(r)
+    check_sequential(a["points"], a["start"], a["reach"], a["n_modules"])
+    if r.soliton is not None:
+        check_soliton(a["points"], r.soliton.n_modules, r.soliton.stiffness)
 
 
 def _motion(r: MotionRequest) -> None:
@@ -129,6 +159,8 @@ PRECHECKS: dict[str, Callable] = {
     "/v1/design/auxetic": _auxetic,
     "/v1/design/allosteric": _allosteric,
     "/v1/design/multistable": _multistable,
+    "/v1/map": _map,
+    "/v1/design/sequential": _sequential,
     "/v1/motion": _motion,
     "/v1/refine": _refine,
     "/v1/certify": _certify,

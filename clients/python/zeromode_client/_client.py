@@ -206,7 +206,8 @@ class Client(_BaseClient):
 
     def design_multistable(self, **fields: Any) -> Result:
         """POST /v1/design/multistable with ``fields`` (dim, conformations, options: barrier,
-        max_stiffness, seed): rods and springs whose 2 or 3 conformations are energy minima."""
+        max_stiffness, seed, bifurcation): rods and springs whose 2 or 3 conformations are energy
+        minima, or whose motion branches at the conformation ``bifurcation`` names."""
         return self._send(ep.capability("/v1/design/multistable", fields))
 
     def module_map(self, frame: FrameLike, input_pair: Sequence[int], output_pair: Sequence[int],

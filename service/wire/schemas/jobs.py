@@ -13,6 +13,8 @@ JobEndpoint = Literal[
     "/v1/design",
     "/v1/design/allosteric",
     "/v1/design/multistable",
+    "/v1/design/sequential",
+    "/v1/map",
     "/v1/refine",
     "/v1/motion",
     "/v1/certify",

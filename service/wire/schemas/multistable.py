@@ -24,6 +24,12 @@ class MultistableOptions(RequestModel):
     )
     max_stiffness: float = Field(default=1.0, gt=0, description="Largest spring stiffness k_max.")
     seed: int = Field(default=0, ge=0, description="Seed for the node placement and the relaxations: same request, same answer.")
+    bifurcation: int | None = Field(
+        default=None, ge=0, le=2,
+        description="Index of a conformation where the motion is to branch (three 2D conformations): the rods' "
+        "configuration space has a bifurcation there, the motion takes the branch through the other conformations, "
+        "which alone become the springs' minima.",
+    )
 
 
 class MultistableRequest(RequestModel):
@@ -69,6 +75,46 @@ class MinimumModel(BaseModel):
     )
 
 
+class BranchFollowedModel(BaseModel):
+    reach: tuple[float, float] = Field(
+        description="Path parameters reached either way from the branch point (RMS node displacement over its RMS radius)."
+    )
+    max_relative_bar_error: float = Field(description="Largest relative change of a rod's length along the continuation.")
+    separation: float = Field(
+        description="Smallest distance (modulo rigid motions) of its end configurations from the other branch's traced "
+        "configurations, over their distance from the branch point: > 0, a curve of its own."
+    )
+
+
+class BifurcationModel(BaseModel):
+    index: int = Field(description="The conformation where the motion branches (not a minimum: two first-order modes).")
+    arclength: float = Field(
+        description="Its s along the motion, on the landscape's scale (0 at the first minimum); a branch point at the "
+        "first or last conformation lies beyond the landscape's samples, which span the minima and a margin."
+    )
+    energy: float = Field(description="The springs' energy there (neither constrained nor a minimum).")
+    rank: int = Field(description="Rank of C there: one below the rods' count (one self-stress).")
+    sigma_kept: float = Field(description="Smallest kept singular value of C over the largest (normalised positions).")
+    sigma_dropped: float = Field(description="The singular value lost at the branch point, over the largest (round-off).")
+    stress: list[float] = Field(description="The self-stress ω (Cᵀω = 0, unit norm, per rod in frame order).")
+    form: tuple[float, float, float] = Field(
+        description="(A, B, D) of Q(a, b) = A a² + 2B ab + D b², the second-order condition Σ ω_e |Δu_e|² = 0 "
+        "on u = a u₁ + b u₂ (u₁, u₂ the orthonormal nontrivial modes): indefinite, B² > AD."
+    )
+    taken_tangent: Points = Field(
+        description="Unit tangent (in R^{dN}, ⟂ rigid motions) of the branch the motion takes at conformations[index], "
+        "signed towards the next conformation (away from the previous one at the last)."
+    )
+    other_tangent: Points = Field(description="Unit tangent of the other branch (sign immaterial).")
+    angle_degrees: float = Field(description="Angle between the two tangents as lines, in (0, 90].")
+    dyad: tuple[int, int] = Field(description="The branching dyad's nodes (q, p): p's rods are parallel at the branch point.")
+    kind: Literal["stretched", "folded"] = Field(
+        description="stretched: p between q and its other node (their distance largest there); folded: p beyond q (smallest)."
+    )
+    taken_branch: BranchFollowedModel = Field(description="The branch the motion takes, traced through every conformation.")
+    other_branch: BranchFollowedModel = Field(description="The other branch, followed a quarter of the way to the nearest conformation.")
+
+
 class MultistableReport(BaseModel):
     construction: str = Field(description="How the linkage was built.")
     analysis: AnalysisCounts = Field(description="Counts of the rods in the first conformation.")
@@ -92,4 +138,7 @@ class MultistableResponse(BaseModel):
     springs: SpringsModel
     landscape: LandscapeModel
     minima: list[MinimumModel]
+    bifurcation: BifurcationModel | None = Field(
+        default=None, description="The branch point when options.bifurcation asked for one (then minima omit it)."
+    )
     report: MultistableReport

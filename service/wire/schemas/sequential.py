@@ -92,12 +92,23 @@ class ChainOptions(RequestModel):
     )
 
 
+class SolitonOptions(RequestModel):
+    n_modules: int = Field(default=16, ge=4, le=256, description="Copies chained; the wall travels over at least n_modules − 2 of them.")
+    stiffness: PositiveFloat = Field(default=1.0, le=1e6, description="k of each copy's spring: E = Σ k (ℓ − L)²/2.")
+
+
 class SequentialRequest(RequestModel):
     features: list[Feature] = Field(min_length=1, max_length=4, description="Map features, met together by one module.")
     start: ModuleModel | None = Field(
         default=None, description="The module whose node positions are optimised (default: the two-triangle module)."
     )
     chain: ChainOptions | None = Field(default=None, description="Chain the designed module and verify it by continuation.")
+    soliton: SolitonOptions | None = Field(
+        default=None,
+        description="Instead of `chain`: a soliton. The features must be two fixed points, one unstable (slope > 1) and one "
+                    "stable (slope in (0, 1)); one spring per copy makes both uniform states zero-energy minima, and the "
+                    "domain wall between them travels along the chain as the input is driven.",
+    )
     reach: PositiveFloat = Field(default=3.0, le=100.0, description="Nodes stay within reach × the start's RMS radius of its centre.")
 
 
@@ -132,11 +143,53 @@ class ChainBody(BaseModel):
     ends: list[str] = Field(description="Why the traced motion ended each way: map_range, singular_point or horizon.")
 
 
+class SpringModel(BaseModel):
+    pairs: list[tuple[int, int]] = Field(description="One spring per copy [anchor, node] (chain node indices); never a rod.")
+    stiffness: list[float] = Field(description="k of each spring.")
+    rest_length: list[float] = Field(description="L: E = Σ k (|x_i − x_j| − L)²/2, zero in both uniform states.")
+
+
+class UniformStateModel(BaseModel):
+    d: float = Field(description="The fixed point every copy sits at.")
+    slope: float = Field(description="f′ there.")
+    energy: float = Field(description="E of the springs (0 up to round-off: every spring at its rest length).")
+    hessian_min_eigenvalue: float = Field(
+        description="Smallest eigenvalue of the full energy's Hessian (rods as stiff springs) modulo rigid motions: > 0, a strict minimum."
+    )
+    positions: list[list[float]] = Field(description="The chain's nodes in this state.")
+
+
+class SolitonBody(BaseModel):
+    module: DesignedModule = Field(description="The designed module with its spring anchor (the last node, a dyad on `anchor_bar`).")
+    anchor_bar: list[int] = Field(description="The module's bar whose ends hold the anchor.")
+    spring_node: int = Field(description="The module's node the spring joins to the anchor.")
+    springs: SpringModel
+    unstable: UniformStateModel = Field(description="Every copy at the unstable fixed point d_u.")
+    stable: UniformStateModel = Field(description="Every copy at the stable fixed point d_s.")
+    drive: list[float] = Field(description="d_0 at each sample of the verified motion strictly between d_u and d_s, from d_u.")
+    rows: list[int] = Field(description="Each drive sample's row in chain.distances and chain.path.")
+    wall: list[float | None] = Field(
+        description="The domain wall: the fractional index k where (d_k − d_u)/(d_s − d_u) crosses ½ (null: the chain is on one side)."
+    )
+    energy: list[float] = Field(description="E of the springs at each drive sample.")
+    travel: float = Field(description="How many modules the wall moves over the drive.")
+    required_travel: float = Field(description="The promise: travel ≥ n_modules − 2, monotonically.")
+    wall_slope: float = Field(description="dw/d ln|d_0 − d_u| fitted where 1 ≤ w ≤ n − 1.")
+    predicted_wall_slope: float = Field(description="−1/ln f′(d_u), the linearised prediction.")
+    barrier: float = Field(description="The largest E along the drive (the wall's energy) above the uniform states' 0.")
+    stiffness: float
+    rod_stiffness_ratio: float = Field(description="K/k of the rods as stiff springs in the Hessian check.")
+    snapshots: list[int] = Field(
+        description="Drive indices whose wall is nearest k·n/5, k = 1…4 (the chain there: chain.path[rows[i]])."
+    )
+
+
 class SequentialResponse(BaseModel):
     module: DesignedModule
     map: MapBody
     features: list[FeaturePointModel]
     chain: ChainBody | None
+    soliton: SolitonBody | None = Field(default=None, description="With `soliton`: the drive, the wall and the energy, verified.")
     deviation: float = Field(description="max relative deviation of the features (≤ map_rtol).")
     map_rtol: float = Field(description="The promise: features and chain within this.")
     solver_status: str = Field(description="IPOPT's return status (the answer is verified by continuation, not by it).")
@@ -164,6 +217,15 @@ SEQUENTIAL_EXAMPLES = {
         "summary": "Period-2 chain",
         "description": "f(1.3) = 1.7 and f(1.7) = 1.3: the copies alternate.",
         "value": {"features": [{"kind": "period_two", "d1": 1.3, "d2": 1.7}], "chain": {"n_modules": 12}},
+    },
+    "soliton": {
+        "summary": "Soliton",
+        "description": "The deployable map (d_u = 1.2 unstable, f′ = 1.8; d_s = 1.8 stable, f′ = 0.4) with one spring "
+                       "per copy: both uniform states are zero-energy minima, and as the input is driven from 1.8 "
+                       "towards 1.2 the wall between closed and open copies travels the whole chain.",
+        "value": {"features": [{"kind": "fixed_point", "d": 1.2, "slope": 1.8},
+                               {"kind": "fixed_point", "d": 1.8, "slope": 0.4}],
+                  "soliton": {"n_modules": 16}},
     },
     "stable_fixed_point": {
         "summary": "Stable fixed point",
