@@ -23,7 +23,7 @@ import queue
 import threading
 import time
 import uuid
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from typing import Any
 
 from zeromode.service.jobs.cluster import chunked, dask_client
@@ -112,13 +112,21 @@ class Engine:
             if self._client is not None:
                 return
             self.store.touch(self.instance)
+            # The lease is kept from here on: an embedded cluster takes seconds to start (3.4 s
+            # at load 2, more on a busy machine), longer than a short lease lasts, and a replica
+            # sharing the store would take this live instance for stopped and adopt its work.
+            if not self._threads:
+                self._spawn(self._keep_lease, "lease")
             self._client, self._cluster = _in_own_thread(dask_client, self.settings)
             self._client.subscribe_topic(PROGRESS_TOPIC, self._on_progress)
-            for target, name in ((self._record, "recorder"), (self._keep_lease, "lease"), (self._watch, "watchdog")):
-                thread = threading.Thread(target=target, name=f"zeromode-engine-{name}", daemon=True)
-                thread.start()
-                self._threads.append(thread)
+            self._spawn(self._record, "recorder")
+            self._spawn(self._watch, "watchdog")
         self._adopt()
+
+    def _spawn(self, target: Callable[[], None], name: str) -> None:
+        thread = threading.Thread(target=target, name=f"zeromode-engine-{name}", daemon=True)
+        thread.start()
+        self._threads.append(thread)
 
     def close(self) -> None:
         """Stop recording, give the lease up (unfinished work is adopted by the next instance)
@@ -339,6 +347,8 @@ class Engine:
         while not self._closing.wait(self.settings.job_lease_s / 4):
             try:
                 self.store.touch(self.instance)
+                if self._client is None:  # the cluster is still starting (start adopts once it is up)
+                    continue
                 self._adopt()
                 self.store.expire(time.time(), self.settings.job_ttl_s, self.settings.max_stored_jobs)
             except Exception:
