@@ -10,7 +10,6 @@ from __future__ import annotations
 import threading
 import time
 
-import pytest
 import sqlalchemy as sa
 from client.conftest import loopback_socket
 
@@ -31,7 +30,15 @@ def test_the_lease_is_kept_while_the_cluster_starts(tmp_path):
     engine = Engine(Settings(dask_scheduler=address, job_lease_s=LEASE_S,
                              database_url=f"sqlite:///{tmp_path}/jobs.sqlite3"), store)
     ages: list[float] = []
-    starting = threading.Thread(target=lambda: pytest.raises(EngineUnavailable, engine.start), daemon=True)
+    raised: list[BaseException] = []
+
+    def start() -> None:
+        try:
+            engine.start()
+        except BaseException as exc:  # noqa: BLE001 — asserted below, in the test's thread
+            raised.append(exc)
+
+    starting = threading.Thread(target=start, daemon=True)
     try:
         starting.start()
         t0 = time.monotonic()
@@ -49,3 +56,4 @@ def test_the_lease_is_kept_while_the_cluster_starts(tmp_path):
         starting.join(timeout=60)
         engine.close()
         store.close()
+    assert len(raised) == 1 and isinstance(raised[0], EngineUnavailable), raised
