@@ -10,9 +10,11 @@ Starts `zeromode serve` on loopback, drives Debian's chromium with Playwright as
 - designer_multistable.png: the tristable triangle (Multistable tab) designed, rods and springs
   a third of the way along its motion, the energy landscape under it and the minima's report;
 - designer_chain.png: the deployable chain (Chain tab) designed and played part-way open, the
-  module's map with the chain's cobweb and d_k along the chain.
+  module's map with the chain's cobweb and d_k along the chain;
+- designer_soliton.png: the Chain tab's soliton example, played until its wall is half-way along
+  the chain: rods, springs and the wall, the energy along the drive and d_k with the wall.
 
-    python -m docs.designer_pictures [--only multistable chain]
+    python -m docs.designer_pictures [--only multistable chain soliton]
 """
 
 from __future__ import annotations
@@ -37,7 +39,7 @@ OUT = Path(__file__).parent / "img"
 TIMEOUT_MS = 300_000
 
 
-SHOTS = ("pipeline", "multistable", "chain")
+SHOTS = ("pipeline", "multistable", "chain", "soliton")
 
 
 def main() -> None:
@@ -64,13 +66,18 @@ def shoot(url: str, only=SHOTS) -> None:
             shoot_played(page, "multistable", 1 / 3, OUT / "designer_multistable.png")
         if "chain" in only:
             shoot_played(page, "chain", 0.8, OUT / "designer_chain.png")
+        if "soliton" in only:
+            shoot_played(page, "chain", None, OUT / "designer_soliton.png", example="soliton")
         browser.close()
 
 
-def shoot_played(page, tab: str, where: float, path: Path) -> None:
-    """The tab's default example designed, the slider set ``where`` along the motion, the whole page."""
+def shoot_played(page, tab: str, where: float | None, path: Path, example: str | None = None) -> None:
+    """The tab's default example (or the chain ``example``) designed, the slider set ``where``
+    along the motion (None: a soliton's wall half-way along the chain), the whole page."""
     page.click(f"[data-testid=tab-{tab}]")
     page.wait_for_function("designer.features.length" if tab == "chain" else "designer.conformations.length")
+    if example:
+        page.select_option("[data-testid=chain-example]", example)
     page.click("[data-testid=design]")
     page.wait_for_function("!document.getElementById('play').disabled || document.getElementById('status').className === 'error'",
                            timeout=TIMEOUT_MS)
@@ -78,6 +85,10 @@ def shoot_played(page, tab: str, where: float, path: Path) -> None:
         raise RuntimeError(f"{tab}: {page.inner_text('[data-testid=status]')}")
     if tab == "chain":
         page.wait_for_function("designer.mapCheck", timeout=TIMEOUT_MS)
+    if where is None:
+        walls = page.evaluate("designer.motionPath.wall.map((w) => w === null ? -1e9 : w)")
+        n = len(page.evaluate("designer.response.chain.pairs")) - 1
+        where = int(np.argmin(np.abs(np.array(walls) - n / 2))) / (len(walls) - 1)
     page.evaluate("f => { const s = document.getElementById('slider'); s.value = Math.round(f * s.max); s.dispatchEvent(new Event('input')); }", where)
     page.wait_for_timeout(800)  # the progress bar's last transition
     page.screenshot(path=path, full_page=True)

@@ -615,3 +615,142 @@ def test_a_given_module_mapped(browser, designer_url):  # noqa: F811
     assert page.evaluate("designer.response") is None and page.is_hidden("#map-box")
     assert problems == []
     page.close()
+
+
+def drawn_segment(d: str) -> np.ndarray:
+    """The first and last points of an SVG path's ``d`` (M x y L … L x y)."""
+    numbers = np.array([float(v) for v in d.replace("M", " ").replace("L", " ").split()]).reshape(-1, 2)
+    return np.array([numbers[0], numbers[-1]])
+
+
+def wall_from_definition(d: np.ndarray, d_u: float, d_s: float) -> float:
+    """The domain wall of distances d (n + 1,): the fractional index where the switched fraction
+    s_k = (d_k − d_u)/(d_s − d_u) first reaches ½, s interpolated linearly between pairs; NaN if
+    it never does."""
+    s = (d - d_u) / (d_s - d_u)
+    up = np.flatnonzero((s[:-1] < 0.5) & (s[1:] >= 0.5))
+    if not len(up):
+        return float("nan")
+    k = up[0]
+    return float(k + (0.5 - s[k]) / (s[k + 1] - s[k]))
+
+
+def test_soliton_springs_and_travelling_wall(browser, designer_url):  # noqa: F811
+    """Issue #41's soliton in the Chain tab (its OpenAPI example): the chain's rods and one spring
+    per copy drawn as zig-zags whose ends are the body's spring nodes (through the drawing's map
+    fitted on the drawn nodes), the domain wall drawn on the chain where the wall recomputed here
+    from the body's d_k (numpy, from its definition) puts it — the point of the chain at
+    the fractional index, the pairs' midpoints interpolated — and moving monotonically out along the
+    chain as Play drives the input from d_s towards d_u; under it, d_k along the chain with the
+    wall at that index, and the springs' energy along the drive with the cursor."""
+    page, problems = open_page(browser, designer_url)
+    page.click("[data-testid=tab-chain]")
+    page.wait_for_function("designer.features.length === 2")
+    page.select_option("[data-testid=chain-example]", "soliton")
+    assert page.is_checked("[data-testid=soliton]") and page.is_visible("[data-testid=stiffness]")
+    assert page.is_hidden("[data-testid=d0]")
+    page.fill("[data-testid=n-modules]", "10")
+    page.fill("[data-testid=stiffness]", "2")
+    page.click("[data-testid=design]")
+    page.wait_for_function("(designer.response && !document.getElementById('play').disabled) || document.getElementById('status').className === 'error'",
+                           timeout=TIMEOUT_MS)
+    body = page.evaluate("designer.response")
+    assert body, page.inner_text("[data-testid=status]")
+    chain, sol = body["chain"], body["soliton"]
+    assert sol["stiffness"] == 2 and len(sol["springs"]["pairs"]) == 10 and len(chain["pairs"]) == 11
+    path, distances, pairs = np.array(chain["path"]), np.array(chain["distances"]), np.array(chain["pairs"])
+    d_u, d_s = sol["unstable"]["d"], sol["stable"]["d"]
+    rows = np.array(sol["rows"])
+    samples = len(rows)
+    # The wall from its definition at every drive sample, against the body's.
+    walls = np.array([wall_from_definition(distances[r], d_u, d_s) for r in rows])
+    body_walls = np.array([np.nan if w is None else w for w in sol["wall"]])
+    assert np.array_equal(np.isnan(walls), np.isnan(body_walls))
+    assert np.allclose(walls[~np.isnan(walls)], body_walls[~np.isnan(walls)], rtol=0, atol=1e-12)
+    assert np.nanmax(walls) - np.nanmin(walls) >= 8
+
+    assert page.evaluate("+document.getElementById('slider').max") == samples - 1
+    # It opens where the wall has entered the chain (the first sample from the stable end with one).
+    entered = max(k for k in range(samples) if not np.isnan(walls[k]) and np.all(np.isnan(walls[k + 1:])))
+    assert int(page.input_value("[data-testid=slider]")) == samples - 1 - entered
+    assert len(page.query_selector_all("#canvas line.bar")) == len(chain["frame"]["edges"])
+    assert {"rod", "spring", "wall", "pair"} <= legend(page)
+
+    def frame():
+        """What one animation frame shows, read at once: the slider, the drawn nodes, springs and wall."""
+        return page.evaluate("""() => {
+            const wall = document.querySelector('#canvas circle.wall'), a = (e, n) => +e.getAttribute(n);
+            return { k: +document.getElementById('slider').value,
+                     nodes: [...document.querySelectorAll('#canvas circle.node')].map((c) => [a(c, 'cx'), a(c, 'cy')]),
+                     springs: [...document.querySelectorAll('#canvas path.spring')].map((p) => p.getAttribute('d')),
+                     wall: wall && { w: +wall.dataset.wall, at: [a(wall, 'cx'), a(wall, 'cy')] },
+                     profileWall: (() => { const l = document.querySelector('#profile line.wall'); return l && a(l, 'x1'); })(),
+                     bars: [...document.querySelectorAll('#profile rect.distance')].map((r) => a(r, 'x') + a(r, 'width') / 2),
+                     cursor: +document.querySelector('[data-testid=landscape-cursor]').getAttribute('x1') };
+        }""")
+
+    def check(f, to_page=None):
+        """Frame f against the body: slider sample k shows drive sample P − 1 − k (the drive played
+        from the stable end); springs and wall through the drawing's map (fitted here unless given)."""
+        row = rows[samples - 1 - f["k"]]
+        x = path[row]
+        if to_page is None:
+            to_page, residual = similarity_fit(x, np.array(f["nodes"]))
+            assert residual < 0.01
+        assert np.abs(to_page(x) - np.array(f["nodes"])).max() < 0.01
+        ends = np.array([drawn_segment(d) for d in f["springs"]])
+        want = np.stack([to_page(x[[i for i, _ in sol["springs"]["pairs"]]]), to_page(x[[j for _, j in sol["springs"]["pairs"]]])], axis=1)
+        assert ends.shape == want.shape and np.abs(ends - want).max() <= 0.1
+        w = walls[samples - 1 - f["k"]]
+        if np.isnan(w):
+            assert f["wall"] is None and f["profileWall"] is None
+            return to_page, w
+        assert f["wall"]["w"] == pytest.approx(w, abs=1e-9)
+        k = min(int(np.floor(w)), len(pairs) - 2)
+        phi = w - k
+        middle = x[pairs].mean(axis=1)  # each pair's midpoint
+        place = (1 - phi) * middle[k] + phi * middle[k + 1]  # pair k's and pair k + 1's, interpolated as w is
+        assert np.abs(to_page(place[None])[0] - np.array(f["wall"]["at"])).max() <= 0.1
+        # d_k along the chain: the wall's line where index w is on the bars' axis.
+        a, residual = affine_fit(np.arange(len(f["bars"]), dtype=float), np.array(f["bars"]))
+        b = np.polyfit(np.arange(len(f["bars"])), f["bars"], 1)[1]
+        assert residual < 0.01 and abs(f["profileWall"] - (a * w + b)) < 0.1
+        return to_page, w
+
+    # The first frame, and one with the wall in the bulk; the energy along the drive.
+    to_page, _ = check(frame())
+    energy = np.array(sol["energy"])[::-1]
+    curve = np.array([[float(v) for v in p.split(",")] for p in page.get_attribute("#landscape polyline.energy", "points").split()])
+    assert len(curve) == samples and page.is_visible("[data-testid=landscape]")
+    ay, y_residual = affine_fit(energy, curve[:, 1])
+    ax, x_residual = affine_fit(np.log10(np.abs(np.array(sol["drive"])[::-1] - d_u)), curve[:, 0])
+    assert ay < 0 and ax < 0 and y_residual < 0.06 and x_residual < 0.06  # |d₀ − d_u| falls to the right
+    middle = int(np.nanargmin(np.abs(walls - 5)))
+    page.evaluate("k => { const s = document.getElementById('slider'); s.value = k; s.dispatchEvent(new Event('input')); }", samples - 1 - middle)
+    f = frame()
+    _, w = check(f, to_page)
+    assert 4 < w < 6 and abs(f["cursor"] - curve[f["k"], 0]) < 0.1
+
+    # Play from where the wall is near the input: it moves out along the chain, frame after frame
+    # (back in when the sweep turns at the end: with the animation, always).
+    near = int(np.nanargmin(np.abs(walls - 1.5)))
+    page.evaluate("k => { const s = document.getElementById('slider'); s.value = k; s.dispatchEvent(new Event('input')); }", samples - 1 - near)
+    page.click("[data-testid=play]")
+    seen = []
+    for _ in range(12):
+        k = page.evaluate("+document.getElementById('slider').value")
+        page.wait_for_function(f"+document.getElementById('slider').value !== {k}")
+        seen.append(frame())
+    page.click("[data-testid=play]")
+    placed = []
+    for f in seen:
+        _, w = check(f, to_page)
+        if not np.isnan(w):
+            placed.append((f["k"], w))
+    assert len(placed) >= 6 and placed[-1][1] > placed[0][1] + 1
+    assert all((wb - wa) * (kb - ka) > 0 for (ka, wa), (kb, wb) in itertools.pairwise(placed))
+    report = page.inner_text("[data-testid=report]")
+    for words in ("Soliton", "wall travel", "uniform at d_u", "barrier"):
+        assert words in report
+    assert problems == []
+    page.close()

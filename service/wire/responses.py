@@ -731,7 +731,8 @@ def sequential_body(result, timings_ms: dict) -> dict:
 
 def soliton_body(soliton) -> dict:
     """The ``soliton`` part of /v1/design/sequential's body for a solver Soliton: springs, uniform
-    states, drive, wall, energy, snapshots (the chain's conformations are the chain's ``path``)."""
+    states, drive, wall (its fractional index and its point on the chain), energy, snapshots
+    (the chain's conformations are the chain's ``path``)."""
     module = soliton.module
 
     def uniform(k: int, fixed) -> dict:
@@ -750,6 +751,7 @@ def soliton_body(soliton) -> dict:
         "drive": soliton.drive.tolist(),
         "rows": soliton.rows.tolist(),
         "wall": soliton.wall.tolist(),
+        "wall_point": [c.tolist() if np.isfinite(w) else None for w, c in zip(soliton.wall, soliton.wall_point, strict=True)],
         "energy": soliton.energy.tolist(),
         "travel": soliton.travel,
         "required_travel": soliton.required_travel,

@@ -15,6 +15,8 @@ const SNAP_POSITION = 1 / 8, SNAP_MOTION = 1 / 16;
 const CROSSING_GAP = 0.01;
 // ε(a) above this is worth a word: the finite path visibly leaves the drawn arrows.
 const DEPARTS = 0.05;
+// The soliton's domain wall: a disc of this radius (px) on the chain where it is.
+const WALL_RADIUS = 22;
 const COLOURS = {
   specified: ["#d7301f", "#8c1d12"], unspecified: ["#2c7fb8", "#1b4f72"], bar: "#a3a3a3",
   source: "#6a3d9a", target: "#ff7f00", crossing: "#000000",
@@ -279,19 +281,31 @@ function drawConformations(svg, toPage, shown) {
 }
 
 // The charts under the drawing, at the slider's sample: the energy landscape of a multistable
-// design; the module's map with the chain's cobweb, and d_k along the chain.
+// design; the module's map with the chain's cobweb, and d_k along the chain (for a soliton, with
+// its wall, and the springs' energy along the drive).
 function drawCharts() {
-  const r = state.response, k = state.motionPath ? Number($("slider").value) : null;
-  $("landscape-box").hidden = !(r && r.landscape && k !== null);
+  const r = state.response, m = state.motionPath, k = m ? Number($("slider").value) : null;
+  const soliton = Boolean(m && m.own === "soliton");
+  $("landscape-box").hidden = !(r && (r.landscape || soliton) && k !== null);
   $("map-box").hidden = !(r && r.map);
   if (r && r.landscape && k !== null) drawLandscape($("landscape"), r, k);
+  if (soliton) drawDriveEnergy($("landscape"), m, k);
+  caption("landscape-caption", soliton, "Energy of the springs along the drive: zero in both uniform states (dashed), the drawing's position (blue)");
+  caption("profile-caption", soliton, "d_k along the chain, the wall where the switched fraction crosses ½ (purple)");
   if (r && r.map) {
-    const d = r.chain && k !== null ? r.chain.distances[k] : null;
+    const d = r.chain && k !== null ? r.chain.distances[m.rows ? m.rows[k] : k] : null;
     drawMapChart($("map-chart"), r.map, d);
     $("profile").parentNode.hidden = !d;
     $("map-caption").textContent = d ? "the module's map f, the chain as a cobweb" : "the module's map f, its fixed points and folds";
-    if (d) drawProfile($("profile"), r.map, d);
+    if (d) drawProfile($("profile"), r.map, d, soliton ? { wall: m.wall[k], d_u: r.soliton.unstable.d, d_s: r.soliton.stable.d } : undefined);
   }
+}
+
+// A chart's caption: ``text`` for a soliton, else the page's own.
+function caption(id, soliton, text) {
+  const c = $(id);
+  if (c.dataset.plain === undefined) c.dataset.plain = c.textContent;
+  c.textContent = soliton ? text : c.dataset.plain;
 }
 
 function drawSpaces(svg, toPage, shown) {
@@ -378,15 +392,15 @@ function drawFrame(svg, toPage, shown) {
   const x = state.frame.positions, edges = state.frame.edges;
   const mode = state.modes[state.mode];
   const own = state.motionPath && state.motionPath.own;
-  if (own) {
-    // Long paths of many nodes: one light polyline per node.
+  if (own && own !== "soliton") {
+    // Long paths of many nodes: one light polyline per node (not a soliton's: its chain is the picture).
     const g = el("g", { class: "trajectories" }, svg);
     for (let i = 0; i < x.length; i++) {
       const pts = state.motionPath.path.map((c) => toPage(c[i]).map((v) => v.toFixed(1)).join(",")).join(" ");
       el("polyline", { points: pts, fill: "none", stroke: "#c6dbef", "stroke-width": 1.2 }, g);
     }
     shown.add("track");
-  } else if (state.motionPath) {
+  } else if (state.motionPath && !own) {
     const g = el("g", { class: "trajectories" }, svg);
     const path = state.motionPath.path, steps = path.length - 1;
     for (let i = 0; i < x.length; i++) {
@@ -410,24 +424,39 @@ function drawFrame(svg, toPage, shown) {
       shown.add(`conformation-${c}`);
     });
   }
-  if (r.springs) {
+  const soliton = own === "soliton" ? state.motionPath : null, k = soliton && Number($("slider").value);
+  if (soliton && soliton.point[k]) {
+    // The domain wall behind the chain, at the body's point where the switched fraction is ½.
+    const [cx, cy] = toPage(soliton.point[k]);
+    el("circle", { class: "wall", "data-testid": "wall", "data-wall": soliton.wall[k], cx, cy, r: WALL_RADIUS,
+                   fill: CHART.wall, "fill-opacity": 0.25, stroke: CHART.wall, "stroke-width": 2 }, svg);
+    shown.add("wall");
+  }
+  const springs = r.springs || (r.soliton && r.soliton.springs);
+  if (springs) {
     const g = el("g", { class: "springs" }, svg);
-    r.springs.pairs.forEach(([i, j], s) => el("path", { class: "spring", "data-spring": s, d: springPath(p[i], p[j]), fill: "none",
+    springs.pairs.forEach(([i, j], s) => el("path", { class: "spring", "data-spring": s, d: springPath(p[i], p[j]), fill: "none",
                                                           stroke: CHART.spring, "stroke-width": 1, opacity: 0.6 }, g));
     shown.add("spring");
   }
   const bars = el("g", { class: "bars" }, svg);
   edges.forEach(([i, j], b) => el("line", {
     class: "bar", "data-edge": b, x1: p[i][0], y1: p[i][1], x2: p[j][0], y2: p[j][1],
-    stroke: COLOURS.bar, "stroke-width": r.springs ? 3 : 2, "stroke-linecap": "round",
+    stroke: COLOURS.bar, "stroke-width": springs ? 3 : 2, "stroke-linecap": "round",
   }, bars));
-  shown.add(r.springs ? "rod" : "bar");
+  shown.add(springs ? "rod" : "bar");
   const pairs = r.chain ? r.chain.pairs : r.module ? [r.module.input_pair, r.module.output_pair] : null;
   if (pairs) {
     const g = el("g", { class: "pairs" }, svg);
     pairs.forEach(([i, j], k) => el("line", { class: "pair", "data-pair": k, x1: p[i][0], y1: p[i][1], x2: p[j][0], y2: p[j][1],
                                                      stroke: CHART.pair, "stroke-width": 1.5, "stroke-dasharray": "4 3" }, g));
     shown.add("pair");
+    if (soliton) {
+      // The driven input pair (held, as the paper draws it): the wall walks away from it.
+      const [i, j] = pairs[0];
+      el("line", { class: "input-pair", x1: p[i][0], y1: p[i][1], x2: p[j][0], y2: p[j][1], stroke: "#000", "stroke-width": 4, "stroke-linecap": "round" }, g);
+      shown.add("input-pair");
+    }
   }
   const atReference = !state.motionPath || Number($("slider").value) === state.motionPath.reference_index;
   if (mode && atReference) {
@@ -453,7 +482,7 @@ function drawFrame(svg, toPage, shown) {
   p.forEach((q, i) => {
     const isSpec = spec.has(i);
     const [fill, line] = isSpec ? COLOURS.specified : COLOURS.unspecified;
-    const attrs = { class: "node " + (isSpec ? "specified" : "unspecified"), "data-node": i, cx: q[0], cy: q[1], r: 5.5, fill, stroke: line, "stroke-width": 1 };
+    const attrs = { class: "node " + (isSpec ? "specified" : "unspecified"), "data-node": i, cx: q[0], cy: q[1], r: soliton ? 3.5 : 5.5, fill, stroke: line, "stroke-width": 1 };
     if (!isSpec && state.fresh) { attrs.class += " node-new"; attrs.style = `animation-delay: ${(0.15 * round++).toFixed(2)}s`; }
     el("circle", attrs, nodes);
     shown.add(isSpec ? "specified" : "unspecified");
@@ -465,6 +494,7 @@ function drawFrame(svg, toPage, shown) {
     const k = Number($("slider").value), m = state.motionPath;
     const signed = (v) => `${v >= 0 ? "+" : "−"}${Math.abs(v).toFixed(3)}`;
     $("where").textContent = m.own === "landscape" ? `s ${m.parameter[k].toFixed(3)} · E ${fmt(r.landscape.energy[k], 3)}`
+      : m.own === "soliton" ? (m.wall[k] === null ? "wall off the chain" : `wall at ${m.wall[k].toFixed(2)} of ${r.soliton.springs.pairs.length}`)
       : m.own === "chain" ? `d₀ ${m.parameter[k].toFixed(3)} · d_n ${r.chain.distances[k][r.chain.distances[k].length - 1].toFixed(3)}`
       : `t ${signed(m.parameter[k])}${m.strains ? ` · ε_x ${signed(m.strains[k][0])}` : ""}`;
   }
@@ -490,6 +520,8 @@ function legend(shown) {
   entry("bar", "bar", line(COLOURS.bar));
   entry("rod", "rod", line(COLOURS.bar));
   entry("spring", "spring", (s) => el("path", { d: springPath([1, 6], [21, 6]), fill: "none", stroke: CHART.spring, "stroke-width": 1.2 }, s));
+  entry("wall", "domain wall", (s) => el("circle", { cx: 11, cy: 6, r: 5, fill: CHART.wall, "fill-opacity": 0.3, stroke: CHART.wall, "stroke-width": 1.5 }, s));
+  entry("input-pair", "input pair d₀", line("#000", 4));
   entry("pair", "pair d_k", (s) => el("line", { x1: 1, y1: 6, x2: 21, y2: 6, stroke: CHART.pair, "stroke-width": 2, "stroke-dasharray": "4 3" }, s));
   CONFORMATION_COLOURS.forEach((colour, c) => entry(`conformation-${c}`, `conformation ${c + 1}`,
     (s) => el("circle", { cx: 11, cy: 6, r: 4.5, fill: "none", stroke: colour, "stroke-width": 2 }, s)));
@@ -629,6 +661,10 @@ function drawnRequest() {
     const m = state.module;
     return ["/v1/map", { frame: { dim: 2, positions: m.positions, edges: m.edges }, input_pair: m.input_pair, output_pair: m.output_pair }];
   }
+  if (state.kind === "chain" && $("soliton").checked) {
+    const soliton = { n_modules: Number($("n-modules").value), stiffness: Number($("stiffness").value) };
+    return ["/v1/design/sequential", { features: state.features, soliton }];
+  }
   if (state.kind === "chain") {
     const chain = { n_modules: Number($("n-modules").value) }, d0 = $("d0").value.trim();
     if (d0) chain.d0 = Number(d0);
@@ -734,6 +770,16 @@ function ownMotion(response) {
     return { frame: response.frame, motion: { own: "landscape", path: land.positions, parameter: land.arclength,
                                                 reference_index: land.conformation_samples[0] } };
   }
+  if (response.soliton) {
+    // The drive from the stable end towards the unstable one: Play walks the wall out along the chain.
+    // It starts where the wall has entered the chain.
+    const sol = response.soliton, c = response.chain, order = sol.drive.map((_, j) => j).reverse();
+    const pick = (a) => order.map((j) => a[j]), wall = pick(sol.wall);
+    return { frame: c.frame, motion: { own: "soliton", path: pick(sol.rows).map((row) => c.path[row]), parameter: pick(sol.drive),
+                                       rows: pick(sol.rows), wall, point: pick(sol.wall_point), energy: pick(sol.energy),
+                                       offset: pick(sol.drive).map((d) => Math.abs(d - sol.unstable.d)),
+                                       reference_index: Math.max(0, wall.findIndex((w) => w !== null)) } };
+  }
   if (response.map) {
     const c = response.chain;
     if (!c) return { frame: response.module.frame, motion: null };
@@ -750,7 +796,7 @@ function showOwnMotion(motion) {
     slider.value = motion.reference_index;
   }
   slider.disabled = $("play").disabled = !motion;
-  const f = state.frame, springs = state.response.springs;
+  const f = state.frame, springs = state.response.springs || (state.response.soliton && state.response.soliton.springs);
   const mapped = state.response.features && !state.response.features.length;
   say(`${mapped ? "mapped" : "designed"}: ${f.positions.length} nodes, ${f.edges.length} ${springs ? `rods, ${springs.pairs.length} springs` : "bars"}`
       + (motion ? `; its motion in ${motion.path.length} samples: press Play or drag the slider.` : "."));
@@ -1081,6 +1127,18 @@ function beyondOneMotion(r, rows, add) {
       add("iterate deviation", c.iterate_deviation, "relative", "max |d_k − f^k(d_0)| / d_k: round-off amplified by Π|f′| (reported, not promised).");
       add("motion ends", c.ends.join(", "), "", "Why the traced motion ended each way: map_range (a copy reached its fold), singular_point or horizon.");
     }
+    const sol = r.soliton;
+    if (sol) {
+      rows.push(["Soliton"]);
+      add("springs", sol.springs.pairs.length, "", "One spring per copy (zig-zags), from an anchor held by a dyad to a node of the copy: E = Σ k (ℓ − L)²/2.");
+      add("wall travel", sol.travel, "copies", `How far the wall (switched fraction ½) moves along the drive, monotonically; at least ${fmt(sol.required_travel)} promised.`);
+      add("wall slope", `${fmt(sol.wall_slope, 3)} (predicted ${fmt(sol.predicted_wall_slope, 3)})`, "", "dw / d ln|d₀ − d_u| in the bulk, against −1/ln f′(d_u) linearised at d_u.");
+      add("barrier", sol.barrier, "k·L²", "The largest E along the drive: the wall's energy.");
+      for (const [label, u] of [["d_u", sol.unstable], ["d_s", sol.stable]]) {
+        add(`uniform at ${label}`, `E ${fmt(u.energy, 2)}, λ_min ${fmt(u.hessian_min_eigenvalue, 3)}`, "",
+            "Every copy at the fixed point: E (0, every spring at rest) and the smallest eigenvalue of the stiff-rod Hessian, rigid motions aside (> 0: a strict minimum).");
+      }
+    }
     if (state.mapCheck) add("POST /v1/map check", state.mapCheck.deviation, "relative", "f(d_k) of the designed module asked of POST /v1/map against the chain's d_{k+1}, largest relative difference.");
   }
 }
@@ -1255,12 +1313,22 @@ function pickChainExample(name) {
   $("chain-example").value = name;
   $("chain-example-text").textContent = ex.description;
   state.features = JSON.parse(JSON.stringify(ex.value.features));
-  const chain = ex.value.chain || {};
+  const chain = ex.value.chain || ex.value.soliton || {};
   $("n-modules").value = String(chain.n_modules || 16);
   $("d0").value = chain.d0 === undefined ? "" : String(chain.d0);
+  $("soliton").checked = Boolean(ex.value.soliton);
+  $("stiffness").value = String(chain.stiffness || 1);
+  solitonForm();
   $("name").value = `${name}_chain`;
   renderFeatures();
   clearDesign();
+}
+
+// A soliton has springs (their stiffness) and no d₀ (its drive is the whole way between the fixed points).
+function solitonForm() {
+  const soliton = $("soliton").checked;
+  for (const e of document.querySelectorAll("[data-chain-only]")) e.hidden = soliton;
+  for (const e of document.querySelectorAll("[data-soliton-only]")) e.hidden = !soliton;
 }
 
 // Each feature kind's fields: [path into the feature, label, default].
@@ -1488,6 +1556,7 @@ for (const radio of document.querySelectorAll("input[name=chain-source]")) {
     clearDesign();
   });
 }
+$("soliton").addEventListener("change", () => { solitonForm(); clearDesign(); });
 $("add-feature").addEventListener("click", () => {
   if (state.features.length >= 4) { say("at most four features, met together by one module.", true); return; }
   state.features.push({ kind: "fixed_point", d: 1.5, slope: 0.5 });

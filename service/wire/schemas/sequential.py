@@ -171,6 +171,10 @@ class SolitonBody(BaseModel):
     wall: list[float | None] = Field(
         description="The domain wall: the fractional index k where (d_k − d_u)/(d_s − d_u) crosses ½ (null: the chain is on one side)."
     )
+    wall_point: list[list[float] | None] = Field(
+        description="The wall on the chain at each drive sample, [x, y] in chain.path[rows[i]]: the pairs' midpoints "
+                    "interpolated at the fractional index w (pair k's and pair k + 1's by w − k; null with the wall)."
+    )
     energy: list[float] = Field(description="E of the springs at each drive sample.")
     travel: float = Field(description="How many modules the wall moves over the drive.")
     required_travel: float = Field(description="The promise: travel ≥ n_modules − 2, monotonically.")
