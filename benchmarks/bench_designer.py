@@ -13,7 +13,8 @@ Against a `zeromode serve` on loopback (requests answered in process), measured 
    Chain tab reads once for its examples);
 4. a frame of the Multistable and Chain tabs' animations (issue #41): the slider moved to the
    next sample → drawing, springs or chain, and charts rebuilt, FRAMES frames of the default
-   example's design — p50/p95/max.
+   example's design (and of the Chain tab's soliton: its springs, wall and energy chart) —
+   p50/p95/max.
 
 The load average is printed beside the figures (the machine is shared).
 
@@ -121,16 +122,20 @@ def measure(url: str) -> dict:
             page.wait_for_function(f"designer.timings.design.length > {n}")
             server.append(page.evaluate("designer.response.report.timings_ms.total"))
         design = page.evaluate("designer.timings.design")
-        frames = {tab: stats(animation_frames(page, tab)) for tab in ("multistable", "chain")}
+        frames = {tab: stats(animation_frames(page, tab)) for tab in ("multistable", "chain", "soliton")}
         browser.close()
     return {"live": stats(live), "final_space": kinds, "design": stats(design), "server": stats(server), "frames": frames}
 
 
 def animation_frames(page, tab: str) -> list[float]:
-    """The tab's default example designed, then FRAMES slider steps timed in the page (the
-    input event's handler: the drawing and the charts rebuilt; ms each)."""
+    """The tab's default example designed ("soliton": the Chain tab's soliton example), then
+    FRAMES slider steps timed in the page (the input event's handler: the drawing and the
+    charts rebuilt; ms each)."""
+    example, tab = (tab, "chain") if tab == "soliton" else (None, tab)
     page.click(f"[data-testid=tab-{tab}]")
     page.wait_for_function("designer.features.length" if tab == "chain" else "designer.conformations.length")
+    if example:
+        page.select_option("[data-testid=chain-example]", example)
     page.click("[data-testid=design]")
     page.wait_for_function("!document.getElementById('play').disabled", timeout=600_000)
     return page.evaluate("""n => {

@@ -362,6 +362,16 @@ def test_allosteric_sites_picked_on_a_network(browser, designer_url, tmp_path): 
     page.close()
 
 
+def designed(page) -> dict:
+    """Design pressed, and the body once the page has its motion to play (the refusal said if not)."""
+    page.click("[data-testid=design]")
+    page.wait_for_function("(designer.response && !document.getElementById('play').disabled) || document.getElementById('status').className === 'error'",
+                           timeout=TIMEOUT_MS)
+    body = page.evaluate("designer.response")
+    assert body, page.inner_text("[data-testid=status]")
+    return body
+
+
 def affine_fit(values: np.ndarray, pixels: np.ndarray) -> tuple[float, float]:
     """The chart's axis map pixel = a·value + b (least squares) and its worst residual in px."""
     a, b = np.polyfit(values, pixels, 1)
@@ -410,11 +420,7 @@ def test_multistable_design_with_its_energy_landscape(browser, designer_url):  #
     assert height(after) - height(before) == pytest.approx(0.15, abs=1e-3)
     page.fill(apex, "1.15")
     page.fill("[data-testid=barrier]", "0.0001")  # the default is 8.5e-5, the springs reach 1.7e-4
-    page.click("[data-testid=design]")
-    page.wait_for_function("(designer.response && !document.getElementById('play').disabled) || document.getElementById('status').className === 'error'",
-                           timeout=TIMEOUT_MS)
-    body = page.evaluate("designer.response")
-    assert body, page.inner_text("[data-testid=status]")
+    body = designed(page)
     land, minima = body["landscape"], body["minima"]
     assert body["report"]["barrier"] == 0.0001
     assert np.array(body["conformations"])[2, 2, 1] == 1.15
@@ -489,11 +495,7 @@ def test_chain_animated_with_its_map_as_a_cobweb(browser, designer_url, tmp_path
     assert page.input_value("[data-testid=d0]") == "1.21"
     assert len(page.query_selector_all("[data-testid=features] tr")) == 2
     page.fill("[data-testid=n-modules]", "10")
-    page.click("[data-testid=design]")
-    page.wait_for_function("(designer.response && !document.getElementById('play').disabled) || document.getElementById('status').className === 'error'",
-                           timeout=TIMEOUT_MS)
-    body = page.evaluate("designer.response")
-    assert body, page.inner_text("[data-testid=status]")
+    body = designed(page)
     chain = body["chain"]
     path = np.array(chain["path"])
     assert len(chain["pairs"]) == 11 and len(page.query_selector_all("#canvas line.pair")) == 11
@@ -651,11 +653,7 @@ def test_soliton_springs_and_travelling_wall(browser, designer_url):  # noqa: F8
     assert page.is_hidden("[data-testid=d0]")
     page.fill("[data-testid=n-modules]", "10")
     page.fill("[data-testid=stiffness]", "2")
-    page.click("[data-testid=design]")
-    page.wait_for_function("(designer.response && !document.getElementById('play').disabled) || document.getElementById('status').className === 'error'",
-                           timeout=TIMEOUT_MS)
-    body = page.evaluate("designer.response")
-    assert body, page.inner_text("[data-testid=status]")
+    body = designed(page)
     chain, sol = body["chain"], body["soliton"]
     assert sol["stiffness"] == 2 and len(sol["springs"]["pairs"]) == 10 and len(chain["pairs"]) == 11
     path, distances, pairs = np.array(chain["path"]), np.array(chain["distances"]), np.array(chain["pairs"])
