@@ -751,4 +751,14 @@ def test_soliton_springs_and_travelling_wall(browser, designer_url):  # noqa: F8
     for words in ("Soliton", "wall travel", "uniform at d_u", "barrier"):
         assert words in report
     assert problems == []
+
+    # More copies than the wall can reach from round-off of d_u (≈ 59 for f′(d_u) = 1.8): refused
+    # before any work, the old soliton cleared.
+    page.fill("[data-testid=n-modules]", "80")
+    page.click("[data-testid=design]")
+    page.wait_for_selector("#status.error", timeout=TIMEOUT_MS)
+    assert "soliton_out_of_reach" in page.inner_text("[data-testid=status]")
+    assert page.evaluate("designer.response") is None and page.query_selector("#canvas circle.wall") is None
+    assert page.is_hidden("#landscape-box")
+    assert problems == ["Failed to load resource: the server responded with a status of 422 (Unprocessable Entity)"]
     page.close()
