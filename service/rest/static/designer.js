@@ -37,6 +37,10 @@ const DEFAULT_3D = {
   positions: [[2, 0, 1], [1, 0, 2], [3, 0, 3], [3.5, -1, 2.5], [3.5, 1, 2.5]],
   motion: [[-0.8, 0, 0.8], [0.8, 0, -0.8], [-0.8, 0, 0], [0, -0.8, 0], [0, 0.8, 0]],
 };
+// A click that moves the pointer less than this (px) places a node in 3D; more turns the view.
+const CLICK_SLOP = 4;
+// A click farther than this (px) from every drawn space places nothing.
+const PICK_RADIUS = 20;
 // The drawn network of the Allostery tab: a triangulated sheet, NETWORK columns × rows, rigid.
 const NETWORK = [9, 7], NETWORK_SPACING = 0.5;
 // Human names of the export formats (GET /v1/export/formats); the service's description is the tooltip.
@@ -50,7 +54,7 @@ const state = {
   kind: "draw", network: null, nodes: [], motions: [[]], motion: 0, placed: [], spaces: [], crossings: [],
   example: null, response: null, frame: null, modes: [], mode: 0, sites: {}, motionPath: null,
   refined: null, refinedPath: null, certificate: null, timer: null, drag: null, view: VIEW_3D.slice(),
-  formats: null, jobs: 0, timings: { live: [], design: [] }, progressLog: [], map: null, fresh: true,
+  formats: null, jobs: 0, timings: { live: [], design: [], table: [], turn: [] }, progressLog: [], map: null, fresh: true,
   conformations: [], features: [], chainExamples: null, jobEndpoints: [], mapCheck: null, module: null,
 };
 window.designer = state;  // for outside tests and the curious
@@ -138,8 +142,11 @@ function makeMap() {
   const fit = dim === 3 || state.kind === "multistable" || state.kind === "chain";
   let lo = fit ? [Infinity, Infinity] : WINDOW.lo.slice(), hi = fit ? [-Infinity, -Infinity] : WINDOW.hi.slice();
   const tips = state.nodes.map((n, i) => n.x.map((v, a) => v + (state.motions[0][i] || [0, 0, 0])[a]));
-  const configs = state.frame ? (state.motionPath ? state.motionPath.path : [state.frame.positions])
-    : dim === 3 ? [state.nodes.map((n) => n.x), tips] : state.kind === "multistable" ? state.conformations
+  // A surface's box is part of the 3D drawing, before and after a design.
+  const boxes = dim === 3 ? state.spaces.filter((s) => s.box).map(boxCorners) : [];
+  const configs = state.frame ? [...(state.motionPath ? state.motionPath.path : [state.frame.positions]), ...boxes]
+    : dim === 3 ? [state.nodes.map((n) => n.x), tips, ...boxes]
+    : state.kind === "multistable" ? state.conformations
     : state.network ? [state.network.positions] : [];
   for (const points of configs) for (const p of points) {
     const s = project(p);
@@ -201,7 +208,12 @@ function describeSpaces() {
     const tag = state.spaces.length > 1 ? `motion ${m + 1}: ` : "";
     if (s.kind === "none") return `${tag}no real solution — ${s.reason}`;
     if (s.kind === "points") return `${tag}${s.points.length} point${s.points.length === 1 ? "" : "s"} (m = ${s.nullity}); click one to place an unspecified node.`;
-    if (s.kind === "conic" && s.dim === 3) return `${tag}a curve (m = ${s.nullity}), a conic in a plane of space (Fig. 2e).`;
+    if (s.kind === "conic" && s.dim === 3) return `${tag}a curve (m = ${s.nullity}), a conic in a plane of space (Fig. 2e); click on it to place an unspecified node.`;
+    if (s.kind === "quadric") {
+      const why = { "a pair of crossing planes": " (degenerate: the quadric factors into two planes)", "a cone": " (degenerate: a cone, singular at its apex)",
+                    "a plane": " (degenerate: the specified nodes are coplanar, so every solution's position lies in one plane)" }[s.shape] || "";
+      return `${tag}a surface (m = ${s.nullity}): ${s.shape}${why}, drawn as its plane sections inside a box around the nodes (Fig. 2g); click on it to place an unspecified node.`;
+    }
     if (s.kind === "conic") return `${tag}a ${s.degenerate ? "degenerate " : ""}conic (m = ${s.nullity}); click on it to place an unspecified node.`;
     if (s.kind === "line") return `${tag}a line of positions (m = ${s.nullity}).`;
     return `${tag}${s.reason}`;
@@ -209,6 +221,28 @@ function describeSpaces() {
   if (state.spaces.length > 1) words.push(`${state.crossings.length} crossing${state.crossings.length === 1 ? "" : "s"}: a node there moves with every motion.`);
   box.textContent = words.join(" ");
   if (state.spaces.every((s) => s.kind === "none")) box.className = "space none";
+}
+
+// The eight corners of a surface's box (world), in the order of the bits x, y, z.
+const boxCorners = (space) => [0, 1, 2, 3, 4, 5, 6, 7].map((c) => [0, 1, 2].map((a) => space.box[(c >> a) & 1][a]));
+
+// The parts of a surface's curves nearer the viewer than its box's centre: drawn over the whole
+// wireframe so that the front of the surface reads in front of its back.
+function frontCurves(space) {
+  const [right, up] = viewBasis(state.view);
+  const toward = [right[1] * up[2] - right[2] * up[1], right[2] * up[0] - right[0] * up[2], right[0] * up[1] - right[1] * up[0]];
+  const depth = (p) => p.reduce((t, v, a) => t + (v - (space.box[0][a] + space.box[1][a]) / 2) * toward[a], 0);
+  const parts = [];
+  for (const c of space.curves) {
+    let run = [];
+    for (const p of c) {
+      if (depth(p) >= 0) { run.push(p); continue; }
+      if (run.length > 1) parts.push(run);
+      run = [];
+    }
+    if (run.length > 1) parts.push(run);
+  }
+  return parts;
 }
 
 // The SVG path of a space: polylines for curves, small circles for points.
@@ -300,11 +334,23 @@ function drawSpaces(svg, toPage, shown) {
   state.spaces.forEach((space, m) => {
     const colour = COLOURS.spaces[m % COLOURS.spaces.length];
     const d = spacePath(space, toPage);
-    el("path", {
+    const attrs = {
       class: `space ${space.kind}`, "data-testid": m ? `solution-space-${m + 1}` : "solution-space", "data-kind": space.kind,
       "data-motion": m, d, stroke: colour, "stroke-width": 2.2, fill: space.kind === "points" ? colour : "none",
       "fill-opacity": 0.25, "pointer-events": "none",
-    }, g);
+    };
+    // A surface: a wireframe of conic sections in its box, its back faint and its front stronger.
+    if (space.kind === "quadric") {
+      Object.assign(attrs, { "data-shape": space.shape, "stroke-width": 1, "stroke-opacity": 0.35, "stroke-linejoin": "round" });
+      const corners = boxCorners(space).map(toPage), box = [];
+      for (let c = 0; c < 8; c++) for (const a of [1, 2, 4]) if (!(c & a)) box.push(`M${corners[c].join(" ")}L${corners[c | a].join(" ")}`);
+      el("path", { class: "space-box", d: box.join(""), stroke: "#bdbdbd", "stroke-width": 1, "stroke-dasharray": "3 3", fill: "none", "pointer-events": "none" }, g);
+    }
+    el("path", attrs, g);
+    if (space.kind === "quadric") {
+      el("path", { class: "space front", d: spacePath({ curves: frontCurves(space), points: [] }, toPage), stroke: colour,
+                   "stroke-width": 1.4, "stroke-opacity": 0.85, fill: "none", "pointer-events": "none" }, g);
+    }
     if (space.curves.length || space.points.length) shown.add(`space-${m}`);
   });
   for (const [i, p] of state.crossings.entries()) {
@@ -361,6 +407,11 @@ function drawSketch(svg, toPage, shown) {
   });
   for (const node of state.placed) {
     const [x, y] = toPage(node.x);
+    if (node.u) {  // 3D: its motion from the linear system
+      const tip = toPage(node.x.map((v, c) => v + node.u[c]));
+      el("line", { class: "arrow placed", x1: x, y1: y, x2: tip[0], y2: tip[1], stroke: COLOURS.motions[0], "stroke-width": 2,
+                   opacity: 0.7, "marker-end": "url(#head-0)" }, arrows);
+    }
     el("circle", { class: "node placed unspecified", cx: x, cy: y, r: 6, fill: COLOURS.unspecified[0], stroke: COLOURS.unspecified[1] }, nodes);
     shown.add("unspecified");
   }
@@ -505,15 +556,16 @@ function legend(shown) {
 
 // ----------------------------------------------------------------------------- pointer
 
-function pointerWorld(event) {
-  const svg = $("canvas"), box = svg.getBoundingClientRect();
-  const px = (event.clientX - box.left) * WIDTH / box.width, py = (event.clientY - box.top) * HEIGHT / box.height;
-  return state.map.toWorld([px, py]);
+function pointerPage(event) {
+  const box = $("canvas").getBoundingClientRect();
+  return [(event.clientX - box.left) * WIDTH / box.width, (event.clientY - box.top) * HEIGHT / box.height];
 }
+
+const pointerWorld = (event) => state.map.toWorld(pointerPage(event));
 
 function onPointerDown(event) {
   if ((state.frame && state.frame.dim === 3) || (!state.frame && sketchDim() === 3) || (state.example && state.example.dim === 3)) {
-    state.drag = { rotate: true, x: event.clientX, y: event.clientY };
+    state.drag = { rotate: true, x: event.clientX, y: event.clientY, x0: event.clientX, y0: event.clientY };
     $("canvas").setPointerCapture(event.pointerId);
     return;
   }
@@ -552,6 +604,7 @@ function onPointerMove(event) {
     state.view[1] = Math.max(-89, Math.min(89, state.view[1] + (event.clientY - state.drag.y) * 0.5));
     state.drag.x = event.clientX; state.drag.y = event.clientY;
     draw();
+    state.timings.turn.push(performance.now() - event.timeStamp);
     return;
   }
   const n = state.nodes[state.drag.node], w = pointerWorld(event);
@@ -562,7 +615,13 @@ function onPointerMove(event) {
   state.timings.live.push(performance.now() - event.timeStamp);
 }
 
-function onPointerUp() { state.drag = null; }
+function onPointerUp(event) {
+  const drag = state.drag;
+  state.drag = null;
+  // 3D: a click that did not turn the view places an unspecified node (when so chosen).
+  if (drag && drag.rotate && event.type === "pointerup" && Math.hypot(event.clientX - drag.x0, event.clientY - drag.y0) < CLICK_SLOP
+      && sketching() && sketchDim() === 3 && !state.frame && $("place-3d").checked) placeUnspecified3d(event);
+}
 
 // A drawing changed: the old design no longer belongs to it.
 function edited() {
@@ -587,7 +646,7 @@ function placeUnspecified(w, crossing) {
       }
     }
   }
-  if (!best || Math.hypot(best[0] - w[0], best[1] - w[1]) * state.map.scale > 20) {
+  if (!best || Math.hypot(best[0] - w[0], best[1] - w[1]) * state.map.scale > PICK_RADIUS) {
     say(state.spaces.length > 1 ? "click at a crossing of the solution spaces." : "click on the solution space.", true);
     return;
   }
@@ -596,14 +655,46 @@ function placeUnspecified(w, crossing) {
   checkPlaced().catch((e) => say(e.message, true));
 }
 
-// The frame built by hand (specified nodes, placed nodes, a bar from each placed node to every
-// specified node) analysed by the service: does it leave only the drawn motions?
-async function checkPlaced() {
+// 3D: the node where the ray through the clicked pixel first meets the surface inside its box
+// (exact: SolutionSpace.hit); else (a curve, or beside the surface's outline) the drawn point
+// nearest the click on the page, within PICK_RADIUS, moved onto the space (SolutionSpace.project).
+// Its motion follows from the linear system (x_i − p)·v = (x_i − p)·u_i (SolutionSpace.motionAt).
+function placeUnspecified3d(event) {
+  const space = state.spaces[0];
+  if (!space || !["quadric", "conic"].includes(space.kind)) { say("there is no drawn solution space to place a node on.", true); return; }
+  const [right, up] = viewBasis(state.view), [s0, s1] = pointerWorld(event);
+  const toward = [right[1] * up[2] - right[2] * up[1], right[2] * up[0] - right[0] * up[2], right[0] * up[1] - right[1] * up[0]];
+  const depth = specifiedNodes().reduce((t, n) => t + n.x.reduce((r, v, a) => r + v * toward[a], 0), 0) / specifiedNodes().length;
+  const origin = [0, 1, 2].map((a) => s0 * right[a] + s1 * up[a] + depth * toward[a]);
+  let p = space.kind === "quadric" ? SolutionSpace.hit(space, origin, toward.map((v) => -v)) : null;
+  if (!p) {
+    const [px, py] = pointerPage(event);
+    let best = null, gap = Infinity;
+    for (const q of space.curves.flat()) {
+      const [qx, qy] = state.map.toPage(q), d = Math.hypot(qx - px, qy - py);
+      if (d < gap) { gap = d; best = q; }
+    }
+    if (gap > PICK_RADIUS) { say("click on the solution space.", true); return; }
+    p = SolutionSpace.project(space, best);
+  }
+  state.placed.push({ x: p, u: SolutionSpace.motionAt(space, p) });
+  draw();
+  checkPlaced().catch((e) => say(e.message, true));
+}
+
+// The frame built by hand: the specified nodes, the placed nodes, a bar from each placed node to
+// every specified node.
+function handBuiltFrame() {
   const spec = specifiedNodes(), k = spec.length;
-  const positions = [...spec.map((n) => n.x), ...state.placed.map((n) => n.x)];
-  const edges = state.placed.flatMap((_, j) => spec.map((__, i) => [i, k + j]));
-  const a = await post("/v1/analyze", { frame: { dim: 2, positions, edges, specified: spec.map((_, i) => i) } });
-  say(`built by hand: ${a.nodes} nodes, ${a.edges} bars, ${a.nontrivial_zero_modes} non-rigid zero mode${a.nontrivial_zero_modes === 1 ? "" : "s"}, ${a.self_stresses} self-stress${a.self_stresses === 1 ? "" : "es"} (Design places nodes judiciously instead).`);
+  return { dim: sketchDim(), positions: [...spec.map((n) => n.x), ...state.placed.map((n) => n.x)],
+           edges: state.placed.flatMap((_, j) => spec.map((__, i) => [i, k + j])), specified: spec.map((_, i) => i) };
+}
+
+// The frame built by hand analysed by the service: does it leave only the drawn motions?
+async function checkPlaced() {
+  const a = await post("/v1/analyze", { frame: handBuiltFrame() });
+  say(`built by hand: ${a.nodes} nodes, ${a.edges} bars, ${a.nontrivial_zero_modes} non-rigid zero mode${a.nontrivial_zero_modes === 1 ? "" : "s"}, ${a.self_stresses} self-stress${a.self_stresses === 1 ? "" : "es"} `
+      + (sketchDim() === 3 ? "(Design uses this frame; Clear placed lets it place nodes judiciously)." : "(Design places nodes judiciously instead)."));
 }
 
 // ----------------------------------------------------------------------------- design
@@ -662,13 +753,29 @@ function drawnRequest() {
   return ["/v1/design", { dim: 2, positions: spec.map(([n]) => n.x), motions, options: { seed: 0, ...options } }];
 }
 
+// 3D with nodes placed by hand: that frame is the design, as the service's analysis finds it
+// (it must leave exactly the one target motion: one non-rigid zero mode, no self-stress). The
+// mode is u_S on the specified nodes and each placed node's motion from the linear system.
+async function designedByHand() {
+  const frame = handBuiltFrame(), a = await post("/v1/analyze", { frame });
+  if (a.nontrivial_zero_modes !== 1 || a.self_stresses !== 0) {
+    throw new Error(`the frame built by hand has ${a.nontrivial_zero_modes} non-rigid zero modes and ${a.self_stresses} self-stresses, `
+      + "not the one target motion: place more nodes (five on the surface of four specified nodes, in general position), or Clear placed and let Design place them.");
+  }
+  const { modes, stresses, ...analysis } = a;
+  const motion = state.nodes.map((n, i) => [n, state.motions[0][i]]).filter(([n]) => n.role === "specified").map(([, u]) => u);
+  return { frame, modes: [[...motion, ...state.placed.map((n) => n.u)]],
+           report: { analysis, target_zero_modes: 7, unspecified_nodes: state.placed.length, bars: frame.edges.length, placed_by_hand: true } };
+}
+
 async function design(event) {
   const t0 = event && event.timeStamp ? event.timeStamp : performance.now();
+  const byHand = state.kind === "space3d" && !state.example && state.placed.length > 0;
   let endpoint, request;
-  try { [endpoint, request] = drawnRequest(); } catch (e) { clearDesign(); say(e.message, true); return; }
+  if (!byHand) try { [endpoint, request] = drawnRequest(); } catch (e) { clearDesign(); say(e.message, true); return; }
   clearDesign();
-  state.placed = [];
-  say(`designing (${endpoint}) …`);
+  if (!byHand) state.placed = [];
+  say(byHand ? "the frame built by hand: asking the service's analysis (/v1/analyze) …" : `designing (${endpoint}) …`);
   // A drawn 2D design answers in milliseconds; the rest may take seconds: a job with progress.
   // (Allostery in a given network has no job endpoint: it is asked directly too.)
   // (So are a module's map and a sequential design unless the service runs it as a job: on a
@@ -677,7 +784,7 @@ async function design(event) {
     || endpoint === "/v1/map" || (endpoint === "/v1/design/sequential" && !state.jobEndpoints.includes(endpoint));
   try {
     const kind = state.kind;
-    let response = direct ? await post(endpoint, request) : await runJob(endpoint, request, "designing");
+    let response = byHand ? await designedByHand() : direct ? await post(endpoint, request) : await runJob(endpoint, request, "designing");
     if (state.kind !== kind) return;  // another tab was chosen meanwhile
     // A given module's map is drawn as a designed module's is, without features or chain.
     if (endpoint === "/v1/map") response = { map: response, module: { ...request, frame: { ...request.frame, specified: [] } }, features: [], chain: null };
@@ -1320,7 +1427,13 @@ function renderTable() {
     const tr = el("tr", {}, body, true);
     for (const [vector, a] of [0, 1, 2].map((a) => [n.x, a]).concat([0, 1, 2].map((a) => [state.motions[0][i], a]))) {
       const input = el("input", { type: "number", step: "0.1", value: vector[a], "aria-label": `node ${i + 1}` }, el("td", {}, tr, true), true);
-      input.addEventListener("input", () => { if (Number.isFinite(input.valueAsNumber)) { vector[a] = input.valueAsNumber; edited(); } });
+      input.addEventListener("input", (event) => {
+        if (!Number.isFinite(input.valueAsNumber)) return;
+        vector[a] = input.valueAsNumber;
+        edited();
+        // From the edit to the space recomputed and redrawn (queueing included).
+        state.timings.table.push(performance.now() - event.timeStamp);
+      });
     }
     const remove = el("button", { type: "button", title: "remove this node" }, el("td", {}, tr, true), true);
     remove.textContent = "×";
@@ -1465,6 +1578,7 @@ $("network-file").addEventListener("change", async () => {
   }
   $("network-file").value = "";
 });
+$("clear-placed").addEventListener("click", () => { state.placed = []; clearDesign(); describeSpaces(); });
 $("add-row").addEventListener("click", () => {
   const last = state.nodes.length ? state.nodes[state.nodes.length - 1].x : [0, 0, 0];
   state.nodes.push({ x: [last[0] + 1, last[1], last[2]], role: "specified" });
