@@ -19,6 +19,7 @@ import meshio
 import numpy as np
 import pytest
 from browser import browser, console_problems  # noqa: F401 (a fixture)
+from oracles.rigidity import compatibility_matrix, reference_counts, rigid_generators
 from oracles.two_triangles import TwoTriangles
 from scipy.optimize import brentq
 
@@ -315,6 +316,165 @@ def test_a_3d_target_from_the_table(browser, designer_url):  # noqa: F811
     page.mouse.move(box["x"] + 160, box["y"] + 120, steps=4)
     page.mouse.up()
     assert page.eval_on_selector_all("#canvas circle.node", "cs => cs.map(c => +c.getAttribute('cx'))") != turned
+    assert problems == []
+    page.close()
+
+
+def determinant(x: np.ndarray, u: np.ndarray, p: np.ndarray) -> float:
+    """det[x_i − p, (x_i − p)·u_i] for four specified nodes in 3D, relative to the product of the
+    rows' norms: zero iff (x_i − p)·v = (x_i − p)·u_i has a solution v (when the x_i − p span R³)."""
+    rows = np.column_stack([x - p, np.einsum("ij,ij->i", x - p, u)])
+    return float(abs(np.linalg.det(rows)) / np.prod(np.linalg.norm(rows, axis=1)))
+
+
+def four_node_surface(page) -> tuple[np.ndarray, np.ndarray]:
+    """The 3D tab with its fifth specified node removed: four nodes, their space a surface."""
+    page.click("[data-testid=tab-3d]")
+    page.wait_for_function("designer.nodes.length === 5")
+    page.locator("#table3d tbody tr").nth(4).locator("button").click()
+    page.wait_for_function("designer.nodes.length === 4 && designer.spaces[0].kind === 'quadric'")
+    return np.array(page.evaluate("designer.nodes.map((n) => n.x)")), np.array(page.evaluate("designer.motions[0]"))
+
+
+def drawn_points(page) -> np.ndarray:
+    return np.concatenate([np.array(c) for c in page.evaluate("designer.spaces[0].curves")])
+
+
+def test_four_nodes_in_3d_draw_their_quadric_surface(browser, designer_url):  # noqa: F811
+    """Four specified nodes in 3D (m = 3): the page draws a surface of positions (Fig. 2g), every
+    drawn point with a motion meeting the four conditions (numpy least squares and the determinant,
+    from the definition), spread over the box around the nodes; where a line meets the surface
+    (numpy's roots of the determinant, quadratic along a line) the page's ray hit lands; an edit of
+    the table redraws it; the degenerate cases — the tetrahedron's dilation (its circumsphere, closed
+    form), a plane pair, coplanar nodes (a plane), a rigid motion (every position, as numpy finds),
+    eight nodes (no solution, numpy agrees) — are named with their reason."""
+    page, problems = open_page(browser, designer_url)
+    x, u = four_node_surface(page)
+    assert page.get_attribute("[data-testid=solution-space]", "data-kind") == "quadric"
+    assert page.get_attribute("[data-testid=solution-space]", "data-shape").startswith("a hyperboloid")
+    assert "surface" in page.inner_text("[data-testid=space-text]")
+    points = drawn_points(page)
+    assert len(points) > 500
+    assert max(motion_for(x, u, p)[1] for p in points) < 1e-9
+    assert max(determinant(x, u, p) for p in points) < 1e-9
+    # The oracle tells the surface from the space around it: points off it fail.
+    rng = np.random.default_rng(3)
+    off = x.mean(axis=0) + rng.normal(size=(20, 3))
+    assert np.median([determinant(x, u, p) for p in off]) > 1e-3
+    # Spread over the box: the drawn points reach past the nodes' extent on every axis.
+    assert np.all(np.ptp(points, axis=0) >= np.ptp(x, axis=0))
+    for _ in range(6):
+        centre, e = x.mean(axis=0) + 0.3 * rng.normal(size=3), rng.normal(size=3)
+        e /= np.linalg.norm(e)
+        ts = np.array([-1.0, 0.0, 1.0])
+        coef = np.polyfit(ts, [np.linalg.det(np.column_stack([x - centre - t * e, np.einsum("ij,ij->i", x - centre - t * e, u)])) for t in ts], 2)
+        roots = sorted(t.real for t in np.roots(coef) if abs(t.imag) < 1e-9)
+        lo, hi = np.array(page.evaluate("designer.spaces[0].box"))
+        inside = [t for t in roots if np.all(centre + t * e >= lo - 1e-12) and np.all(centre + t * e <= hi + 1e-12)]
+        hit = page.evaluate("([o, d]) => SolutionSpace.hit(designer.spaces[0], o, d)", [(centre + 10 * e).tolist(), (-e).tolist()])
+        if inside:  # the first root met coming from +10 e
+            assert np.linalg.norm(np.array(hit) - (centre + max(inside) * e)) < 1e-9 * np.ptp(x)
+        else:
+            assert hit is None
+    before = space_d(page)
+    page.locator("#table3d tbody tr").nth(3).locator("input").nth(3).fill("0.4")  # u_x of node 4
+    page.wait_for_function(f"document.querySelector('[data-testid=solution-space]').getAttribute('d') !== {before!r}")
+    u[3, 0] = 0.4
+    assert np.allclose(page.evaluate("designer.motions[0]"), u)
+    assert max(motion_for(x, u, p)[1] for p in drawn_points(page)) < 1e-9
+
+    def space(x, u):
+        return page.evaluate("""([x, u]) => { const s = SolutionSpace.compute(x, u);
+            return {kind: s.kind, shape: s.shape, reason: s.reason, curves: s.curves}; }""", [x.tolist(), u.tolist()])
+
+    tetra = np.array([[1.0, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]])
+    sphere = space(tetra, 0.5 * tetra)
+    assert (sphere["kind"], sphere["shape"]) == ("quadric", "a sphere")
+    ball = np.concatenate([np.array(c) for c in sphere["curves"]])
+    assert np.allclose(np.linalg.norm(ball, axis=1), np.sqrt(3), atol=1e-9)  # the circumsphere
+    planes = space(tetra, tetra * [1, -1, 0])
+    assert (planes["kind"], planes["shape"]) == ("quadric", "a pair of crossing planes")
+    pair = np.concatenate([np.array(c) for c in planes["curves"]])
+    assert max(motion_for(tetra, tetra * [1, -1, 0], p)[1] for p in pair) < 1e-9
+    flat = rng.normal(size=(4, 3)) * [1, 1, 0]
+    motion = rng.normal(size=(4, 3))
+    plane = space(flat, motion)
+    assert (plane["kind"], plane["shape"]) == ("quadric", "a plane") and "coplanar" in page.evaluate(
+        "([x, u]) => { designer.spaces = [SolutionSpace.compute(x, u)]; describeSpaces(); return document.getElementById('space-text').textContent; }",
+        [flat.tolist(), motion.tolist()])
+    sheet = np.concatenate([np.array(c) for c in plane["curves"]])
+    assert np.linalg.svd(sheet - sheet.mean(axis=0), compute_uv=False)[2] < 1e-9 * np.ptp(sheet)
+    assert max(motion_for(flat, motion, p)[1] for p in sheet) < 1e-9
+    rigid = space(tetra, np.cross([0.0, 0, 1], tetra))
+    assert rigid["kind"] == "volume" and "every position" in rigid["reason"]
+    assert max(motion_for(tetra, np.cross([0.0, 0, 1], tetra), p)[1] for p in rng.normal(size=(10, 3))) < 1e-9
+    eight, motions = rng.normal(size=(8, 3)), rng.normal(size=(8, 3))
+    none = space(eight, motions)
+    a_tilde, b = np.column_stack([motions, eight, -np.ones(8)]), np.einsum("ij,ij->i", eight, motions)
+    z, *_ = np.linalg.lstsq(a_tilde, b, rcond=None)
+    assert np.linalg.norm(a_tilde @ z - b) > 1e-6 * np.linalg.norm(b)
+    assert none["kind"] == "none" and "contradict" in none["reason"]
+    assert problems == []
+    page.close()
+
+
+def test_nodes_placed_by_hand_on_the_3d_surface_make_the_design(browser, designer_url):  # noqa: F811
+    """Five unspecified nodes placed by clicking the surface of four specified nodes: each on the
+    space to 1e-9 (numpy least squares), with the motion the linear system gives it; a click off
+    the drawing places nothing; Design uses the hand-built frame, and numpy's SVD of C (built here
+    from the positions and bars the service analysed) has exactly one non-rigid zero mode, which
+    moves the specified nodes along the requested motion; the finite motion is traced. On the five
+    nodes' curve, a click places a node on it too."""
+    page, problems = open_page(browser, designer_url)
+    x, u = four_node_surface(page)
+    page.check("[data-testid=place-3d]")
+    box = page.locator("[data-testid=canvas]").bounding_box()
+    page.mouse.click(box["x"] + 3, box["y"] + 3)  # empty corner: nothing
+    page.wait_for_selector("#status.error")
+    assert page.evaluate("designer.placed.length") == 0
+    points = drawn_points(page)
+    rng = np.random.default_rng(40)
+    for n, i in enumerate(rng.choice(len(points), 5, replace=False)):
+        page.mouse.click(*screen(page, points[i]))
+        page.wait_for_function(f"designer.placed.length === {n + 1}")
+    placed = page.evaluate("designer.placed")
+    for node in placed:
+        p, v = np.array(node["x"]), np.array(node["u"])
+        assert motion_for(x, u, p)[1] < 1e-9
+        assert np.allclose(v, motion_for(x, u, p)[0], rtol=1e-9, atol=1e-9 * np.abs(u).max())
+    page.wait_for_function("document.getElementById('status').textContent.includes('built by hand: 9 nodes')", timeout=TIMEOUT_MS)
+    assert "20 bars, 1 non-rigid zero mode, 0 self-stresses" in page.inner_text("[data-testid=status]")
+    page.click("[data-testid=design]")
+    page.wait_for_selector("[data-testid=play]:not([disabled])", timeout=TIMEOUT_MS)
+    design = page.evaluate("designer.response")
+    frame = np.array(design["frame"]["positions"])
+    assert np.allclose(frame[:4], x) and np.allclose(frame[4:], [n["x"] for n in placed])
+    c = compatibility_matrix(frame, design["frame"]["edges"])
+    counts = reference_counts(frame, design["frame"]["edges"])
+    assert (counts["zero_modes"], counts["nontrivial_zero_modes"], counts["self_stresses"]) == (7, 1, 0)
+    sigma = np.linalg.svd(c, compute_uv=False)
+    assert len(sigma) == 20 and sigma[-1] > 1e-6 * sigma[0]  # full row rank, decided with a wide gap
+    # That one carries the requested motion: u_S extends to a zero mode (C_U v_U = −C_S u_S) ...
+    rhs = -c[:, :12] @ u.ravel()
+    v_u, *_ = np.linalg.lstsq(c[:, 12:], rhs, rcond=None)
+    assert np.linalg.norm(c[:, 12:] @ v_u - rhs) < 1e-9 * np.linalg.norm(rhs)
+    # ... and u_S is not a rigid motion of the specified nodes (so it is the non-rigid one).
+    rigid = rigid_generators(x)
+    w, *_ = np.linalg.lstsq(rigid, u.ravel(), rcond=None)
+    assert np.linalg.norm(rigid @ w - u.ravel()) > 0.1 * np.linalg.norm(u)
+    mode = np.array(design["modes"][0])
+    assert np.allclose(mode[:4], u) and np.linalg.norm(c @ mode.ravel()) < 1e-9 * np.linalg.norm(c) * np.linalg.norm(mode)
+    assert page.evaluate("designer.motionPath.path.length") > 2
+
+    # Five specified nodes: their curve (Fig. 2e); a click on it places a node exactly on it.
+    page.click("[data-testid=tab-3d]")
+    page.wait_for_function("designer.nodes.length === 5 && designer.spaces[0].kind === 'conic'")
+    x5, u5 = np.array(page.evaluate("designer.nodes.map((n) => n.x)")), np.array(page.evaluate("designer.motions[0]"))
+    curve = drawn_points(page)
+    page.mouse.click(*screen(page, curve[np.argmin(np.linalg.norm(curve - x5.mean(axis=0), axis=1))]))
+    page.wait_for_function("designer.placed.length === 1")
+    assert motion_for(x5, u5, np.array(page.evaluate("designer.placed[0].x")))[1] < 1e-9
+    # The refused click is the page's one error line (a status, not a console error).
     assert problems == []
     page.close()
 

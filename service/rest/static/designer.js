@@ -692,7 +692,8 @@ function handBuiltFrame() {
 
 // The frame built by hand analysed by the service: does it leave only the drawn motions?
 async function checkPlaced() {
-  const a = await post("/v1/analyze", { frame: handBuiltFrame() });
+  const placed = state.placed.length, a = await post("/v1/analyze", { frame: handBuiltFrame() });
+  if (state.placed.length !== placed) return;  // another node placed meanwhile: its answer follows
   say(`built by hand: ${a.nodes} nodes, ${a.edges} bars, ${a.nontrivial_zero_modes} non-rigid zero mode${a.nontrivial_zero_modes === 1 ? "" : "s"}, ${a.self_stresses} self-stress${a.self_stresses === 1 ? "" : "es"} `
       + (sketchDim() === 3 ? "(Design uses this frame; Clear placed lets it place nodes judiciously)." : "(Design places nodes judiciously instead)."));
 }
