@@ -418,6 +418,104 @@ def test_four_nodes_in_3d_draw_their_quadric_surface(browser, designer_url):  # 
     page.close()
 
 
+def residuals(x: np.ndarray, u: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """motion_for's relative residual at many points at once (batched pseudo-inverse)."""
+    rows = x[None] - points[:, None]
+    rhs = np.einsum("pij,ij->pi", rows, u)
+    v = np.einsum("pji,pi->pj", np.linalg.pinv(rows), rhs)
+    scale = np.abs(rows).max(axis=(1, 2)) * np.maximum(np.abs(u).max(), np.abs(v).max(axis=1))
+    return np.abs(np.einsum("pij,pj->pi", rows, v) - rhs).max(axis=1) / scale
+
+
+def determinant_quadric(x: np.ndarray, u: np.ndarray, rng) -> np.ndarray:
+    """The 4×4 symmetric D with p̃ᵀDp̃ = det[x_i − p, (x_i − p)·u_i] (degree two in p), fitted to
+    the determinant at 40 random points by least squares (the fit's residual checked)."""
+    ps = x.mean(axis=0) + rng.normal(size=(40, 3))
+    dets = np.array([np.linalg.det(np.column_stack([x - p, np.einsum("ij,ij->i", x - p, u)])) for p in ps])
+    pairs = [(a, b) for a in range(4) for b in range(a, 4)]
+    h = np.column_stack([ps, np.ones(len(ps))])
+    basis = np.column_stack([h[:, a] * h[:, b] for a, b in pairs])
+    coef, *_ = np.linalg.lstsq(basis, dets, rcond=None)
+    assert np.abs(basis @ coef - dets).max() <= 1e-8 * np.abs(dets).max()
+    d = np.zeros((4, 4))
+    for (a, b), c in zip(pairs, coef):
+        d[a, b] += c / 2
+        d[b, a] += c / 2
+    return d / np.linalg.norm(d)
+
+
+# (rank of D, rank of its 3×3 block) for each named surface: quadrics classified by ranks.
+SHAPE_RANKS = {
+    "an ellipsoid": (4, 3), "a sphere": (4, 3), "a hyperboloid of one sheet": (4, 3), "a hyperboloid of two sheets": (4, 3),
+    "a cone": (3, 3), "an elliptic paraboloid": (4, 2), "a hyperbolic paraboloid": (4, 2), "an elliptic cylinder": (3, 2),
+    "a hyperbolic cylinder": (3, 2), "a pair of crossing planes": (2, 2), "a parabolic cylinder": (3, 1),
+    "a pair of parallel planes": (2, 1), "a plane": (1, 1),
+}
+
+
+def test_every_kind_of_quadric_surface_from_the_definition(browser, designer_url):  # noqa: F811
+    """Four specified nodes on a small integer grid (or a regular tetrahedron), moved by integer
+    linear maps or at random: every surface the page draws has all its points on the space
+    (numpy least squares), and the name it gives matches the quadric numpy fits to the
+    determinant det[x_i − p, (x_i − p)·u_i] (its ranks; for rank 4 its signature) — all thirteen
+    kinds met (coplanar nodes whose plane of solutions misses the box around them draw nothing:
+    numpy's plane has the box's corners on one side); "none" only where numpy finds Ã z = b inconsistent, "volume" only where every
+    random position has a motion."""
+    page, problems = open_page(browser, designer_url)
+    rng = np.random.default_rng(42)
+    tetra = np.array([[1.0, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]])
+    # The rarest kinds given (found by the same kind of draw), then random draws.
+    cases = [(tetra, np.array([[3.0, -1, 1], [-1, -1, -3], [-1, 3, 1], [-1, -1, 1]])),  # a sphere
+             (np.array([[2.0, 0, -1], [2, 1, 0], [0, -2, 0], [-2, 1, 1]]),
+              np.array([[-1.0, 1, -3], [0, 0, -1], [0, 0, -2], [1, -1, 4]])),  # a parabolic cylinder
+             (tetra, np.array([[-1.0, 1, 1], [1, 1, -1], [-1, -1, -1], [1, -1, 1]]))]  # parallel planes
+    for trial in range(120):
+        x = tetra if trial % 2 else rng.integers(-2, 3, size=(4, 3)).astype(float)
+        cases.append((x, x @ rng.integers(-1, 2, size=(3, 3)).T if trial % 3 else rng.integers(-1, 2, size=(4, 3)).astype(float)))
+    seen = set()
+    for x, u in cases:
+        s = page.evaluate("([x, u]) => { const s = SolutionSpace.compute(x, u); return {kind: s.kind, shape: s.shape, curves: s.curves, box: s.box}; }",
+                          [x.tolist(), u.tolist()])
+        a_tilde, b = np.column_stack([u, x, -np.ones(4)]), np.einsum("ij,ij->i", x, u)
+        z, *_ = np.linalg.lstsq(a_tilde, b, rcond=None)
+        consistent = np.linalg.norm(a_tilde @ z - b) <= 1e-9 * max(np.linalg.norm(b), 1)
+        if s["kind"] == "none":
+            assert not consistent, (x, u)
+            continue
+        assert consistent, (x, u)
+        if s["kind"] == "volume":
+            assert residuals(x, u, x.mean(axis=0) + rng.normal(size=(10, 3))).max() < 1e-9, (x, u)
+            continue
+        assert s["kind"] == "quadric", (x, u, s["kind"])
+        coplanar = np.linalg.matrix_rank(np.column_stack([x, np.ones(4)])) < 4
+        if not s["curves"]:
+            # Nothing drawn: only coplanar nodes (else the space holds them), whose space lies in the
+            # plane of the linear solutions' positions z*_p + span of the null vectors' position
+            # rows (numpy's SVD of Ã) — a plane that misses the box: its corners all on one side.
+            assert coplanar, (x, u)
+            _, _, vt = np.linalg.svd(a_tilde)
+            normal = np.linalg.svd(vt[4:, :3])[2][-1]
+            corners = np.array(list(itertools.product(*zip(*s["box"]))))
+            side = (corners - z[:3]) @ normal
+            assert np.all(side > 0) or np.all(side < 0), (x, u)
+            continue
+        assert residuals(x, u, np.concatenate([np.array(c) for c in s["curves"]])).max() < 1e-9, (x, u, s["shape"])
+        seen.add(s["shape"])
+        if coplanar:
+            continue  # coplanar nodes: the determinant gains the nodes' plane as a spurious factor
+        d = determinant_quadric(x, u, rng)
+        ranks = (np.linalg.matrix_rank(d, tol=1e-7), np.linalg.matrix_rank(d[:3, :3], tol=1e-7))
+        assert ranks == SHAPE_RANKS[s["shape"]], (x, u, s["shape"], ranks)
+        if ranks == (4, 3):
+            signs = np.sign(np.linalg.eigvalsh(d)), np.sign(np.linalg.eigvalsh(d[:3, :3]))
+            one_sheet = abs(signs[0].sum()) == 0
+            ellipsoid = abs(signs[1].sum()) == 3
+            assert (s["shape"] == "a hyperboloid of one sheet") == one_sheet and (s["shape"] in ("an ellipsoid", "a sphere")) == ellipsoid
+    assert seen == set(SHAPE_RANKS), set(SHAPE_RANKS) - seen
+    assert problems == []
+    page.close()
+
+
 def test_nodes_placed_by_hand_on_the_3d_surface_make_the_design(browser, designer_url):  # noqa: F811
     """Five unspecified nodes placed by clicking the surface of four specified nodes: each on the
     space to 1e-9 (numpy least squares), with the motion the linear system gives it; a click off

@@ -212,6 +212,7 @@ function describeSpaces() {
     if (s.kind === "quadric") {
       const why = { "a pair of crossing planes": " (degenerate: the quadric factors into two planes)", "a cone": " (degenerate: a cone, singular at its apex)",
                     "a plane": " (degenerate: the specified nodes are coplanar, so every solution's position lies in one plane)" }[s.shape] || "";
+      if (!s.curves.length) return `${tag}a surface (m = ${s.nullity}): ${s.shape}${why}; ${s.reason}`;
       return `${tag}a surface (m = ${s.nullity}): ${s.shape}${why}, drawn as its plane sections inside a box around the nodes (Fig. 2g); click on it to place an unspecified node.`;
     }
     if (s.kind === "conic") return `${tag}a ${s.degenerate ? "degenerate " : ""}conic (m = ${s.nullity}); click on it to place an unspecified node.`;

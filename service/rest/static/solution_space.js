@@ -212,6 +212,19 @@ const SolutionSpace = (() => {
       out.degenerate = true;
       return out;
     }
+    if (detail.centred) {
+      // The pencil's base near α = 0 (a section's box centre): the crossing nearest 0 of the conic
+      // with eight lines through 0, t² eᵀAe + 2t β·e + γ = 0 — else a conic far larger than the box
+      // is seen from a base far away, and its part in the box falls between the pencil's lines.
+      let nearest = Infinity;
+      for (let i = 0; i < 8; i++) {
+        const e = [Math.cos(Math.PI * i / 8), Math.sin(Math.PI * i / 8)];
+        const eAe = e[0] * (A[0][0] * e[0] + 2 * A[0][1] * e[1]) + A[1][1] * e[1] * e[1];
+        for (const t of quadraticRoots(eAe, 2 * dot(beta, e), gamma, tiny)) {
+          if (Math.abs(t) < nearest) { nearest = Math.abs(t); base = [t * e[0], t * e[1]]; }
+        }
+      }
+    }
     const g = [A[0][0] * base[0] + A[0][1] * base[1] + beta[0], A[1][0] * base[0] + A[1][1] * base[1] + beta[1]];
     // The conic's point on the line at angle φ through α₀ (null at infinity or beyond FAR).
     const at = (phi) => {
@@ -288,12 +301,13 @@ const SolutionSpace = (() => {
     return t0 <= t1 ? [t0, t1].map((t) => a.map((v, i) => v + t * (b[i] - v))) : null;
   }
 
-  // The parts of polylines inside the box: a straight line (two points: a ruling of the surface)
-  // cut exactly at the box; a curve loses its points outside (each kept point is on the surface).
-  function clipCurves(curves, lo, hi) {
-    const inside = (p) => p.every((v, i) => v >= lo[i] && v <= hi[i]), out = [];
+  // The parts inside the box of straight lines (two points each: rulings of the surface, cut
+  // exactly at the box) and of curves (their points outside dropped: each kept point is on the
+  // surface).
+  function clipCurves(lines, curves, lo, hi) {
+    const inside = (p) => p.every((v, i) => v >= lo[i] && v <= hi[i]);
+    const out = lines.map(([a, b]) => clipSegment(a, b, lo, hi)).filter(Boolean);
     for (const c of curves) {
-      if (c.length === 2) { const s = clipSegment(c[0], c[1], lo, hi); if (s) out.push(s); continue; }
       let run = [];
       for (const p of c) {
         if (inside(p)) { run.push(p); continue; }
@@ -343,13 +357,13 @@ const SolutionSpace = (() => {
     const radius = Math.max(...corners.map((c) => Math.hypot(...c)));
     const along = (e) => { const t = corners.map((c) => dot(c, e)); return [Math.min(...t), Math.max(...t)]; };
     const levels = ([s0, s1]) => Array.from({ length: SECTIONS }, (_, i) => s0 + (i + 0.5) * (s1 - s0) / SECTIONS);
-    const curves = [];
+    const lines = [], curves = [];
     if (plane) {  // a grid of lines in the plane n·p = h
       const [n, h] = plane, f = unit(cross(n, Math.abs(n[0]) < 0.9 ? [1, 0, 0] : [0, 1, 0])), g = cross(n, f);
       for (const [e1, e2] of [[f, g], [g, f]]) {
         for (const s of levels(along(e1))) {
           const c = [0, 1, 2].map((a) => h * n[a] + s * e1[a]);
-          curves.push([-FAR, FAR].map((t) => c.map((v, a) => v + t * e2[a])));
+          lines.push([-FAR, FAR].map((t) => c.map((v, a) => v + t * e2[a])));
         }
       }
     } else {
@@ -359,8 +373,8 @@ const SolutionSpace = (() => {
           const H = [0, 1, 2].map((i) => [f[i], g[i], s * e[i]]).concat([[0, 0, 1]]);
           const C = congruence(Qp, H), section = { points: [], curves: [], kind: "none" };
           onConic(section, C, Math.hypot(...C.flat()), (al) => ({ position: [0, 1, 2].map((i) => al[0] * f[i] + al[1] * g[i] + s * e[i]) }),
-                  (p) => p, { pencil: SECTION_PENCIL, chord: SECTION_CHORD, near: radius });
-          curves.push(...section.curves);
+                  (p) => p, { pencil: SECTION_PENCIL, chord: SECTION_CHORD, near: radius, centred: true });
+          (section.degenerate ? lines : curves).push(...section.curves);
         }
       }
     }
@@ -368,7 +382,8 @@ const SolutionSpace = (() => {
     out.kind = "quadric";
     out.surface = { Q: Qp, lo, hi };
     out.box = [lo, hi].map((c) => c.map((v, a) => cx[a] + sx * v));  // world corners
-    out.curves = clipCurves(curves, lo, hi).map((c) => c.map((p) => p.map((v, a) => cx[a] + sx * v)));
+    out.curves = clipCurves(lines, curves, lo, hi).map((c) => c.map((p) => p.map((v, a) => cx[a] + sx * v)));
+    if (!out.curves.length) out.reason = "it does not pass through the box around the specified nodes.";
     return out;
   }
 
