@@ -457,7 +457,8 @@ def test_every_kind_of_quadric_surface_from_the_definition(browser, designer_url
     """Four specified nodes on a small integer grid (or a regular tetrahedron), moved by integer
     linear maps or at random: every surface the page draws has all its points on the space
     (numpy least squares), and the name it gives matches the quadric numpy fits to the
-    determinant det[x_i − p, (x_i − p)·u_i] (its ranks; for rank 4 its signature) — all thirteen
+    determinant det[x_i − p, (x_i − p)·u_i] (its ranks; for rank 4 its signature), and the drawing
+    reaches wherever random lines meet that quadric inside the box — all thirteen
     kinds met (coplanar nodes whose plane of solutions misses the box around them draw nothing:
     numpy's plane has the box's corners on one side); "none" only where numpy finds Ã z = b inconsistent, "volume" only where every
     random position has a motion."""
@@ -499,11 +500,24 @@ def test_every_kind_of_quadric_surface_from_the_definition(browser, designer_url
             side = (corners - z[:3]) @ normal
             assert np.all(side > 0) or np.all(side < 0), (x, u)
             continue
-        assert residuals(x, u, np.concatenate([np.array(c) for c in s["curves"]])).max() < 1e-9, (x, u, s["shape"])
+        drawn = np.concatenate([np.array(c) for c in s["curves"]])
+        assert residuals(x, u, drawn).max() < 1e-9, (x, u, s["shape"])
         seen.add(s["shape"])
         if coplanar:
             continue  # coplanar nodes: the determinant gains the nodes' plane as a spurious factor
         d = determinant_quadric(x, u, rng)
+        # The wireframe covers the surface in the box: where random lines through the box meet
+        # p̃ᵀDp̃ = 0 (numpy's roots) a drawn line is near (a fifth of the box's side).
+        lo, hi = np.array(s["box"])
+        for _ in range(4):
+            c, e = lo + (hi - lo) * rng.random(3), rng.normal(size=3)
+            line = np.array([[*(c + t * e), 1] for t in (-1.0, 0.0, 1.0)])
+            coef = np.polyfit([-1.0, 0.0, 1.0], np.einsum("ti,ij,tj->t", line, d, line), 2)
+            for t in np.roots(coef):
+                p = c + t.real * e
+                if abs(t.imag) < 1e-9 and np.all(p >= lo) and np.all(p <= hi):
+                    gap = min(polyline_distance(np.array(curve), p) for curve in s["curves"])
+                    assert gap < 0.1 * np.max(hi - lo), (x, u, s["shape"], p)
         ranks = (np.linalg.matrix_rank(d, tol=1e-7), np.linalg.matrix_rank(d[:3, :3], tol=1e-7))
         assert ranks == SHAPE_RANKS[s["shape"]], (x, u, s["shape"], ranks)
         if ranks == (4, 3):

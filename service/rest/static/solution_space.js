@@ -21,10 +21,10 @@ const SolutionSpace = (() => {
   // is cut: a hyperbola's branches pass through infinity there.
   const PENCIL = 241, FAR = 40, MAX_CHORD = 0.02, NEAR = 6;
   const CURVE = { pencil: PENCIL, chord: MAX_CHORD, near: NEAR };
-  // A surface is drawn as SECTIONS parallel plane sections in each of two directions, inside the
+  // A surface is drawn as SECTIONS parallel plane sections in each of three directions, inside the
   // specified nodes' bounding box grown by BOX_MARGIN of its largest side on every side; each
   // section's pencil has SECTION_PENCIL lines, its chords refined to SECTION_CHORD inside the box.
-  const SECTIONS = 11, BOX_MARGIN = 0.3, SECTION_PENCIL = 61, SECTION_CHORD = 0.06;
+  const SECTIONS = 9, BOX_MARGIN = 0.3, SECTION_PENCIL = 61, SECTION_CHORD = 0.06;
 
   const dot = (a, b) => a.reduce((s, v, i) => s + v * b[i], 0);
 
@@ -190,6 +190,11 @@ const SolutionSpace = (() => {
         }
         if (!base) { out.reason = "the conic is an imaginary ellipse: it has no real points."; return out; }
       }
+    } else if (Math.max(Math.abs(l1), Math.abs(l2)) <= tiny) {
+      // A = 0: the line 2β·α + γ = 0 (a plane section along a surface's ruling direction).
+      const b2 = dot(beta, beta);
+      if (b2 <= tiny * tiny) { out.reason = "the conic has no quadratic or linear part: no curve."; return out; }
+      lines.push([[-gamma * beta[0] / (2 * b2), -gamma * beta[1] / (2 * b2)], [-beta[1], beta[0]]]);
     } else {
       // A singular: a parabola, two parallel lines, or one line.
       const [[lam, e], [, nvec]] = Math.abs(l1) >= Math.abs(l2) ? [[l1, e1], [l2, e2]] : [[l2, e2], [l1, e1]];
@@ -324,7 +329,7 @@ const SolutionSpace = (() => {
   // quadric p̃ᵀ Q_p p̃ = 0, Q_p = Tᵀ Q T, T = [[P⁻¹, −P⁻¹p₀], [0, 1]] (normalised coordinates); with
   // P of rank 2 (coplanar specified nodes: a null vector moves only (u_U, c)) every linear
   // solution's position lies in one plane, and each point of it off the nodes' plane has one motion.
-  // Drawn as conic sections (onConic) in two families of parallel planes, clipped to a box.
+  // Drawn as conic sections (onConic) in three families of parallel planes, clipped to a box.
   function onQuadric(out, Q) {
     const P = [0, 1, 2].map((a) => out.basis[a].slice(0, 3)), p0 = [0, 1, 2].map((a) => out.basis[a][3]);
     const { sigma, V, AV } = svd(P, 3), top = Math.max(...sigma), live = sigma.map((s) => s > RANK_TOL * top);
@@ -389,8 +394,8 @@ const SolutionSpace = (() => {
 
   // The kind of the quadric p̃ᵀ Q_p p̃ = 0 (‖Q_p‖ = 1) from the eigen-decomposition of its 3×3
   // block A and the completed square: [name, plane [n, h] when it is one plane n·p = h, axes
-  // [[e, f, g], …]: the normals e of the two section families (with their planes' f, g) when it
-  // has real points to draw].
+  // [[e, f, g], …]: the normals e of the three section families (with their planes' f, g) when
+  // it has real points to draw].
   function classify(Qp) {
     const A = Qp.slice(0, 3).map((r) => r.slice(0, 3)), beta = Qp.slice(0, 3).map((r) => r[3]);
     const eig = eigenSym(A).sort((p, q) => Math.abs(q[0]) - Math.abs(p[0]));
@@ -399,11 +404,19 @@ const SolutionSpace = (() => {
     const linear = zero.find(([, e]) => Math.abs(dot(beta, e)) > QUADRIC_TOL);
     const flat = Math.abs(gamma) <= QUADRIC_TOL;
     const positive = nonzero.filter(([l]) => l * -gamma > 0).length, mixed = new Set(nonzero.map(([l]) => Math.sign(l))).size > 1;
-    // Sections perpendicular to the odd eigenvector (the one of another sign, or of λ = 0, or the
-    // longest axis), then perpendicular to the largest-|λ| one of the others.
-    const odd = zero.length ? zero[0] : nonzero.find(([l]) => nonzero.filter(([m]) => Math.sign(m) === Math.sign(l)).length === 1) || eig[2];
-    const rest = eig.filter((p) => p !== odd);
-    const axes = [[odd[1], rest[0][1], rest[1][1]], [rest[0][1], rest[1][1], odd[1]]];
+    // Sections perpendicular to each eigenvector, the odd one first (the one of another sign, or
+    // of λ = 0, or the longest axis: its sections are the surface's ellipses or parabolas). With
+    // two zero eigenvalues (a parabolic cylinder, parallel planes) the eigenvectors of λ = 0 are
+    // turned so that the odd one is perpendicular to β (a ruling) and the next one along β.
+    let odd = zero.length ? zero[0][1] : (nonzero.find(([l]) => nonzero.filter(([m]) => Math.sign(m) === Math.sign(l)).length === 1) || eig[2])[1];
+    let rest = eig.map(([, e]) => e).filter((e) => e !== odd);
+    if (zero.length === 2) {
+      const [[, z1], [, z2]] = zero, [b1, b2] = [dot(beta, z1), dot(beta, z2)], bn = Math.hypot(b1, b2);
+      const [c, s] = bn > QUADRIC_TOL ? [b1 / bn, b2 / bn] : [0, 1];
+      odd = z1.map((v, i) => s * v - c * z2[i]);
+      rest = [z1.map((v, i) => c * v + s * z2[i]), nonzero[0][1]];
+    }
+    const axes = [[odd, rest[0], rest[1]], [rest[0], rest[1], odd], [rest[1], odd, rest[0]]];
     const n = nonzero.length;
     if (n === 0) return linear ? ["a plane", [unit(beta), -Qp[3][3] / (2 * Math.hypot(...beta))], null] : ["empty", null, null];
     if (n === 1 && !linear && flat) { const [l, e] = nonzero[0]; return ["a plane", [e, -dot(beta, e) / l], null]; }
