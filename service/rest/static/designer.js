@@ -125,7 +125,7 @@ function viewBasis([azimuth, elevation]) {
   const toward = [Math.cos(e) * Math.cos(a), Math.cos(e) * Math.sin(a), Math.sin(e)];
   const up = [toward[1] * right[2] - toward[2] * right[1], toward[2] * right[0] - toward[0] * right[2],
               toward[0] * right[1] - toward[1] * right[0]];
-  return [right, up];
+  return [right, up, toward];  // toward: from the drawing to the viewer
 }
 
 function projector(dim) {
@@ -230,8 +230,7 @@ const boxCorners = (space) => [0, 1, 2, 3, 4, 5, 6, 7].map((c) => [0, 1, 2].map(
 // The parts of a surface's curves nearer the viewer than its box's centre: drawn over the whole
 // wireframe so that the front of the surface reads in front of its back.
 function frontCurves(space) {
-  const [right, up] = viewBasis(state.view);
-  const toward = [right[1] * up[2] - right[2] * up[1], right[2] * up[0] - right[0] * up[2], right[0] * up[1] - right[1] * up[0]];
+  const toward = viewBasis(state.view)[2];
   const depth = (p) => p.reduce((t, v, a) => t + (v - (space.box[0][a] + space.box[1][a]) / 2) * toward[a], 0);
   const parts = [];
   for (const c of space.curves) {
@@ -663,8 +662,7 @@ function placeUnspecified(w, crossing) {
 function placeUnspecified3d(event) {
   const space = state.spaces[0];
   if (!space || !["quadric", "conic"].includes(space.kind)) { say("there is no drawn solution space to place a node on.", true); return; }
-  const [right, up] = viewBasis(state.view), [s0, s1] = pointerWorld(event);
-  const toward = [right[1] * up[2] - right[2] * up[1], right[2] * up[0] - right[0] * up[2], right[0] * up[1] - right[1] * up[0]];
+  const [right, up, toward] = viewBasis(state.view), [s0, s1] = pointerWorld(event);
   const depth = specifiedNodes().reduce((t, n) => t + n.x.reduce((r, v, a) => r + v * toward[a], 0), 0) / specifiedNodes().length;
   const origin = [0, 1, 2].map((a) => s0 * right[a] + s1 * up[a] + depth * toward[a]);
   let p = space.kind === "quadric" ? SolutionSpace.hit(space, origin, toward.map((v) => -v)) : null;

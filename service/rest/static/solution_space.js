@@ -237,13 +237,19 @@ const SolutionSpace = (() => {
       const eAe = e[0] * (A[0][0] * e[0] + 2 * A[0][1] * e[1]) + A[1][1] * e[1] * e[1];
       const s = Math.abs(eAe) > 1e-14 * qnorm ? -2 * dot(e, g) / eAe : Infinity;
       const al = [base[0] + s * e[0], base[1] + s * e[1]];
-      return Number.isFinite(s) && Math.hypot(...al) <= FAR ? sample([...al, 1]).position : null;
+      return Number.isFinite(s) && Math.hypot(al[0], al[1]) <= FAR ? sample([al[0], al[1], 1]).position : null;
     };
     // Uniform in φ, then halved where a chord is longer than MAX_CHORD (normalised units) within
     // NEAR of the specified nodes: the pencil crowds its points where the conic is far from α₀
     // and thins them near it.
-    const chord = (p, q) => { const [a, b] = [normalised(p), normalised(q)]; return Math.hypot(...a.map((v, i) => v - b[i])); };
-    const near = (p) => Math.hypot(...normalised(p)) <= detail.near;
+    // (Plain loops: these run for every sample, thousands per surface.)
+    const chord = (p, q) => {
+      const a = normalised(p), b = normalised(q);
+      let s = 0;
+      for (let i = 0; i < a.length; i++) s += (a[i] - b[i]) ** 2;
+      return Math.sqrt(s);
+    };
+    const near = (p) => { const a = normalised(p); let s = 0; for (const v of a) s += v * v; return s <= detail.near ** 2; };
     const refine = (phi0, p0, phi1, p1, depth, into) => {
       if (depth === 0 || chord(p0, p1) <= detail.chord || !(near(p0) || near(p1))) return;
       const mid = (phi0 + phi1) / 2, pm = at(mid);
@@ -310,7 +316,7 @@ const SolutionSpace = (() => {
   // exactly at the box) and of curves (their points outside dropped: each kept point is on the
   // surface).
   function clipCurves(lines, curves, lo, hi) {
-    const inside = (p) => p.every((v, i) => v >= lo[i] && v <= hi[i]);
+    const inside = (p) => p[0] >= lo[0] && p[0] <= hi[0] && p[1] >= lo[1] && p[1] <= hi[1] && p[2] >= lo[2] && p[2] <= hi[2];
     const out = lines.map(([a, b]) => clipSegment(a, b, lo, hi)).filter(Boolean);
     for (const c of curves) {
       let run = [];
