@@ -533,7 +533,7 @@ def test_every_kind_of_quadric_surface_from_the_definition(browser, designer_url
 def test_nodes_placed_by_hand_on_the_3d_surface_make_the_design(browser, designer_url):  # noqa: F811
     """Five unspecified nodes placed by clicking the surface of four specified nodes: each on the
     space to 1e-9 (numpy least squares), with the motion the linear system gives it; a click off
-    the drawing places nothing; Design uses the hand-built frame, and numpy's SVD of C (built here
+    the drawing places nothing; with four placed, Design refuses (two non-rigid modes); Design uses the hand-built frame, and numpy's SVD of C (built here
     from the positions and bars the service analysed) has exactly one non-rigid zero mode, which
     moves the specified nodes along the requested motion; the finite motion is traced. On the five
     nodes' curve, a click places a node on it too."""
@@ -549,6 +549,12 @@ def test_nodes_placed_by_hand_on_the_3d_surface_make_the_design(browser, designe
     for n, i in enumerate(rng.choice(len(points), 5, replace=False)):
         page.mouse.click(*screen(page, points[i]))
         page.wait_for_function(f"designer.placed.length === {n + 1}")
+        if n == 3:  # four placed: the frame still has two non-rigid modes, and Design says so
+            page.click("[data-testid=design]")
+            page.wait_for_function("document.getElementById('status').textContent.includes('not the one target motion')",
+                                   timeout=TIMEOUT_MS)
+            assert "2 non-rigid zero modes" in page.inner_text("[data-testid=status]")
+            assert page.evaluate("designer.response") is None and page.evaluate("designer.placed.length") == 4
     placed = page.evaluate("designer.placed")
     for node in placed:
         p, v = np.array(node["x"]), np.array(node["u"])
