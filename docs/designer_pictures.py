@@ -9,6 +9,7 @@ Starts `zeromode serve` on loopback, drives Debian's chromium with Playwright as
 - designer_3d.png: the 3D tab's five nodes designed, with the planar curve of their space;
 - designer_3d_surface.png: four of them: their quadric surface of solutions as conic sections in
   a box, and five unspecified nodes placed on it by clicking, each with its motion and its bars;
+- designer_3d_sphere.png: a regular tetrahedron dilating: its space is the circumsphere (Fig. 3d);
 - designer_multistable.png: the tristable triangle (Multistable tab) designed, rods and springs
   a third of the way along its motion, the energy landscape under it and the minima's report;
 - designer_chain.png: the deployable chain (Chain tab) designed and played part-way open, the
@@ -144,6 +145,9 @@ def shoot_surface(page) -> None:
         page.wait_for_function(f"designer.placed.length === {n + 1}")
     page.wait_for_function("document.getElementById('status').textContent.includes('built by hand: 9 nodes')", timeout=TIMEOUT_MS)
     page.locator("#view").screenshot(path=OUT / "designer_3d_surface.png")
+    page.evaluate("t => fillTable(t, t.map((p) => p.map((v) => v / 2)))", [[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]])
+    page.wait_for_function("designer.spaces[0].shape === 'a sphere'")
+    page.locator("#view").screenshot(path=OUT / "designer_3d_sphere.png")
 
 
 if __name__ == "__main__":
