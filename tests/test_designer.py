@@ -583,6 +583,8 @@ def test_nodes_placed_by_hand_on_the_3d_surface_make_the_design(browser, designe
     mode = np.array(design["modes"][0])
     assert np.allclose(mode[:4], u) and np.linalg.norm(c @ mode.ravel()) < 1e-9 * np.linalg.norm(c) * np.linalg.norm(mode)
     assert page.evaluate("designer.motionPath.path.length") > 2
+    page.click("[data-testid=clear-placed]")  # back to judicious placement
+    assert page.evaluate("[designer.placed.length, designer.response]") == [0, None]
 
     # Five specified nodes: their curve (Fig. 2e); a click on it places a node exactly on it.
     page.click("[data-testid=tab-3d]")
