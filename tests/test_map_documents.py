@@ -162,6 +162,8 @@ def test_map_picture_shows_the_module_and_the_oracle_fixed_points(
     assert [g.get("id").endswith("-stable") for g in drawn] == [s for _, s in oracle]
     assert [p["d"] for p in answer["fixed_points"]] == pytest.approx([d for d, _ in oracle], rel=1e-9)
 
+    png = post(service, "/v1/export", {"format": "map_png", "document": answer})
+    assert png.headers["content-type"] == "image/png" and Image.open(io.BytesIO(png.content)).format == "PNG"
     (tmp_path / "map.json").write_text(json.dumps(request))
     run = zeromode("plot", "map.json", "-o", "map.png", cwd=tmp_path)
     assert run.returncode == 0, run.stderr
@@ -169,6 +171,19 @@ def test_map_picture_shows_the_module_and_the_oracle_fixed_points(
     for colour in (SOURCE, TARGET, "#d62728"):  # the markers, and matplotlib's C3 of the stable fill
         rgb = np.array([int(colour[i:i + 2], 16) for i in (1, 3, 5)])
         assert np.sum(np.all(np.abs(image - rgb) <= 8, axis=1)) > 20, colour
+
+
+def test_a_malformed_map_answer_is_refused(service: httpx.Client) -> None:
+    """A map document whose samples do not pair up (or are none) is a 422 naming the problem,
+    never a 500; a map format asked of another document is 422 invalid_document."""
+    answer = post(service, "/v1/map", map_request(MODULES[0])).json()
+    for broken in ({**answer, "d_out": answer["d_out"][:-1]}, {**answer, "d_in": [], "d_out": [], "slope": []}):
+        for fmt in ("map_csv", "map_svg", "vtk"):
+            r = service.post("/v1/export", json={"format": fmt, "document": broken})
+            assert r.status_code == 422 and r.json()["detail"]["code"] == "invalid_request", r.text
+            assert "samples" in r.json()["detail"]["message"]
+    r = service.post("/v1/export", json={"format": "map_csv", "document": {"frame": answer["frame"]}})
+    assert r.status_code == 422 and r.json()["detail"]["code"] == "invalid_document", r.text
 
 
 def test_the_library_and_cli_write_the_map_by_suffix(tmp_path: Path) -> None:

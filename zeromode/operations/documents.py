@@ -14,7 +14,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from pydantic import BaseModel, ValidationError
+from pydantic import BaseModel, ValidationError, model_validator
 
 from zeromode.service.wire.convert import feature_points, module_from_model
 from zeromode.service.wire.schemas.allostery import AllostericRequest
@@ -100,9 +100,16 @@ class SequentialDocument(BaseModel):
 
 
 class MapDocument(MapBody):
-    """A /v1/map response: the module's frame (None in answers that predate it) and its map."""
+    """A /v1/map response: the module's frame (None in answers that predate it) and its map,
+    whose samples d_in, d_out and slope are one per sample (at least one)."""
 
     frame: FrameModel | None = None
+
+    @model_validator(mode="after")
+    def _samples(self) -> MapDocument:
+        if not self.d_in or not len(self.d_in) == len(self.d_out) == len(self.slope):
+            raise ValueError("d_in, d_out and slope must hold the same number (at least one) of samples")
+        return self
 
 
 class PathDocument(BaseModel):
