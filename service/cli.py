@@ -120,10 +120,8 @@ def cmd_plot(args) -> int:
         print(f"error: the output file must end in {', '.join(PLOT_FORMATS)}.", file=sys.stderr)
         return 2
     document = _load_json(args.design)
-    figure = figure_for_document(document)  # a module's map: a matplotlib chart
+    figure = figure_for_document(document, title=args.title)  # a module's map: a matplotlib chart
     if figure is not None:
-        if args.title is not None:
-            figure.suptitle(args.title)
         figure.savefig(output, dpi=MAP_DPI * args.scale)
         return 0
     picture = picture_for_document(document, solution_space=not args.no_solution_space)

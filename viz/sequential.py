@@ -22,8 +22,9 @@ if TYPE_CHECKING:
     from zeromode.viz.picture import Picture
 
 
-# The map's panel (inches, at scale 1) and the room its axes' labels take inside it.
-MAP_PANEL_INCHES, MAP_MARGIN_INCHES = 5.0, 0.6
+# The map's panel (inches, at scale 1), the room its axes' labels take inside it, and the band
+# of a title above the chart.
+MAP_PANEL_INCHES, MAP_MARGIN_INCHES, MAP_TITLE_INCHES = 5.0, 0.6, 0.45
 
 
 def draw_map(axes: Axes, body: dict) -> None:
@@ -69,29 +70,35 @@ def module_picture(frame: Frame, input_pair, output_pair) -> Picture:
     )
 
 
-def map_figure(body: dict, frame: Frame | None = None, scale: float = 1.0) -> Figure:
+def map_figure(body: dict, frame: Frame | None = None, scale: float = 1.0, title: str | None = None) -> Figure:
     """A /v1/map body's chart: the map (draw_map) in a panel of 5·scale inches and, with the
     module's ``frame``, the module on its left (module_picture, at its own size: one SVG pixel a
-    point, so its strokes and text are as in the SVG picture)."""
+    point, so its strokes and text are as in the SVG picture); ``title`` in a band above both."""
     from matplotlib.figure import Figure
 
     side = MAP_PANEL_INCHES * scale
     if frame is None:
         figure = Figure(figsize=(side, side), layout="constrained")
         axes = figure.add_subplot()
+        if title is not None:
+            figure.suptitle(title)
     else:
         from zeromode.viz.layout import layout
         from zeromode.viz.raster import POINTS_PER_INCH, draw_scene
 
         scene = layout(module_picture(frame, body["input_pair"], body["output_pair"]))
         w, h = scene.width / POINTS_PER_INCH, scene.height / POINTS_PER_INCH
-        width, height = w + side, max(h, side)
+        band = 0.0 if title is None else MAP_TITLE_INCHES
+        width, body_height = w + side, max(h, side)
+        height = body_height + band
         figure = Figure(figsize=(width, height))
-        module = figure.add_axes((0.0, (height - h) / (2 * height), w / width, h / height), gid="module")
+        if title is not None:
+            figure.suptitle(title, y=1 - 0.5 * band / height, va="center")
+        module = figure.add_axes((0.0, (body_height - h) / (2 * height), w / width, h / height), gid="module")
         draw_scene(module, scene)
         margin = MAP_MARGIN_INCHES
         axes = figure.add_axes((
-            (w + margin) / width, margin / height, (side - 1.4 * margin) / width, (height - 1.6 * margin) / height
+            (w + margin) / width, margin / height, (side - 1.4 * margin) / width, (body_height - 1.6 * margin) / height
         ))
     draw_map(axes, body)
     axes.legend(fontsize="small")

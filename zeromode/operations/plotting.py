@@ -110,13 +110,13 @@ def map_module(answer: dict):
     return frame_from_model(m.frame), m.input_pair, m.output_pair
 
 
-def figure_for_document(doc, scale: float = 1.0) -> Figure | None:
+def figure_for_document(doc, scale: float = 1.0, title: str | None = None) -> Figure | None:
     """The matplotlib chart of a /v1/map request or response (a request answered first): the
     module beside its map f with the diagonal, usable range, fixed points (filled: stable) and
-    folds (viz.sequential.map_figure; the map alone for an answer without its frame); None for
-    any other document, whose picture is picture_for_document's."""
+    folds, ``title`` above (viz.sequential.map_figure; the map alone for an answer without its
+    frame); None for any other document, whose picture is picture_for_document's."""
     answer = endpoints.map_answer(doc)
     if answer is None:
         return None
     frame = validated(answer, MapDocument).frame
-    return map_figure(answer, None if frame is None else frame_from_model(frame), scale)
+    return map_figure(answer, None if frame is None else frame_from_model(frame), scale, title)
