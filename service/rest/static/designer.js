@@ -47,7 +47,7 @@ const FORMAT_LABELS = {
 
 const $ = (id) => document.getElementById(id);
 const state = {
-  kind: "draw", network: null, nodes: [], motions: [[]], motion: 0, placed: [], spaces: [], crossings: [],
+  kind: "draw", network: null, networkLayer: null, designs: 0, pending: false, running: new Set(), nodes: [], motions: [[]], motion: 0, placed: [], spaces: [], crossings: [],
   example: null, response: null, frame: null, modes: [], mode: 0, sites: {}, motionPath: null,
   refined: null, refinedPath: null, certificate: null, timer: null, drag: null, view: VIEW_3D.slice(),
   formats: null, jobs: 0, timings: { live: [], design: [] }, progressLog: [], map: null, fresh: true,
@@ -78,14 +78,19 @@ async function api(method, path, body) {
 const post = async (path, body) => (await api("POST", path, body)).json();
 const sleep = (ms) => new Promise((done) => setTimeout(done, ms));
 
-// A long request as a job (POST /v1/jobs), its progress on the bar until it is done.
-async function runJob(endpoint, request, label) {
+// A long request as a job (POST /v1/jobs), its progress on the bar until it is done; once
+// ``wanted()`` is false (its design was replaced or cleared) the job is cancelled and null returned.
+async function runJob(endpoint, request, label, wanted) {
   const seq = ++state.jobs;
   const accepted = await post("/v1/jobs", { endpoint, request });
   showProgress(0, `${label}: queued`);
   try {
     for (;;) {
       await sleep(200);
+      if (!wanted()) {
+        api("DELETE", `/v1/jobs/${accepted.id}`).catch(() => {});  // finished meanwhile: nothing to cancel
+        return null;
+      }
       const job = await (await api("GET", `/v1/jobs/${accepted.id}`)).json();
       showProgress(job.progress, `${label}: ${job.message || job.status}`);
       if (job.status === "done") return job.result;
@@ -197,8 +202,10 @@ function describeSpaces() {
   box.className = "space";
   if (!sketching()) { box.textContent = ""; return; }
   if (!state.spaces.length) { box.textContent = "The solution space of an unspecified node appears once you place specified nodes."; return; }
+  const still = (m) => state.nodes.every((n, i) => n.role !== "specified" || !(state.motions[m][i] || []).some((v) => v));
   const words = state.spaces.map((s, m) => {
     const tag = state.spaces.length > 1 ? `motion ${m + 1}: ` : "";
+    if (still(m)) return `${tag}no arrows yet: drag from a node to give it a motion.`;
     if (s.kind === "none") return `${tag}no real solution — ${s.reason}`;
     if (s.kind === "points") return `${tag}${s.points.length} point${s.points.length === 1 ? "" : "s"} (m = ${s.nullity}); click one to place an unspecified node.`;
     if (s.kind === "conic" && s.dim === 3) return `${tag}a curve (m = ${s.nullity}), a conic in a plane of space (Fig. 2e).`;
@@ -319,12 +326,7 @@ function drawSketch(svg, toPage, shown) {
   const spec = state.nodes.map((n, i) => [n, i]).filter(([n]) => n.role === "specified");
   const bars = el("g", { class: "bars" }, svg);
   if (state.network) {
-    const p = state.network.positions.map(toPage);
-    for (const [i, j] of state.network.edges) {
-      el("line", { class: "bar network", x1: p[i][0], y1: p[i][1], x2: p[j][0], y2: p[j][1], stroke: COLOURS.bar, "stroke-width": 1.5 }, bars);
-    }
-    p.forEach(([x, y], i) => el("circle", { class: "network-node", "data-network": i, cx: x, cy: y, r: 6,
-                                            fill: COLOURS.unspecified[0], stroke: COLOURS.unspecified[1] }, bars));
+    bars.appendChild(networkLayer(toPage));
     shown.add("bar"); shown.add("unspecified");
   }
   for (const node of state.placed) {
@@ -364,6 +366,20 @@ function drawSketch(svg, toPage, shown) {
     el("circle", { class: "node placed unspecified", cx: x, cy: y, r: 6, fill: COLOURS.unspecified[0], stroke: COLOURS.unspecified[1] }, nodes);
     shown.add("unspecified");
   }
+}
+
+// The given network (its bars as one path, its nodes to click), built once per network and
+// drawing map: a site dragged on a network of thousands of bars redraws only the sites.
+function networkLayer(toPage) {
+  const key = `${state.map.scale} ${toPage([0, 0])}`, cached = state.networkLayer;
+  if (cached && cached.network === state.network && cached.key === key) return cached.g;
+  const g = el("g", { class: "network" }), p = state.network.positions.map(toPage), at = (q) => `${q[0].toFixed(1)} ${q[1].toFixed(1)}`;
+  el("path", { class: "bar network", "data-bars": state.network.edges.length, d: state.network.edges.map(([i, j]) => `M${at(p[i])}L${at(p[j])}`).join(""),
+               stroke: COLOURS.bar, "stroke-width": 1.5, fill: "none" }, g);
+  p.forEach(([x, y], i) => el("circle", { class: "network-node", "data-network": i, cx: x, cy: y, r: 6,
+                                          fill: COLOURS.unspecified[0], stroke: COLOURS.unspecified[1] }, g));
+  state.networkLayer = { network: state.network, key, g };
+  return g;
 }
 
 function marker(parent, kind, cx, cy) {
@@ -567,6 +583,11 @@ function onPointerUp() { state.drag = null; }
 // A drawing changed: the old design no longer belongs to it.
 function edited() {
   if (state.response) clearDesign();
+  else if (state.pending) {  // a design on the way is of the old drawing
+    state.designs++;
+    state.pending = false;
+    say("the drawing changed while it was being designed: press Design again.");
+  }
   state.placed = [];
   updateSpaces();
   describeSpaces();
@@ -667,6 +688,8 @@ async function design(event) {
   let endpoint, request;
   try { [endpoint, request] = drawnRequest(); } catch (e) { clearDesign(); say(e.message, true); return; }
   clearDesign();
+  const seq = state.designs;  // clearDesign() (an edit, another tab, a new design) replaces it
+  const wanted = () => state.designs === seq;
   state.placed = [];
   say(`designing (${endpoint}) …`);
   // A drawn 2D design answers in milliseconds; the rest may take seconds: a job with progress.
@@ -676,9 +699,10 @@ async function design(event) {
   const direct = (endpoint === "/v1/design" && request.dim === 2) || endpoint === "/v1/design/allosteric/network"
     || endpoint === "/v1/map" || (endpoint === "/v1/design/sequential" && !state.jobEndpoints.includes(endpoint));
   try {
-    const kind = state.kind;
-    let response = direct ? await post(endpoint, request) : await runJob(endpoint, request, "designing");
-    if (state.kind !== kind) return;  // another tab was chosen meanwhile
+    state.pending = true;
+    let response = direct ? await post(endpoint, request) : await runJob(endpoint, request, "designing", wanted);
+    if (!wanted()) return;
+    state.pending = false;  // the drawing changed, another tab was chosen or Design pressed again
     // A given module's map is drawn as a designed module's is, without features or chain.
     if (endpoint === "/v1/map") response = { map: response, module: { ...request, frame: { ...request.frame, specified: [] } }, features: [], chain: null };
     const own = ownMotion(response);
@@ -697,8 +721,7 @@ async function design(event) {
     draw();
     requestAnimationFrame(() => state.timings.design.push(performance.now() - t0));
     state.fresh = false;
-    $("refine").disabled = !(state.modes.length === 1 && state.frame.specified.length >= 2);
-    $("certify").disabled = Boolean(own);
+    enableActions();
     if (own) {
       showOwnMotion(own.motion);
       // Rods and springs, and a chain, export as designs do (springs as their own cells).
@@ -709,13 +732,24 @@ async function design(event) {
     report_();
     await Promise.all([traceMotion(), listDownloads()]);
   } catch (e) {
+    if (!wanted()) return;  // a refusal of a replaced design says nothing of the current one
+    state.pending = false;
     clearDesign();
     say(e.message, true);
   }
 }
 
+// Refine applies to a design with specified nodes and one motion; Certify to any but a multistable
+// design or a chain (they come with their own checks).
+function enableActions() {
+  const f = state.frame, own = Boolean(state.response && ownMotion(state.response));
+  $("refine").disabled = !(f && !own && state.modes.length === 1 && f.specified.length >= 2) || state.running.has("refine");
+  $("certify").disabled = !f || own || state.running.has("certify");
+}
+
 function clearDesign() {
   stop();
+  state.designs++;
   Object.assign(state, { response: null, frame: null, modes: [], sites: {}, motionPath: null,
                          refined: null, refinedPath: null, certificate: null, fromDrawing: false, mapCheck: null });
   for (const id of ["slider", "play", "refine", "certify"]) $(id).disabled = true;
@@ -838,15 +872,17 @@ const specifiedRows = (mode) => state.frame.specified.map((i) => mode[i]);
 // A job on the current design with its button disabled meanwhile; ``use`` takes the result
 // unless the design changed while it ran.
 async function designJob(button, label, endpoint, request, use) {
-  const frame = state.frame;
+  const frame = state.frame, current = () => state.frame === frame;
   $(button).disabled = true;
+  state.running.add(button);
   try {
-    const result = await runJob(endpoint, request, label);
-    if (state.frame === frame) await use(result);
+    const result = await runJob(endpoint, request, label, current);
+    if (current()) await use(result);
   } catch (e) {
-    say(`${label}: ${e.message}`, true);
+    if (current()) say(`${label}: ${e.message}`, true);
   } finally {
-    $(button).disabled = !state.frame;
+    state.running.delete(button);
+    enableActions();
     report_();
   }
 }
@@ -883,8 +919,10 @@ async function certify() {
   const request = { frame: { dim: f.dim, positions: f.positions, edges: f.edges }, modes: state.modes };
   await designJob("certify", "certifying", "/v1/certify", request, (result) => {
     state.certificate = result;
-    const p = result.prestress;
-    say(`certified: ${p.prestress_stable ? "prestress stable" : "not prestress stable"} (${p.decided_by}).`);
+    const p = result.prestress, g = result.rigidity_margin || result.margin;
+    const stable = p.prestress_stable ? "prestress stable" : p.decided_by === "no_self_stress"
+      ? "no self-stress, so nothing stiffens the designed motion (it stays free, as designed)" : "not prestress stable";
+    say(`certified: ${stable} (${p.decided_by})${g ? `; ${g.undesigned_zero_modes} undesigned zero modes, rigidity margin ${fmt(g.uniform)} (see the report)` : ""}.`);
   });
 }
 
@@ -1026,7 +1064,9 @@ function reportRows() {
   if (c) {
     rows.push(["Certificate"]);
     const p = c.prestress;
-    add("prestress stable", p.prestress_stable ? "yes" : "no", "", `Decided by ${p.decided_by}: a self-stress makes every undesigned flex cost energy.`);
+    add("prestress stable", p.prestress_stable ? "yes" : "no", "", p.decided_by === "no_self_stress"
+      ? "Decided by no_self_stress: without a self-stress nothing stiffens the frame's flexes — expected for a mechanism, whose designed motion must stay free; the rigidity margin is what resists every other motion."
+      : `Decided by ${p.decided_by}: a self-stress makes every undesigned flex cost energy.`);
     if (p.decided_by === "sdp") add("prestress margin", `[${fmt(p.margin)}, ${fmt(p.margin_upper_bound)}]`, "stiffness", "Certified lower bound and upper bound of the SDP's margin.");
     const g = c.rigidity_margin || c.margin;
     if (g) {
@@ -1112,9 +1152,10 @@ function designName() {
 }
 
 async function listDownloads() {
-  const box = $("downloads");
+  const box = $("downloads"), response = state.response;
   box.replaceChildren();
   if (!state.formats) state.formats = await (await api("GET", "/v1/export/formats")).json();
+  if (state.response !== response) return;  // cleared or replaced meanwhile: no buttons for it
   for (const f of state.formats.filter((f) => f.available)) {
     const button = el("button", { type: "button", "data-format": f.name, "data-testid": `download-${f.name}`, title: f.description }, box, true);
     button.textContent = FORMAT_LABELS[f.name] || `${f.description.split(/[.:;(]/)[0]}`;
@@ -1355,14 +1396,22 @@ function triangulatedSheet([nx, ny], h) {
   return { dim: 2, positions, edges };
 }
 
+// A network is checked whole before it replaces the drawing: a bad file leaves the page as it was.
 function useNetwork(frame) {
   if (!frame || frame.dim !== 2 || !Array.isArray(frame.positions) || !Array.isArray(frame.edges)) {
     throw new Error("a network is a 2D frame: {\"dim\": 2, \"positions\": [...], \"edges\": [...]}.");
   }
+  const n = frame.positions.length;
+  const bad = frame.positions.findIndex((p) => !Array.isArray(p) || p.length !== 2 || !p.every(Number.isFinite));
+  if (bad >= 0) throw new Error(`position ${bad} is not two finite numbers [x, y].`);
+  const wrong = frame.edges.findIndex((e) => !Array.isArray(e) || e.length !== 2 || e[0] === e[1]
+                                            || !e.every((i) => Number.isInteger(i) && i >= 0 && i < n));
+  if (wrong >= 0) throw new Error(`edge ${wrong} is not two different node indices from 0 to ${n - 1}.`);
   clearSketch();
   state.network = { dim: 2, positions: frame.positions, edges: frame.edges };
   $("hint").textContent = "Click nodes of the network to make them source or target sites (choose below); drag from a site to set its motion.";
   edited();
+  say(`network: ${n} nodes, ${frame.edges.length} bars; click its nodes to make them sites.`);
 }
 
 function addMotion() {
