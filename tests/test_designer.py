@@ -113,12 +113,16 @@ def test_draw_design_play_refine_certify_and_download(browser, designer_url, tmp
 
     # Play: the slider moves and the nodes with it, every bar still on its nodes.
     reference = page.evaluate("designer.motionPath.reference_index")
+    keys, legend_box = legend(page), page.locator("[data-testid=legend]").bounding_box()
     page.click("[data-testid=play]")
     page.wait_for_function(f"+document.getElementById('slider').value !== {reference}")
     page.click("[data-testid=play]")
     k = int(page.input_value("[data-testid=slider]"))
     moved = np.array(page.evaluate("designer.motionPath.path")[k])
     assert np.abs(moved - frame).max() > 1e-3
+    # The legend stays as it was (the mode's arrows, drawn at t = 0, keep their entry): nothing
+    # under the drawing jumps while it plays.
+    assert legend(page) == keys and page.locator("[data-testid=legend]").bounding_box() == legend_box
 
     # The amplitude control sets how far the motion is followed.
     page.eval_on_selector("[data-testid=amplitude]", "e => { e.value = '0.2'; e.dispatchEvent(new Event('input')); }")
@@ -158,6 +162,15 @@ def test_draw_design_play_refine_certify_and_download(browser, designer_url, tmp
     assert page.evaluate("designer.certificate.prestress.decided_by") == "no_self_stress"
     assert "stays free" in page.inner_text("[data-testid=status]")
     assert "expected for a mechanism" in page.get_attribute("[data-testid=report] tr[data-row='prestress stable']", "title")
+    # Every row of the report has its one-line meaning on hover; everything answered is behind
+    # the raw JSON toggle, a vector to a line.
+    titles = page.eval_on_selector_all("[data-testid=report] tr:not(.section)", "rs => rs.map(r => r.title)")
+    assert len(titles) > 20 and all(titles)
+    assert page.is_hidden("#raw")
+    page.check("[data-testid=raw-toggle]")
+    raw = page.inner_text("#raw")
+    assert json.loads(raw)["design"] == design and json.loads(raw)["certificate"] == page.evaluate("designer.certificate")
+    assert f"[{x[0][0]:g},{x[0][1]:g}]" in raw.replace(".0,", ",").replace(".0]", "]")
     assert page.get_attribute("[data-testid=progress]", "data-value") == "1"
 
     with page.expect_download() as info:

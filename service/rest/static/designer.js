@@ -461,8 +461,9 @@ function drawFrame(svg, toPage, shown) {
       el("line", { class: "arrow", "data-node": i, x1: p[i][0], y1: p[i][1], x2: tip[0], y2: tip[1],
                    stroke: COLOURS.motions[0], "stroke-width": 2.2, opacity: spec.has(i) ? 1 : 0.8, "marker-end": "url(#head-0)" }, arrows);
     });
-    shown.add("mode");
   }
+  // In the legend all along the motion (the arrows are drawn at its start): no jump while playing.
+  if (mode) shown.add("mode");
   const spec = new Set(state.frame.specified);
   const nodes = el("g", { class: "nodes" }, svg);
   let round = 0;
@@ -511,7 +512,7 @@ function legend(shown) {
     (s) => el("circle", { cx: 11, cy: 6, r: 4.5, fill: "none", stroke: colour, "stroke-width": 2 }, s)));
   entry("track", "node paths", line("#c6dbef", 2));
   state.motions.forEach((_, m) => entry(`motion-${m}`, `motion ${m + 1}`, line(COLOURS.motions[m % 4])));
-  entry("mode", "zero mode", line(COLOURS.motions[0]));
+  entry("mode", state.motionPath && !state.motionPath.own ? "zero mode (arrows at t = 0)" : "zero mode", line(COLOURS.motions[0]));
   state.spaces.forEach((_, m) => entry(`space-${m}`, `solution space${state.spaces.length > 1 ? " " + (m + 1) : ""}`, line(COLOURS.spaces[m % 4], 2)));
   entry("crossing", "crossing", (s) => el("circle", { cx: 11, cy: 6, r: 4, fill: "none", stroke: "#000", "stroke-width": 2 }, s));
   entry("path", "trajectory, start → end", (s) => {
@@ -1142,7 +1143,8 @@ function report_() {
   }
   const raw = { design: state.response, motion: state.motionPath && { ...state.motionPath, path: `(${state.motionPath.path.length} configurations)` },
                 refinement: state.refined, certificate: state.certificate };
-  $("raw").textContent = state.response ? JSON.stringify(raw, null, 1) : "";
+  // One line per vector (a position, a motion's row), not one per number.
+  $("raw").textContent = state.response ? JSON.stringify(raw, null, 1).replace(/\[[-\d.e+,\s]*\]/g, (a) => a.replace(/\s+/g, "")) : "";
 }
 
 // ----------------------------------------------------------------------------- downloads
