@@ -201,3 +201,33 @@ def test_a_replaced_design_never_comes_back(browser, designer_url):  # noqa: F81
     assert page.query_selector("[data-testid=download-vtk]")
     assert problems == []
     page.close()
+
+
+def test_controls_are_not_cut_and_a_network_replaces_the_example(browser, designer_url):  # noqa: F811
+    """At 1400 px: the two-motion design's mode list is as wide as its text (it was squeezed to a
+    sliver beside Play); the upload control's text is whole (the file input's "No file chosen"
+    was cut to "No f…sen"); a network drawn over the allostery example takes its place — the
+    example list, its description and the name no longer name the preset, and no canvas hint is
+    written across the network's bars."""
+    page, problems = open_page(browser, designer_url, width=1400)
+    fits = "e => { const c = document.createElement('canvas').getContext('2d'); c.font = getComputedStyle(e).font; return c.measureText(e.options ? e.options[e.selectedIndex].text : e.textContent.trim()).width < e.clientWidth; }"
+    page.select_option("[data-testid=example]", "example:two_mode_2d")
+    page.wait_for_function("designer.spaces.length === 2")
+    page.click("[data-testid=design]")
+    page.wait_for_selector("[data-testid=play]:not([disabled])", timeout=TIMEOUT_MS)
+    assert page.is_visible("[data-testid=mode-select]") and page.eval_on_selector("[data-testid=mode-select]", fits)
+
+    page.click("[data-testid=tab-allostery]")
+    upload = page.locator("label.button")
+    assert upload.is_visible() and page.eval_on_selector("label.button", "e => e.scrollWidth <= e.clientWidth")
+    assert "Upload" in upload.inner_text()
+    page.select_option("[data-testid=example]", "preset:allostery_2d")
+    page.wait_for_function("designer.nodes.length === 6")
+    assert page.input_value("[data-testid=name]") == "allostery_2d"
+    page.click("[data-testid=network-sheet]")
+    assert page.evaluate("designer.network.positions.length") == 63
+    assert page.input_value("[data-testid=example]") == "" and page.inner_text("#example-text") == ""
+    assert page.input_value("[data-testid=name]") == "allosteric_sheet"
+    assert page.query_selector_all("#canvas text") == []
+    assert problems == []
+    page.close()

@@ -257,11 +257,12 @@ function draw() {
   const defs = el("defs", {}, svg);
   arrowHeads(defs, COLOURS.motions);
   const shown = new Set();
-  if (!state.frame && !state.nodes.length && !state.example && !(state.kind === "multistable" && state.conformations.length)) {
+  if (!state.frame && !state.nodes.length && !state.example && !state.network && !(state.kind === "multistable" && state.conformations.length)) {
     const t = el("text", { x: WIDTH / 2, y: HEIGHT / 2, "text-anchor": "middle", fill: "#999", "font-size": 18 }, svg);
     t.textContent = state.kind === "auxetic" ? "Set the sheet on the left, then press Design."
       : state.kind === "chain" ? "Choose the map's features on the left, then press Design."
       : state.kind === "multistable" ? "Type the conformations on the left, then press Design."
+      : state.kind === "allostery" ? "Click to place a source node (or pick sites in a network); drag from it to set its motion."
       : "Click to place a node; drag from it to set its motion.";
   }
   drawSpaces(svg, toPage, shown);
@@ -754,6 +755,7 @@ function clearDesign() {
   Object.assign(state, { response: null, frame: null, modes: [], sites: {}, motionPath: null,
                          refined: null, refinedPath: null, certificate: null, fromDrawing: false, mapCheck: null });
   for (const id of ["slider", "play", "refine", "certify"]) $(id).disabled = true;
+  $("slider").max = $("slider").value = 0;
   $("where").textContent = "";
   $("downloads").replaceChildren();
   $("compare").hidden = true;
@@ -1399,7 +1401,7 @@ function triangulatedSheet([nx, ny], h) {
 }
 
 // A network is checked whole before it replaces the drawing: a bad file leaves the page as it was.
-function useNetwork(frame) {
+function useNetwork(frame, name) {
   if (!frame || frame.dim !== 2 || !Array.isArray(frame.positions) || !Array.isArray(frame.edges)) {
     throw new Error("a network is a 2D frame: {\"dim\": 2, \"positions\": [...], \"edges\": [...]}.");
   }
@@ -1410,6 +1412,10 @@ function useNetwork(frame) {
                                             || !e.every((i) => Number.isInteger(i) && i >= 0 && i < n));
   if (wrong >= 0) throw new Error(`edge ${wrong} is not two different node indices from 0 to ${n - 1}.`);
   clearSketch();
+  // No longer the example chosen before: its name and description go, the network's name comes.
+  $("example").value = "";
+  $("example-text").textContent = "";
+  $("name").value = name;
   state.network = { dim: 2, positions: frame.positions, edges: frame.edges };
   $("hint").textContent = "Click nodes of the network to make them source or target sites (choose below); drag from a site to set its motion.";
   edited();
@@ -1504,13 +1510,13 @@ $("play").addEventListener("click", play);
 $("undo").addEventListener("click", undo);
 $("clear").addEventListener("click", clearSketch);
 $("add-motion").addEventListener("click", addMotion);
-$("network-sheet").addEventListener("click", () => useNetwork(triangulatedSheet(NETWORK, NETWORK_SPACING)));
+$("network-sheet").addEventListener("click", () => useNetwork(triangulatedSheet(NETWORK, NETWORK_SPACING), "allosteric_sheet"));
 $("network-file").addEventListener("change", async () => {
   const file = $("network-file").files[0];
   if (!file) return;
   try {
     const doc = JSON.parse(await file.text());
-    useNetwork(doc.frame || doc);
+    useNetwork(doc.frame || doc, `${file.name.replace(/\.json$/i, "")}_sites`);
   } catch (e) {
     say(`${file.name}: ${e.message}`, true);
   }
