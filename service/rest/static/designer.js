@@ -47,10 +47,10 @@ const FORMAT_LABELS = {
 
 const $ = (id) => document.getElementById(id);
 const state = {
-  kind: "draw", network: null, networkLayer: null, designs: 0, pending: false, running: new Set(), nodes: [], motions: [[]], motion: 0, placed: [], spaces: [], crossings: [],
+  kind: "draw", network: null, networkLayer: null, options: {}, designs: 0, pending: false, running: new Set(), waiting: new Set(), nodes: [], motions: [[]], motion: 0, placed: [], spaces: [], crossings: [],
   example: null, response: null, frame: null, modes: [], mode: 0, sites: {}, motionPath: null,
   refined: null, refinedPath: null, certificate: null, timer: null, drag: null, view: VIEW_3D.slice(),
-  formats: null, jobs: 0, timings: { live: [], design: [] }, progressLog: [], map: null, fresh: true,
+  formats: null, jobs: 0, timings: { live: [], design: [] }, progressLog: [], map: null, appearAt: -Infinity,
   conformations: [], features: [], chainExamples: null, jobEndpoints: [], mapCheck: null, module: null,
 };
 window.designer = state;  // for outside tests and the curious
@@ -63,7 +63,37 @@ function headers() {
   return h;
 }
 
+// A direct request (no job: a 2D design, a motion, an export, allostery in a network) still
+// unanswered after this long shows the bar as busy until it is answered: the service's
+// synchronous endpoints report no fraction, but a GIF can take ten seconds.
+const BUSY_MS = 1000;
+
 async function api(method, path, body) {
+  const busy = setTimeout(() => showBusy(`${method} ${path}`), BUSY_MS);
+  try {
+    return await request(method, path, body);
+  } finally {
+    clearTimeout(busy);
+    hideBusy(`${method} ${path}`);
+  }
+}
+
+function showBusy(what) {
+  const bar = document.querySelector("[data-testid=progress]");
+  if (!$("progress-box").hidden && !bar.classList.contains("busy")) return;  // a job's progress is showing
+  state.waiting.add(what);
+  bar.classList.add("busy");
+  $("progress-box").hidden = false;
+  $("progress-text").textContent = `waiting for ${[...state.waiting].join(", ")} …`;
+}
+
+function hideBusy(what) {
+  if (!state.waiting.delete(what) || state.waiting.size) return;
+  document.querySelector("[data-testid=progress]").classList.remove("busy");
+  $("progress-box").hidden = true;
+}
+
+async function request(method, path, body) {
   const r = await fetch(path, { method, headers: headers(), body: body === undefined ? undefined : JSON.stringify(body) });
   if (!r.ok) {
     let message = `HTTP ${r.status}`;
@@ -99,13 +129,15 @@ async function runJob(endpoint, request, label, wanted) {
       }
     }
   } finally {
-    setTimeout(() => { if (state.jobs === seq) $("progress-box").hidden = true; }, 600);
+    setTimeout(() => { if (state.jobs === seq && !state.waiting.size) $("progress-box").hidden = true; }, 600);
   }
 }
 
 function showProgress(fraction, text) {
   const bar = document.querySelector("[data-testid=progress]");
   $("progress-box").hidden = false;
+  bar.classList.remove("busy");
+  state.waiting.clear();
   bar.firstElementChild.style.width = `${(100 * fraction).toFixed(1)}%`;
   bar.dataset.value = String(fraction);
   bar.setAttribute("aria-valuenow", String(fraction));
@@ -383,6 +415,23 @@ function networkLayer(toPage) {
   return g;
 }
 
+// Judicious placement adds the unspecified nodes one round after another (in index order): each
+// appears APPEAR_STEP after the one before (the whole at most APPEAR_TOTAL), its bars with it. The
+// delays count from the design's arrival, so a redraw meanwhile (the motion traced, the slider)
+// carries the animation on instead of restarting or cutting it. appear(i): node i's CSS animation
+// delay in s (negative: under way), null for a specified node or once it has appeared.
+const APPEAR_STEP = 0.15, APPEAR_TOTAL = 2, APPEAR_S = 0.3;
+function appearance(n, specified) {
+  const order = new Map(), elapsed = (performance.now() - state.appearAt) / 1000;
+  for (let i = 0; i < n; i++) if (!specified.has(i)) order.set(i, order.size);
+  const step = Math.min(APPEAR_STEP, APPEAR_TOTAL / Math.max(order.size, 1));
+  return (i) => {
+    if (!order.has(i)) return null;
+    const delay = step * order.get(i) - elapsed;
+    return delay + APPEAR_S > 0 ? delay : null;
+  };
+}
+
 function marker(parent, kind, cx, cy) {
   const r = 10;
   const shape = kind === "source" ? `${cx - r},${cy - r} ${cx + r},${cy - r} ${cx + r},${cy + r} ${cx - r},${cy + r}`
@@ -433,11 +482,14 @@ function drawFrame(svg, toPage, shown) {
                                                           stroke: CHART.spring, "stroke-width": 1, opacity: 0.6 }, g));
     shown.add("spring");
   }
-  const bars = el("g", { class: "bars" }, svg);
-  edges.forEach(([i, j], b) => el("line", {
-    class: "bar", "data-edge": b, x1: p[i][0], y1: p[i][1], x2: p[j][0], y2: p[j][1],
-    stroke: COLOURS.bar, "stroke-width": r.springs ? 3 : 2, "stroke-linecap": "round",
-  }, bars));
+  const bars = el("g", { class: "bars" }, svg), appear = appearance(x.length, new Set(state.frame.specified));
+  edges.forEach(([i, j], b) => {
+    const attrs = { class: "bar", "data-edge": b, x1: p[i][0], y1: p[i][1], x2: p[j][0], y2: p[j][1],
+                    stroke: COLOURS.bar, "stroke-width": r.springs ? 3 : 2, "stroke-linecap": "round" };
+    const delay = Math.max(appear(i) ?? -Infinity, appear(j) ?? -Infinity);  // a bar comes with its newer node
+    if (delay > -Infinity) Object.assign(attrs, { class: "bar bar-new", style: `animation-delay: ${delay.toFixed(3)}s` });
+    el("line", attrs, bars);
+  });
   shown.add(r.springs ? "rod" : "bar");
   const pairs = r.chain ? r.chain.pairs : r.module ? [r.module.input_pair, r.module.output_pair] : null;
   if (pairs) {
@@ -467,12 +519,11 @@ function drawFrame(svg, toPage, shown) {
   if (mode) shown.add("mode");
   const spec = new Set(state.frame.specified);
   const nodes = el("g", { class: "nodes" }, svg);
-  let round = 0;
   p.forEach((q, i) => {
     const isSpec = spec.has(i);
     const [fill, line] = isSpec ? COLOURS.specified : COLOURS.unspecified;
     const attrs = { class: "node " + (isSpec ? "specified" : "unspecified"), "data-node": i, cx: q[0], cy: q[1], r: 5.5, fill, stroke: line, "stroke-width": 1 };
-    if (!isSpec && state.fresh) { attrs.class += " node-new"; attrs.style = `animation-delay: ${(0.15 * round++).toFixed(2)}s`; }
+    if (appear(i) !== null) { attrs.class += " node-new"; attrs.style = `animation-delay: ${appear(i).toFixed(3)}s`; }
     el("circle", attrs, nodes);
     shown.add(isSpec ? "specified" : "unspecified");
   });
@@ -677,12 +728,12 @@ function drawnRequest() {
   }
   const spec = state.nodes.map((n, i) => [n, i]).filter(([n]) => n.role === "specified");
   if (state.kind === "space3d") {
-    return ["/v1/design", { dim: 3, positions: spec.map(([n]) => n.x), motions: [spec.map(([, i]) => state.motions[0][i])], options: { seed: 0, ...options } }];
+    return ["/v1/design", { dim: 3, positions: spec.map(([n]) => n.x), motions: [spec.map(([, i]) => state.motions[0][i])], options: { seed: 0, ...state.options, ...options } }];
   }
   if (spec.length < 2) throw new Error("place at least two specified nodes and drag their motions.");
   const motions = state.motions.map((m) => spec.map(([, i]) => m[i])).filter((m) => m.some((u) => u[0] || u[1]));
   if (!motions.length) throw new Error("drag from a node to give it a motion.");
-  return ["/v1/design", { dim: 2, positions: spec.map(([n]) => n.x), motions, options: { seed: 0, ...options } }];
+  return ["/v1/design", { dim: 2, positions: spec.map(([n]) => n.x), motions, options: { seed: 0, ...state.options, ...options } }];
 }
 
 async function design(event) {
@@ -719,10 +770,9 @@ async function design(event) {
     state.fromDrawing = direct && !state.example && !state.network;
     const report = response.report || {};
     state.sites = { source: report.source || [], target: report.target || [] };
-    state.fresh = true;
+    state.appearAt = performance.now();
     draw();
     requestAnimationFrame(() => state.timings.design.push(performance.now() - t0));
-    state.fresh = false;
     enableActions();
     if (own) {
       showOwnMotion(own.motion);
@@ -1374,7 +1424,7 @@ function renderTable() {
 }
 
 function clearSketch() {
-  Object.assign(state, { network: null, nodes: [], motions: [[]], motion: 0, placed: [] });
+  Object.assign(state, { network: null, nodes: [], motions: [[]], motion: 0, placed: [], options: {} });
   const select = $("motion-index");
   select.replaceChildren();
   el("option", { value: 0 }, select, true).textContent = "1";
@@ -1473,6 +1523,8 @@ async function pickExample() {
   } else {
     const request = await (await api("GET", `/v1/examples/${encodeURIComponent(name)}/request`)).json();
     setKind("draw");
+    // The example's options (e.g. n_unspecified of Fig. 3c) go with its drawing until it is cleared.
+    state.options = { ...request.options };
     $("example-text").textContent = state.examples[name];
     if (request.dim === 2) {
       state.motions = request.motions.map((m) => m.slice());
@@ -1481,6 +1533,7 @@ async function pickExample() {
       request.motions.slice(1).forEach((_, m) => { el("option", { value: m + 1 }, select, true).textContent = String(m + 2); });
     } else if (request.motions.length === 1) {
       setKind("space3d");
+      state.options = { ...request.options };
       $("example-text").textContent = state.examples[name];
       fillTable(request.positions, request.motions[0]);
     } else {
