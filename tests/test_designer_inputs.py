@@ -244,12 +244,17 @@ def test_a_slow_direct_request_shows_the_bar_busy(browser, designer_url, tmp_pat
     page.wait_for_function("designer.nodes.length === 4")
     page.click("[data-testid=design]")
     page.wait_for_selector("[data-testid=download-vtk]", timeout=TIMEOUT_MS)
+    page.wait_for_function("document.getElementById('status').textContent.startsWith('finite motion')", timeout=TIMEOUT_MS)
     page.wait_for_selector("#progress-box", state="hidden")
     held = []
     page.route("**/v1/export", lambda route: held.append(route))
     page.click("[data-testid=download-vtk]")
     page.wait_for_selector("[data-testid=progress].busy", state="visible", timeout=TIMEOUT_MS)
     assert "POST /v1/export" in page.inner_text("#progress-text") and len(held) == 1
+    assert "exporting ParaView (.vtu)" in page.inner_text("[data-testid=status]")
+    # Every format offered has a human name (no internal name like kit_csv, no cut-off sentence).
+    labels = page.eval_on_selector_all("#downloads button", "bs => bs.map(b => [b.dataset.format, b.textContent])")
+    assert len(labels) >= 8 and all(text != name and "_" not in text and len(text) <= 24 for name, text in labels)
     with page.expect_download() as info:
         held[0].continue_()
     assert info.value.suggested_filename == "outward_2d.vtu"

@@ -41,8 +41,9 @@ const DEFAULT_3D = {
 const NETWORK = [9, 7], NETWORK_SPACING = 0.5;
 // Human names of the export formats (GET /v1/export/formats); the service's description is the tooltip.
 const FORMAT_LABELS = {
-  vtk: "ParaView (.vtu)", node_link_json: "Graph, JSON", kit_csv: "Build kit, CSV", cut_svg: "Cutting plan, SVG",
-  stl: "3D print (.stl)", gltf: "glTF model", graphml: "GraphML", json: "Design, JSON", csv: "Tables, CSV",
+  vtk: "ParaView (.vtu)", xdmf: "ParaView motion (.xdmf)", node_link_json: "Graph, JSON", graphml: "GraphML",
+  kit_csv: "Build kit, CSV", dxf: "Cut file, DXF", cut_svg: "Cutting plan, SVG", stl: "3D print (.stl)",
+  svg_animation: "Animation, SVG", gif: "Animation, GIF", mp4: "Animation, MP4",
 };
 
 const $ = (id) => document.getElementById(id);
@@ -1212,16 +1213,19 @@ async function listDownloads() {
   if (state.response !== response) return;  // cleared or replaced meanwhile: no buttons for it
   for (const f of state.formats.filter((f) => f.available)) {
     const button = el("button", { type: "button", "data-format": f.name, "data-testid": `download-${f.name}`, title: f.description }, box, true);
-    button.textContent = FORMAT_LABELS[f.name] || `${f.description.split(/[.:;(]/)[0]}`;
+    button.textContent = formatLabel(f);
     button.addEventListener("click", () => download(f));
   }
 }
+
+// The format's human name: ours, else the service's description up to its first stop.
+const formatLabel = (f) => FORMAT_LABELS[f.name] || f.description.split(/[.:;(]/)[0].trim();
 
 async function download(format) {
   if (!state.response) return;
   const body = { format: format.name, document: state.response, motion: { mode: 0 } };
   if (state.motionPath) { body.path = state.motionPath.path; body.parameter = state.motionPath.parameter; }
-  say(`exporting ${FORMAT_LABELS[format.name] || format.name} …`);
+  say(`exporting ${formatLabel(format)} …`);
   try {
     const blob = await (await api("POST", "/v1/export", body)).blob();
     const link = document.createElement("a");
