@@ -205,12 +205,16 @@ def test_a_replaced_design_never_comes_back(browser, designer_url):  # noqa: F81
 
 
 def test_controls_are_not_cut_and_a_network_replaces_the_example(browser, designer_url):  # noqa: F811
-    """At 1400 px: the two-motion design's mode list is as wide as its text (it was squeezed to a
+    """The empty page's hint readable at 800 px. At 1400 px: the two-motion design's mode list is as wide as its text (it was squeezed to a
     sliver beside Play); the upload control's text is whole (the file input's "No file chosen"
     was cut to "No f…sen"); a network drawn over the allostery example takes its place — the
     example list, its description and the name no longer name the preset, and no canvas hint is
     written across the network's bars."""
-    page, problems = open_page(browser, designer_url, width=1400)
+    page, problems = open_page(browser, designer_url, width=800)
+    # The empty page's hint, at the narrowest window: readable (its glyphs ≥ 12 px; were 10 px).
+    assert "Click to place a node" in page.text_content("#canvas text")
+    assert page.eval_on_selector("#canvas text", "t => t.getBoundingClientRect().height") >= 12
+    page.set_viewport_size({"width": 1400, "height": 900})
     fits = "e => { const c = document.createElement('canvas').getContext('2d'); c.font = getComputedStyle(e).font; return c.measureText(e.options ? e.options[e.selectedIndex].text : e.textContent.trim()).width < e.clientWidth; }"
     page.select_option("[data-testid=example]", "example:two_mode_2d")
     page.wait_for_function("designer.spaces.length === 2")

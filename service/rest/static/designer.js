@@ -291,7 +291,8 @@ function draw() {
   arrowHeads(defs, COLOURS.motions);
   const shown = new Set();
   if (!state.frame && !state.nodes.length && !state.example && !state.network && !(state.kind === "multistable" && state.conformations.length)) {
-    const t = el("text", { x: WIDTH / 2, y: HEIGHT / 2, "text-anchor": "middle", fill: "#999", "font-size": 18 }, svg);
+    // 22 units: 12 px when the drawing is at its narrowest (800 px windows).
+    const t = el("text", { x: WIDTH / 2, y: HEIGHT / 2, "text-anchor": "middle", fill: "#999", "font-size": 22 }, svg);
     t.textContent = state.kind === "auxetic" ? "Set the sheet on the left, then press Design."
       : state.kind === "chain" ? "Choose the map's features on the left, then press Design."
       : state.kind === "multistable" ? "Type the conformations on the left, then press Design."
