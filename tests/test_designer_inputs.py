@@ -221,6 +221,8 @@ def test_controls_are_not_cut_and_a_network_replaces_the_example(browser, design
     page.click("[data-testid=design]")
     page.wait_for_selector("[data-testid=play]:not([disabled])", timeout=TIMEOUT_MS)
     assert page.is_visible("[data-testid=mode-select]") and page.eval_on_selector("[data-testid=mode-select]", fits)
+    # Refine is for one motion: disabled here, and its tooltip says why.
+    assert page.is_disabled("[data-testid=refine]") and "this design has 2 motions" in page.get_attribute("[data-testid=refine]", "title")
 
     page.click("[data-testid=tab-allostery]")
     upload = page.locator("label.button")

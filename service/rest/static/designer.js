@@ -793,11 +793,16 @@ async function design(event) {
   }
 }
 
+const REFINE_TITLE = "Move the unspecified nodes so the finite motion follows the arrows (IPOPT)";
 // Refine applies to a design with specified nodes and one motion; Certify to any but a multistable
 // design or a chain (they come with their own checks).
 function enableActions() {
   const f = state.frame, own = Boolean(state.response && ownMotion(state.response));
-  $("refine").disabled = !(f && !own && state.modes.length === 1 && f.specified.length >= 2) || state.running.has("refine");
+  const fits = f && !own && state.modes.length === 1 && f.specified.length >= 2;
+  $("refine").disabled = !fits || state.running.has("refine");
+  // Why not, on hover: a disabled button that says nothing looks broken.
+  $("refine").title = fits || !f ? REFINE_TITLE
+    : `Refine follows one motion of two or more specified nodes; this design has ${own ? "its own motion" : `${state.modes.length} motions, ${f.specified.length} specified nodes`}.`;
   $("certify").disabled = !f || own || state.running.has("certify");
 }
 
