@@ -48,7 +48,7 @@ const FORMAT_LABELS = {
 
 const $ = (id) => document.getElementById(id);
 const state = {
-  kind: "draw", network: null, networkLayer: null, options: {}, designs: 0, pending: false, running: new Set(), waiting: new Set(), nodes: [], motions: [[]], motion: 0, placed: [], spaces: [], crossings: [],
+  kind: "draw", network: null, layers: {}, options: {}, designs: 0, pending: false, running: new Set(), waiting: new Set(), nodes: [], motions: [[]], motion: 0, placed: [], spaces: [], crossings: [],
   example: null, response: null, frame: null, modes: [], mode: 0, sites: {}, motionPath: null,
   refined: null, refinedPath: null, certificate: null, timer: null, drag: null, view: VIEW_3D.slice(),
   formats: null, jobs: 0, timings: { live: [], design: [] }, progressLog: [], map: null, appearAt: -Infinity,
@@ -403,18 +403,48 @@ function drawSketch(svg, toPage, shown) {
   }
 }
 
-// The given network (its bars as one path, its nodes to click), built once per network and
-// drawing map: a site dragged on a network of thousands of bars redraws only the sites.
+// A layer that does not move with the slider or the pointer (a given network, the trajectories),
+// rebuilt only when what it shows (``source``) or the drawing's map or view changes: a redraw at
+// every pointer move or animation frame re-attaches it instead of rebuilding thousands of elements.
+function cachedLayer(slot, source, build) {
+  const key = `${state.map.scale} ${state.map.toPage([0, 0, 0])} ${state.view}`, cached = state.layers[slot];
+  if (cached && cached.source === source && cached.key === key) return cached.g;
+  state.layers[slot] = { source, key, g: build() };
+  return state.layers[slot].g;
+}
+
+const pageXY = (q) => `${q[0].toFixed(1)} ${q[1].toFixed(1)}`;
+
+// The given network: its bars as one path, its nodes to click.
 function networkLayer(toPage) {
-  const key = `${state.map.scale} ${toPage([0, 0])}`, cached = state.networkLayer;
-  if (cached && cached.network === state.network && cached.key === key) return cached.g;
-  const g = el("g", { class: "network" }), p = state.network.positions.map(toPage), at = (q) => `${q[0].toFixed(1)} ${q[1].toFixed(1)}`;
-  el("path", { class: "bar network", "data-bars": state.network.edges.length, d: state.network.edges.map(([i, j]) => `M${at(p[i])}L${at(p[j])}`).join(""),
-               stroke: COLOURS.bar, "stroke-width": 1.5, fill: "none" }, g);
-  p.forEach(([x, y], i) => el("circle", { class: "network-node", "data-network": i, cx: x, cy: y, r: 6,
-                                          fill: COLOURS.unspecified[0], stroke: COLOURS.unspecified[1] }, g));
-  state.networkLayer = { network: state.network, key, g };
-  return g;
+  return cachedLayer("network", state.network, () => {
+    const g = el("g", { class: "network" }), p = state.network.positions.map(toPage);
+    el("path", { class: "bar network", "data-bars": state.network.edges.length, d: state.network.edges.map(([i, j]) => `M${pageXY(p[i])}L${pageXY(p[j])}`).join(""),
+                 stroke: COLOURS.bar, "stroke-width": 1.5, fill: "none" }, g);
+    p.forEach(([x, y], i) => el("circle", { class: "network-node", "data-network": i, cx: x, cy: y, r: 6,
+                                            fill: COLOURS.unspecified[0], stroke: COLOURS.unspecified[1] }, g));
+    return g;
+  });
+}
+
+// The nodes' trajectories along the traced motion: one light polyline per node for a long path
+// (multistable, chain); else step k of every node in one path of step k's colour (start → end).
+function trajectoryLayer(toPage, n) {
+  return cachedLayer("trajectories", state.motionPath, () => {
+    const g = el("g", { class: "trajectories" }), path = state.motionPath.path;
+    if (state.motionPath.own) {
+      for (let i = 0; i < n; i++) {
+        el("polyline", { points: path.map((c) => toPage(c[i]).map((v) => v.toFixed(1)).join(",")).join(" "), fill: "none", stroke: "#c6dbef", "stroke-width": 1.2 }, g);
+      }
+      return g;
+    }
+    const pages = path.map((c) => c.map(toPage)), steps = path.length - 1;
+    for (let k = 0; k < steps; k++) {
+      el("path", { class: "step", "data-step": k, d: pages[k].map((a, i) => `M${pageXY(a)}L${pageXY(pages[k + 1][i])}`).join(""),
+                   fill: "none", stroke: mix(COLOURS.progress, (k + 0.5) / steps), "stroke-width": 1.2 }, g);
+    }
+    return g;
+  });
 }
 
 // Judicious placement adds the unspecified nodes one round after another (in index order): each
@@ -445,25 +475,9 @@ function marker(parent, kind, cx, cy) {
 function drawFrame(svg, toPage, shown) {
   const x = state.frame.positions, edges = state.frame.edges;
   const mode = state.modes[state.mode];
-  const own = state.motionPath && state.motionPath.own;
-  if (own) {
-    // Long paths of many nodes: one light polyline per node.
-    const g = el("g", { class: "trajectories" }, svg);
-    for (let i = 0; i < x.length; i++) {
-      const pts = state.motionPath.path.map((c) => toPage(c[i]).map((v) => v.toFixed(1)).join(",")).join(" ");
-      el("polyline", { points: pts, fill: "none", stroke: "#c6dbef", "stroke-width": 1.2 }, g);
-    }
-    shown.add("track");
-  } else if (state.motionPath) {
-    const g = el("g", { class: "trajectories" }, svg);
-    const path = state.motionPath.path, steps = path.length - 1;
-    for (let i = 0; i < x.length; i++) {
-      for (let k = 0; k < steps; k++) {
-        const [a, b] = [toPage(path[k][i]), toPage(path[k + 1][i])];
-        el("line", { x1: a[0], y1: a[1], x2: b[0], y2: b[1], stroke: mix(COLOURS.progress, (k + 0.5) / steps), "stroke-width": 1.2 }, g);
-      }
-    }
-    shown.add("path");
+  if (state.motionPath) {
+    svg.appendChild(trajectoryLayer(toPage, x.length));
+    shown.add(state.motionPath.own ? "track" : "path");
   }
   const p = currentPositions().map(toPage);
   const r = state.response;
