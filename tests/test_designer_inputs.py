@@ -200,6 +200,10 @@ def test_a_replaced_design_never_comes_back(browser, designer_url):  # noqa: F81
     assert abs(abs(np.sum(mode * drawn)) / (np.linalg.norm(mode) * np.linalg.norm(drawn)) - 1) < 1e-9
     assert page.get_attribute("#status", "class") != "error"
     assert page.query_selector("[data-testid=download-vtk]")
+    # A click meant to place a node by hand on a designed frame says how, and changes nothing.
+    page.check("[data-testid=place-unspecified]")
+    page.mouse.click(*screen(page, (0, 1.2)))
+    assert "edit the drawing" in page.inner_text("[data-testid=status]") and page.evaluate("designer.response") == second
     assert problems == []
     page.close()
 

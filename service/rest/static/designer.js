@@ -606,6 +606,7 @@ function onPointerDown(event) {
   const w = pointerWorld(event), target = event.target;
   if (state.kind === "draw" && document.querySelector("input[name=place]:checked").value === "unspecified") {
     if (!state.frame) placeUnspecified(w, target.classList.contains("crossing") ? Number(target.dataset.crossing) : null);
+    else say("Design placed this frame's nodes: edit the drawing (or Undo) to place nodes by hand.", true);
     return;
   }
   let i;
