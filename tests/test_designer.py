@@ -18,7 +18,7 @@ from pathlib import Path
 import meshio
 import numpy as np
 import pytest
-from browser import browser, console_problems  # noqa: F401 (a fixture)
+from browser import browser, designer_url, open_page  # noqa: F401 (fixtures)
 from oracles.two_triangles import TwoTriangles
 from scipy.optimize import brentq
 
@@ -27,29 +27,12 @@ from benchmarks.bench_designer import (
     CORNERS,
     drag_arrow,
     draw_outward_square,
-    goto_designer,
     screen,
     space_d,
 )
-from tests.client.conftest import served
-from zeromode.service.rest.app import create_app
-from zeromode.service.wire.settings import Settings
 
 # Waits for the page: a design, a job on the cluster, on a busy 2-core machine.
 TIMEOUT_MS = 180_000
-
-
-@pytest.fixture(scope="module")
-def designer_url(dask_scheduler):
-    """The real app served by uvicorn on loopback, its jobs on the session's Dask cluster."""
-    with served(create_app(Settings(dask_scheduler=dask_scheduler))) as url:
-        yield url
-
-
-def open_page(browser, url, width=1280):  # noqa: F811 (the fixture's value)
-    page = browser.new_page(viewport={"width": width, "height": 900}, accept_downloads=True)
-    problems = console_problems(page)
-    return goto_designer(page, url), problems
 
 
 def motion_for(x: np.ndarray, u: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, float]:

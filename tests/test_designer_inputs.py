@@ -11,33 +11,11 @@ import json
 import httpx
 import numpy as np
 import pytest
-from browser import browser, console_problems  # noqa: F401 (a fixture)
+from browser import browser, designer_url, open_page  # noqa: F401 (fixtures)
 
-from benchmarks.bench_designer import (
-    ARROW,
-    CORNERS,
-    drag_arrow,
-    draw_outward_square,
-    goto_designer,
-    screen,
-)
-from tests.client.conftest import served
-from zeromode.service.rest.app import create_app
-from zeromode.service.wire.settings import Settings
+from benchmarks.bench_designer import ARROW, CORNERS, drag_arrow, draw_outward_square, screen
 
 TIMEOUT_MS = 180_000
-
-
-@pytest.fixture(scope="module")
-def designer_url(dask_scheduler):
-    with served(create_app(Settings(dask_scheduler=dask_scheduler))) as url:
-        yield url
-
-
-def open_page(browser, url, width=1280):  # noqa: F811 (the fixture's value)
-    page = browser.new_page(viewport={"width": width, "height": 900}, accept_downloads=True)
-    problems = console_problems(page)
-    return goto_designer(page, url), problems
 
 
 def bar_condition_residual(x: np.ndarray, u: np.ndarray, p: np.ndarray) -> float:
