@@ -310,3 +310,29 @@ def test_trajectories_drawn_once_per_motion(browser, designer_url):  # noqa: F81
     assert page.eval_on_selector_all("#canvas circle.node", "cs => cs.map(c => +c.getAttribute('cx'))") != before
     assert problems == []
     page.close()
+
+
+def test_a_service_that_asks_for_a_key(browser, dask_scheduler):  # noqa: F811
+    """A service with an API key refuses the page's first request (GET /v1/examples, 401): the
+    page opens its Service box and says to enter the key there; the key entered, the examples
+    are listed (they stayed empty until the page was reloaded, which loses the key) and a design
+    goes through with it."""
+    from tests.client.conftest import served
+    from zeromode.service.rest.app import create_app
+    from zeromode.service.wire.settings import Settings
+
+    with served(create_app(Settings(api_key="k3y-for-the-test", dask_scheduler=dask_scheduler))) as url:
+        page = browser.new_page(viewport={"width": 1280, "height": 900})
+        page.goto(url + "/")
+        page.wait_for_selector("#status.error")
+        assert "Enter the API key under Service" in page.inner_text("[data-testid=status]")
+        assert page.is_visible("#apikey")
+        page.fill("#apikey", "k3y-for-the-test")
+        page.dispatch_event("#apikey", "change")
+        page.wait_for_selector("#example option[value='example:outward_2d']", state="attached")
+        page.select_option("[data-testid=example]", "example:outward_2d")
+        page.wait_for_function("designer.nodes.length === 4")
+        page.click("[data-testid=design]")
+        page.wait_for_selector("[data-testid=play]:not([disabled])", timeout=TIMEOUT_MS)
+        assert page.evaluate("designer.response.report.analysis.nontrivial_zero_modes") == 1
+        page.close()

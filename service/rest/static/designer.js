@@ -102,6 +102,10 @@ async function request(method, path, body) {
       const detail = (await r.json()).detail;
       message = Array.isArray(detail) ? detail.map((e) => `${e.loc.join(".")}: ${e.msg}`).join("; ") : `${detail.code}: ${detail.message}`;
     } catch (e) { /* not JSON */ }
+    if (r.status === 401) {  // the service asks for a key: where to give it
+      $("apikey").closest("details").open = true;
+      message += " Enter the API key under Service.";
+    }
     throw new Error(message);
   }
   return r;
@@ -1634,6 +1638,10 @@ $("amplitude").addEventListener("input", () => {
   $("amplitude-text").textContent = Number($("amplitude").value).toFixed(2);
   clearTimeout(retrace);
   retrace = setTimeout(() => { stop(); traceMotion(); }, 250);
+});
+// A key given after the examples were refused (401 at start-up) lists them then.
+$("apikey").addEventListener("change", () => {
+  if (!state.examples) loadExamples().then(() => say("examples listed."), (e) => say(e.message, true));
 });
 setKind("draw");
 loadExamples().catch((e) => say(e.message, true));
