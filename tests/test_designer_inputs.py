@@ -336,3 +336,28 @@ def test_a_service_that_asks_for_a_key(browser, dask_scheduler):  # noqa: F811
         page.wait_for_selector("[data-testid=play]:not([disabled])", timeout=TIMEOUT_MS)
         assert page.evaluate("designer.response.report.analysis.nontrivial_zero_modes") == 1
         page.close()
+
+
+def test_a_drawing_survives_a_look_at_another_tab(browser, designer_url):  # noqa: F811
+    """Draw two motions of three nodes, look at the Auxetic tab, come back: the nodes, both
+    motions (the motion list too), the name and the solution spaces are as they were (the drawing
+    was wiped by any tab click)."""
+    page, problems = open_page(browser, designer_url)
+    page.fill("[data-testid=name]", "two_by_hand")
+    for c, tip in (((-1, -1), (-1.5, -1)), ((1, -1), (1.5, -1)), ((0, 1), (0, 1.5))):
+        drag_arrow(page, c, tip)
+    page.click("[data-testid=add-motion]")
+    for c, tip in (((-1, -1), (-1, -1.5)), ((1, -1), (1.25, -1)), ((0, 1), (0.5, 1))):
+        drag_arrow(page, c, tip)
+    drawn = page.evaluate("[designer.nodes.map((n) => n.x), designer.motions]")
+    spaces = page.evaluate("designer.spaces.map((s) => s.kind)")
+    page.click("[data-testid=tab-auxetic]")
+    assert page.evaluate("designer.nodes.length") == 0
+    page.click("[data-testid=tab-draw]")
+    assert page.evaluate("[designer.nodes.map((n) => n.x), designer.motions]") == drawn
+    assert page.evaluate("designer.spaces.map((s) => s.kind)") == spaces == ["conic", "conic"]
+    assert page.eval_on_selector_all("[data-testid=motion-index] option", "os => os.map((o) => o.textContent)") == ["1", "2"]
+    assert page.input_value("[data-testid=name]") == "two_by_hand"
+    assert len(page.query_selector_all("#canvas line.arrow.drawn")) == 6
+    assert problems == []
+    page.close()

@@ -48,7 +48,7 @@ const FORMAT_LABELS = {
 
 const $ = (id) => document.getElementById(id);
 const state = {
-  kind: "draw", network: null, layers: {}, options: {}, designs: 0, pending: false, running: new Set(), waiting: new Set(), nodes: [], motions: [[]], motion: 0, placed: [], spaces: [], crossings: [],
+  kind: "draw", network: null, layers: {}, sketches: {}, options: {}, designs: 0, pending: false, running: new Set(), waiting: new Set(), nodes: [], motions: [[]], motion: 0, placed: [], spaces: [], crossings: [],
   example: null, response: null, frame: null, modes: [], mode: 0, sites: {}, motionPath: null,
   refined: null, refinedPath: null, certificate: null, timer: null, drag: null, view: VIEW_3D.slice(),
   formats: null, jobs: 0, timings: { live: [], design: [] }, progressLog: [], map: null, appearAt: -Infinity,
@@ -1289,6 +1289,23 @@ function setKind(kind) {
   }
 }
 
+// A drawing tab left keeps its drawing: coming back (by its tab) finds it as it was, undesigned.
+const SKETCHED = ["draw", "allostery"];
+function switchTab(kind) {
+  if (SKETCHED.includes(state.kind)) {
+    state.sketches[state.kind] = { nodes: state.nodes, motions: state.motions, network: state.network, options: state.options, name: $("name").value };
+  }
+  $("example").value = "";
+  $("example-text").textContent = "";
+  setKind(kind);
+  const kept = state.sketches[kind];
+  if (!SKETCHED.includes(kind) || !kept || !(kept.nodes.length || kept.network)) return;
+  Object.assign(state, { nodes: kept.nodes, motions: kept.motions, network: kept.network, options: kept.options });
+  kept.motions.slice(1).forEach((_, m) => { el("option", { value: m + 1 }, $("motion-index"), true).textContent = String(m + 2); });
+  $("name").value = kept.name;
+  edited();
+}
+
 // The given module of the Chain tab: the two-triangle module of docs/module_maps.md.
 const GIVEN_MODULE = {
   positions: [[-1, 0], [1, 0], [-0.8, 1], [0.8, 1], [0.15, 0.45]],
@@ -1578,7 +1595,7 @@ async function pickExample() {
 // ----------------------------------------------------------------------------- wiring
 
 let retrace = null;
-for (const b of document.querySelectorAll(".tabs button")) b.addEventListener("click", () => { $("example").value = ""; $("example-text").textContent = ""; setKind(b.dataset.kind); });
+for (const b of document.querySelectorAll(".tabs button")) b.addEventListener("click", () => switchTab(b.dataset.kind));
 $("canvas").addEventListener("pointerdown", onPointerDown);
 $("canvas").addEventListener("pointermove", onPointerMove);
 $("canvas").addEventListener("pointerup", onPointerUp);
