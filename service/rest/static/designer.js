@@ -999,9 +999,9 @@ async function certify() {
   await designJob("certify", "certifying", "/v1/certify", request, (result) => {
     state.certificate = result;
     const p = result.prestress, g = result.rigidity_margin || result.margin;
-    const stable = p.prestress_stable ? "prestress stable" : p.decided_by === "no_self_stress"
-      ? "no self-stress, so nothing stiffens the designed motion (it stays free, as designed)" : "not prestress stable";
-    say(`certified: ${stable} (${p.decided_by})${g ? `; ${g.undesigned_zero_modes} undesigned zero modes, rigidity margin ${fmt(g.uniform)} (see the report)` : ""}.`);
+    const stable = p.prestress_stable ? `prestress stable (${p.decided_by})` : p.decided_by === "no_self_stress"
+      ? "no self-stress, so nothing stiffens the designed motion: it stays free, as designed" : `not prestress stable (${p.decided_by})`;
+    say(`certified: ${stable}${g ? `; ${g.undesigned_zero_modes} undesigned zero modes, rigidity margin ${fmt(g.uniform)}` : ""}.`);
   });
 }
 
