@@ -23,11 +23,12 @@ from scipy.optimize import root
 import zeromode as zm
 from tests.client.conftest import served
 from zeromode.service.rest.app import create_app
+from zeromode.solver.motion.finite_motion import CURVE_SAMPLES
 from zeromode_client import Client, ZeromodeError
 
 # Amplitude of the refinement (the designer's default at 0.2 …) and the curve's samples checked.
 AMPLITUDE = 0.2
-CHECKED = (3, 7, 11, 15)  # indices into the 16 amplitudes: b = a/4, a/2, 3a/4, a
+CHECKED = (0.25, 0.5, 0.75, 1.0)  # the amplitudes b/a checked
 # The oracle and the service solve the same minimum on the same curve: they agree to 1e-13
 # (measured, absolute); the margins cover the polishing of the service's one-dimensional minimum
 # (xatol 1e-12 in parameter) and the round-off of a distance near 1e-8 of the displacement.
@@ -122,12 +123,14 @@ def oracle_epsilon(path: np.ndarray, edges, spec, x_s: np.ndarray, delta: np.nda
 
 
 def check_curve(amplitudes, epsilon, path, edges, spec, x_s, delta_at_a, a) -> None:
-    """The curve's amplitudes are (j/16)·a, and ε at the CHECKED ones is the oracle's."""
-    assert np.allclose(amplitudes, a * np.arange(1, 17) / 16, rtol=1e-15, atol=0)
-    for j in CHECKED:
-        fraction = amplitudes[j] / a
+    """The curve's amplitudes are (j/m)·a, j = 1 … m = CURVE_SAMPLES, and ε at the CHECKED ones
+    is the oracle's."""
+    m = CURVE_SAMPLES
+    assert np.allclose(amplitudes, a * np.arange(1, m + 1) / m, rtol=1e-15, atol=0)
+    for fraction in CHECKED:
+        j = round(fraction * m) - 1
         expected = oracle_epsilon(path, edges, spec, x_s, fraction * delta_at_a)
-        assert epsilon[j] == pytest.approx(expected, rel=SAME_EPSILON, abs=ROUND_OFF_EPSILON), (j, fraction)
+        assert epsilon[j] == pytest.approx(expected, rel=SAME_EPSILON, abs=ROUND_OFF_EPSILON), fraction
 
 
 @pytest.fixture(scope="module")
