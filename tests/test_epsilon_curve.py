@@ -217,3 +217,12 @@ def test_motion_curve_refusals(service, outward, change, code):
     with pytest.raises(ZeromodeError) as err:
         service.motion(body, amplitude=0.3, epsilon_curve=option)
     assert err.value.status == 422 and err.value.code == code
+
+
+def test_a_rigid_target_has_no_curve(outward):
+    """A target that is a rigid motion of x_S is met without tracing (ε = 0): no path, no curve."""
+    design, _, x_s = outward
+    turn = np.array([[0.0, -1.0], [1.0, 0.0]])
+    body = zm.refine(design, targets=(x_s @ turn.T + 0.5).tolist()).to_dict()
+    assert body["ipopt_status"] == "not_needed" and body["epsilon_after"] == 0.0
+    assert body["epsilon_curve"] is None
