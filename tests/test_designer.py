@@ -19,7 +19,7 @@ from pathlib import Path
 import meshio
 import numpy as np
 import pytest
-from browser import browser, console_problems  # noqa: F401 (a fixture)
+from browser import browser, designer_url, open_page  # noqa: F401 (fixtures)
 from oracles.two_triangles import TwoTriangles
 from scipy.optimize import brentq
 
@@ -28,29 +28,12 @@ from benchmarks.bench_designer import (
     CORNERS,
     drag_arrow,
     draw_outward_square,
-    goto_designer,
     screen,
     space_d,
 )
-from tests.client.conftest import served
-from zeromode.service.rest.app import create_app
-from zeromode.service.wire.settings import Settings
 
 # Waits for the page: a design, a job on the cluster, on a busy 2-core machine.
 TIMEOUT_MS = 180_000
-
-
-@pytest.fixture(scope="module")
-def designer_url(dask_scheduler):
-    """The real app served by uvicorn on loopback, its jobs on the session's Dask cluster."""
-    with served(create_app(Settings(dask_scheduler=dask_scheduler))) as url:
-        yield url
-
-
-def open_page(browser, url, width=1280):  # noqa: F811 (the fixture's value)
-    page = browser.new_page(viewport={"width": width, "height": 900}, accept_downloads=True)
-    problems = console_problems(page)
-    return goto_designer(page, url), problems
 
 
 def motion_for(x: np.ndarray, u: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, float]:
@@ -128,6 +111,10 @@ def test_draw_design_play_refine_certify_and_download(browser, designer_url, tmp
     assert len(page.query_selector_all("#canvas circle.node")) == len(frame)
     assert len(page.query_selector_all("#canvas line.bar")) == len(design["frame"]["edges"])
     assert page.evaluate("designer.timings.design.length") == 1
+    # The linear design's finite path leaves the arrows (ε ≈ 0.56 at a = 0.3): said, Refine offered.
+    page.wait_for_function("document.getElementById('status').textContent.includes('finite motion')", timeout=TIMEOUT_MS)
+    status = page.inner_text("[data-testid=status]")
+    assert "leaves the arrows" in status and "Refine" in status and page.is_enabled("[data-testid=refine]")
     assert {"specified", "unspecified", "mode", "space-0"} <= legend(page) and "source" not in legend(page)
     # The Play warning quotes the service's ε at the amplitude (POST /v1/motion's epsilon_curve).
     linear = page.evaluate("designer.motionPath.epsilon_curve")
@@ -140,12 +127,16 @@ def test_draw_design_play_refine_certify_and_download(browser, designer_url, tmp
 
     # Play: the slider moves and the nodes with it, every bar still on its nodes.
     reference = page.evaluate("designer.motionPath.reference_index")
+    keys, legend_box = legend(page), page.locator("[data-testid=legend]").bounding_box()
     page.click("[data-testid=play]")
     page.wait_for_function(f"+document.getElementById('slider').value !== {reference}")
     page.click("[data-testid=play]")
     k = int(page.input_value("[data-testid=slider]"))
     moved = np.array(page.evaluate("designer.motionPath.path")[k])
     assert np.abs(moved - frame).max() > 1e-3
+    # The legend stays as it was (the mode's arrows, drawn at t = 0, keep their entry): nothing
+    # under the drawing jumps while it plays.
+    assert legend(page) == keys and page.locator("[data-testid=legend]").bounding_box() == legend_box
 
     # The amplitude control sets how far the motion is followed.
     page.eval_on_selector("[data-testid=amplitude]", "e => { e.value = '0.2'; e.dispatchEvent(new Event('input')); }")
@@ -153,10 +144,18 @@ def test_draw_design_play_refine_certify_and_download(browser, designer_url, tmp
                            timeout=TIMEOUT_MS)
 
     page.evaluate("designer.progressLog.length = 0")
+    # The bar as drawn: every width its fill takes while the job runs (read from the DOM).
+    page.evaluate("""() => {
+        const fill = document.querySelector('[data-testid=progress] > div');
+        window.widths = [];
+        new MutationObserver(() => window.widths.push(parseFloat(fill.style.width))).observe(fill, {attributes: true});
+    }""")
     page.click("[data-testid=refine]")
     page.wait_for_function("designer.refined && designer.refinedPath", timeout=TIMEOUT_MS)
     progress = page.evaluate("designer.progressLog")
     assert progress[-1] == 1 and len(set(progress)) >= 2 and progress == sorted(progress)
+    widths = page.evaluate("window.widths")
+    assert widths[0] == 0 and widths[-1] == 100 and widths == sorted(widths)
     refined = page.evaluate("designer.refined")
     assert refined["epsilon_after"] < refined["epsilon_before"]
     # The chart draws the service's curves, whose last values are the report's ε before and after.
@@ -169,6 +168,19 @@ def test_draw_design_play_refine_certify_and_download(browser, designer_url, tmp
     page.click("[data-testid=certify]")
     page.wait_for_function("designer.certificate", timeout=TIMEOUT_MS)
     assert "rigidity margin" in page.inner_text("[data-testid=report]")
+    # No self-stress: "not prestress stable" is what a mechanism should be, and the page says so.
+    assert page.evaluate("designer.certificate.prestress.decided_by") == "no_self_stress"
+    assert "stays free" in page.inner_text("[data-testid=status]")
+    assert "expected for a mechanism" in page.get_attribute("[data-testid=report] tr[data-row='prestress stable']", "title")
+    # Every row of the report has its one-line meaning on hover; everything answered is behind
+    # the raw JSON toggle, a vector to a line.
+    titles = page.eval_on_selector_all("[data-testid=report] tr:not(.section)", "rs => rs.map(r => r.title)")
+    assert len(titles) > 20 and all(titles)
+    assert page.is_hidden("#raw")
+    page.check("[data-testid=raw-toggle]")
+    raw = page.inner_text("#raw")
+    assert json.loads(raw)["design"] == design and json.loads(raw)["certificate"] == page.evaluate("designer.certificate")
+    assert f"[{x[0][0]:g},{x[0][1]:g}]" in raw.replace(".0,", ",").replace(".0]", "]")
     assert page.get_attribute("[data-testid=progress]", "data-value") == "1"
 
     with page.expect_download() as info:
@@ -267,7 +279,7 @@ def test_sheet_and_allostery_forms_legends_errors_and_layout(browser, designer_u
     assert page.query_selector_all("#canvas polygon.marker.source") and page.query_selector_all("#canvas polygon.marker.target")
 
     # From 800 to 1920 px: the drawing fits the window, the slider keeps its width as t changes.
-    for width in (800, 1920):
+    for width in (800, 1024, 1400, 1920):
         page.set_viewport_size({"width": width, "height": 900})
         canvas = page.locator("[data-testid=canvas]").bounding_box()
         assert canvas["x"] >= 0 and canvas["x"] + canvas["width"] <= width and canvas["width"] > 300
@@ -360,7 +372,7 @@ def test_allosteric_sites_picked_on_a_network(browser, designer_url, tmp_path): 
     page.set_input_files("[data-testid=network-file]", str(upload))
     page.wait_for_function("designer.network && designer.network.positions.length === 3")
     assert len(page.query_selector_all("#canvas circle.network-node")) == 3
-    assert len(page.query_selector_all("#canvas line.bar.network")) == 3
+    assert page.get_attribute("#canvas path.bar.network", "d").count("L") == 3
     page.click("[data-testid=network-sheet]")
     positions = np.array(page.evaluate("designer.network.positions"))
     order = np.lexsort((positions[:, 0], positions[:, 1]))

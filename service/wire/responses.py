@@ -715,6 +715,12 @@ def module_map_body(the_map, at=()) -> dict:
     }
 
 
+def map_response_body(the_map, at=()) -> dict:
+    """/v1/map's body (without timings): module_map_body with the module's ``frame``, so that the
+    answer alone draws and exports the module beside its map (documents.MAP)."""
+    return {"frame": frame_body(the_map.module.frame), **module_map_body(the_map, at)}
+
+
 def sequential_body(result, timings_ms: dict) -> dict:
     """/v1/design/sequential's body for a solver SequentialDesign (a SolitonDesign adds ``soliton``)."""
     from zeromode.solver.tolerances import MAP_RTOL

@@ -20,9 +20,12 @@ from typing import Any
 from pydantic import BaseModel
 
 from zeromode.operations.documents import (
+    MAP,
     allosteric_arguments,
     auxetic_arguments,
     design_arguments,
+    is_map_request,
+    kind,
     multistable_arguments,
     sequential_arguments,
     validated,
@@ -39,7 +42,7 @@ from zeromode.service.wire.responses import (
     elastic_allosteric_body,
     inaccurate_design_best,
     json_safe,
-    module_map_body,
+    map_response_body,
     motion_body,
     multistable_body,
     network_allosteric_body,
@@ -276,6 +279,16 @@ def respond(doc: dict) -> tuple[dict, BaseModel]:
     )
 
 
+def map_answer(doc) -> dict | None:
+    """A document as a /v1/map answer: itself (documents.MAP), a /v1/map request answered as the
+    route answers it (respond), else None."""
+    if not isinstance(doc, dict):
+        return None
+    if kind(doc) == MAP:
+        return doc
+    return respond(doc)[0] if is_map_request(doc) else None
+
+
 # ----------------------------------------------------------------------------- beyond the linear design
 
 
@@ -352,7 +365,7 @@ def module_map(r: MapRequest) -> Outcome:
     t0 = time.perf_counter()
     with progress_stage(0.0, 1.0, "module map"):
         result = map_of(module_from_model(r))
-    return Outcome(result, {**module_map_body(result, r.at), "timings_ms": _ms_since(t0)})
+    return Outcome(result, {**map_response_body(result, r.at), "timings_ms": _ms_since(t0)})
 
 
 def sequential(r: SequentialRequest) -> Outcome:

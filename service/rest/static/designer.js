@@ -41,16 +41,17 @@ const DEFAULT_3D = {
 const NETWORK = [9, 7], NETWORK_SPACING = 0.5;
 // Human names of the export formats (GET /v1/export/formats); the service's description is the tooltip.
 const FORMAT_LABELS = {
-  vtk: "ParaView (.vtu)", node_link_json: "Graph, JSON", kit_csv: "Build kit, CSV", cut_svg: "Cutting plan, SVG",
-  stl: "3D print (.stl)", gltf: "glTF model", graphml: "GraphML", json: "Design, JSON", csv: "Tables, CSV",
+  vtk: "ParaView (.vtu)", xdmf: "ParaView motion (.xdmf)", node_link_json: "Graph, JSON", graphml: "GraphML",
+  kit_csv: "Build kit, CSV", dxf: "Cut file, DXF", cut_svg: "Cutting plan, SVG", stl: "3D print (.stl)",
+  svg_animation: "Animation, SVG", gif: "Animation, GIF", mp4: "Animation, MP4",
 };
 
 const $ = (id) => document.getElementById(id);
 const state = {
-  kind: "draw", network: null, nodes: [], motions: [[]], motion: 0, placed: [], spaces: [], crossings: [],
+  kind: "draw", network: null, layers: {}, sketches: {}, options: {}, designs: 0, pending: false, running: new Set(), waiting: new Set(), nodes: [], motions: [[]], motion: 0, placed: [], spaces: [], crossings: [],
   example: null, response: null, frame: null, modes: [], mode: 0, sites: {}, motionPath: null,
   refined: null, refinedPath: null, certificate: null, timer: null, drag: null, view: VIEW_3D.slice(),
-  formats: null, jobs: 0, timings: { live: [], design: [] }, progressLog: [], map: null, fresh: true,
+  formats: null, jobs: 0, timings: { live: [], design: [] }, progressLog: [], map: null, appearAt: -Infinity,
   conformations: [], features: [], chainExamples: null, jobEndpoints: [], mapCheck: null, module: null,
 };
 window.designer = state;  // for outside tests and the curious
@@ -63,7 +64,37 @@ function headers() {
   return h;
 }
 
+// A direct request (no job: a 2D design, a motion, an export, allostery in a network) still
+// unanswered after this long shows the bar as busy until it is answered: the service's
+// synchronous endpoints report no fraction, but a GIF can take ten seconds.
+const BUSY_MS = 1000;
+
 async function api(method, path, body) {
+  const busy = setTimeout(() => showBusy(`${method} ${path}`), BUSY_MS);
+  try {
+    return await request(method, path, body);
+  } finally {
+    clearTimeout(busy);
+    hideBusy(`${method} ${path}`);
+  }
+}
+
+function showBusy(what) {
+  const bar = document.querySelector("[data-testid=progress]");
+  if (!$("progress-box").hidden && !bar.classList.contains("busy")) return;  // a job's progress is showing
+  state.waiting.add(what);
+  bar.classList.add("busy");
+  $("progress-box").hidden = false;
+  $("progress-text").textContent = `waiting for ${[...state.waiting].join(", ")} …`;
+}
+
+function hideBusy(what) {
+  if (!state.waiting.delete(what) || state.waiting.size) return;
+  document.querySelector("[data-testid=progress]").classList.remove("busy");
+  $("progress-box").hidden = true;
+}
+
+async function request(method, path, body) {
   const r = await fetch(path, { method, headers: headers(), body: body === undefined ? undefined : JSON.stringify(body) });
   if (!r.ok) {
     let message = `HTTP ${r.status}`;
@@ -71,6 +102,10 @@ async function api(method, path, body) {
       const detail = (await r.json()).detail;
       message = Array.isArray(detail) ? detail.map((e) => `${e.loc.join(".")}: ${e.msg}`).join("; ") : `${detail.code}: ${detail.message}`;
     } catch (e) { /* not JSON */ }
+    if (r.status === 401) {  // the service asks for a key: where to give it
+      $("apikey").closest("details").open = true;
+      message += " Enter the API key under Service.";
+    }
     throw new Error(message);
   }
   return r;
@@ -78,14 +113,19 @@ async function api(method, path, body) {
 const post = async (path, body) => (await api("POST", path, body)).json();
 const sleep = (ms) => new Promise((done) => setTimeout(done, ms));
 
-// A long request as a job (POST /v1/jobs), its progress on the bar until it is done.
-async function runJob(endpoint, request, label) {
+// A long request as a job (POST /v1/jobs), its progress on the bar until it is done; once
+// ``wanted()`` is false (its design was replaced or cleared) the job is cancelled and null returned.
+async function runJob(endpoint, request, label, wanted) {
   const seq = ++state.jobs;
   const accepted = await post("/v1/jobs", { endpoint, request });
   showProgress(0, `${label}: queued`);
   try {
     for (;;) {
       await sleep(200);
+      if (!wanted()) {
+        api("DELETE", `/v1/jobs/${accepted.id}`).catch(() => {});  // finished meanwhile: nothing to cancel
+        return null;
+      }
       const job = await (await api("GET", `/v1/jobs/${accepted.id}`)).json();
       showProgress(job.progress, `${label}: ${job.message || job.status}`);
       if (job.status === "done") return job.result;
@@ -94,13 +134,15 @@ async function runJob(endpoint, request, label) {
       }
     }
   } finally {
-    setTimeout(() => { if (state.jobs === seq) $("progress-box").hidden = true; }, 600);
+    setTimeout(() => { if (state.jobs === seq && !state.waiting.size) $("progress-box").hidden = true; }, 600);
   }
 }
 
 function showProgress(fraction, text) {
   const bar = document.querySelector("[data-testid=progress]");
   $("progress-box").hidden = false;
+  bar.classList.remove("busy");
+  state.waiting.clear();
   bar.firstElementChild.style.width = `${(100 * fraction).toFixed(1)}%`;
   bar.dataset.value = String(fraction);
   bar.setAttribute("aria-valuenow", String(fraction));
@@ -197,8 +239,10 @@ function describeSpaces() {
   box.className = "space";
   if (!sketching()) { box.textContent = ""; return; }
   if (!state.spaces.length) { box.textContent = "The solution space of an unspecified node appears once you place specified nodes."; return; }
+  const still = (m) => state.nodes.every((n, i) => n.role !== "specified" || !(state.motions[m][i] || []).some((v) => v));
   const words = state.spaces.map((s, m) => {
     const tag = state.spaces.length > 1 ? `motion ${m + 1}: ` : "";
+    if (still(m)) return `${tag}no arrows yet: drag from a node to give it a motion.`;
     if (s.kind === "none") return `${tag}no real solution — ${s.reason}`;
     if (s.kind === "points") return `${tag}${s.points.length} point${s.points.length === 1 ? "" : "s"} (m = ${s.nullity}); click one to place an unspecified node.`;
     if (s.kind === "conic" && s.dim === 3) return `${tag}a curve (m = ${s.nullity}), a conic in a plane of space (Fig. 2e).`;
@@ -250,11 +294,13 @@ function draw() {
   const defs = el("defs", {}, svg);
   arrowHeads(defs, COLOURS.motions);
   const shown = new Set();
-  if (!state.frame && !state.nodes.length && !state.example && !(state.kind === "multistable" && state.conformations.length)) {
-    const t = el("text", { x: WIDTH / 2, y: HEIGHT / 2, "text-anchor": "middle", fill: "#999", "font-size": 18 }, svg);
+  if (!state.frame && !state.nodes.length && !state.example && !state.network && !(state.kind === "multistable" && state.conformations.length)) {
+    // 22 units: 12 px when the drawing is at its narrowest (800 px windows).
+    const t = el("text", { x: WIDTH / 2, y: HEIGHT / 2, "text-anchor": "middle", fill: "#999", "font-size": 22 }, svg);
     t.textContent = state.kind === "auxetic" ? "Set the sheet on the left, then press Design."
       : state.kind === "chain" ? "Choose the map's features on the left, then press Design."
       : state.kind === "multistable" ? "Type the conformations on the left, then press Design."
+      : state.kind === "allostery" ? "Click to place a source node (or pick sites in a network); drag from it to set its motion."
       : "Click to place a node; drag from it to set its motion.";
   }
   drawSpaces(svg, toPage, shown);
@@ -319,12 +365,7 @@ function drawSketch(svg, toPage, shown) {
   const spec = state.nodes.map((n, i) => [n, i]).filter(([n]) => n.role === "specified");
   const bars = el("g", { class: "bars" }, svg);
   if (state.network) {
-    const p = state.network.positions.map(toPage);
-    for (const [i, j] of state.network.edges) {
-      el("line", { class: "bar network", x1: p[i][0], y1: p[i][1], x2: p[j][0], y2: p[j][1], stroke: COLOURS.bar, "stroke-width": 1.5 }, bars);
-    }
-    p.forEach(([x, y], i) => el("circle", { class: "network-node", "data-network": i, cx: x, cy: y, r: 6,
-                                            fill: COLOURS.unspecified[0], stroke: COLOURS.unspecified[1] }, bars));
+    bars.appendChild(networkLayer(toPage));
     shown.add("bar"); shown.add("unspecified");
   }
   for (const node of state.placed) {
@@ -366,6 +407,67 @@ function drawSketch(svg, toPage, shown) {
   }
 }
 
+// A layer that does not move with the slider or the pointer (a given network, the trajectories),
+// rebuilt only when what it shows (``source``) or the drawing's map or view changes: a redraw at
+// every pointer move or animation frame re-attaches it instead of rebuilding thousands of elements.
+function cachedLayer(slot, source, build) {
+  const key = `${state.map.scale} ${state.map.toPage([0, 0, 0])} ${state.view}`, cached = state.layers[slot];
+  if (cached && cached.source === source && cached.key === key) return cached.g;
+  state.layers[slot] = { source, key, g: build() };
+  return state.layers[slot].g;
+}
+
+const pageXY = (q) => `${q[0].toFixed(1)} ${q[1].toFixed(1)}`;
+
+// The given network: its bars as one path, its nodes to click.
+function networkLayer(toPage) {
+  return cachedLayer("network", state.network, () => {
+    const g = el("g", { class: "network" }), p = state.network.positions.map(toPage);
+    el("path", { class: "bar network", "data-bars": state.network.edges.length, d: state.network.edges.map(([i, j]) => `M${pageXY(p[i])}L${pageXY(p[j])}`).join(""),
+                 stroke: COLOURS.bar, "stroke-width": 1.5, fill: "none" }, g);
+    p.forEach(([x, y], i) => el("circle", { class: "network-node", "data-network": i, cx: x, cy: y, r: 6,
+                                            fill: COLOURS.unspecified[0], stroke: COLOURS.unspecified[1] }, g));
+    return g;
+  });
+}
+
+// The nodes' trajectories along the traced motion: one light polyline per node for a long path
+// (multistable, chain); else step k of every node in one path of step k's colour (start → end).
+function trajectoryLayer(toPage, n) {
+  return cachedLayer("trajectories", state.motionPath, () => {
+    const g = el("g", { class: "trajectories" }), path = state.motionPath.path;
+    if (state.motionPath.own) {
+      for (let i = 0; i < n; i++) {
+        el("polyline", { points: path.map((c) => toPage(c[i]).map((v) => v.toFixed(1)).join(",")).join(" "), fill: "none", stroke: "#c6dbef", "stroke-width": 1.2 }, g);
+      }
+      return g;
+    }
+    const pages = path.map((c) => c.map(toPage)), steps = path.length - 1;
+    for (let k = 0; k < steps; k++) {
+      el("path", { class: "step", "data-step": k, d: pages[k].map((a, i) => `M${pageXY(a)}L${pageXY(pages[k + 1][i])}`).join(""),
+                   fill: "none", stroke: mix(COLOURS.progress, (k + 0.5) / steps), "stroke-width": 1.2 }, g);
+    }
+    return g;
+  });
+}
+
+// Judicious placement adds the unspecified nodes one round after another (in index order): each
+// appears APPEAR_STEP after the one before (the whole at most APPEAR_TOTAL), its bars with it. The
+// delays count from the design's arrival, so a redraw meanwhile (the motion traced, the slider)
+// carries the animation on instead of restarting or cutting it. appear(i): node i's CSS animation
+// delay in s (negative: under way), null for a specified node or once it has appeared.
+const APPEAR_STEP = 0.15, APPEAR_TOTAL = 2, APPEAR_S = 0.3;
+function appearance(n, specified) {
+  const order = new Map(), elapsed = (performance.now() - state.appearAt) / 1000;
+  for (let i = 0; i < n; i++) if (!specified.has(i)) order.set(i, order.size);
+  const step = Math.min(APPEAR_STEP, APPEAR_TOTAL / Math.max(order.size, 1));
+  return (i) => {
+    if (!order.has(i)) return null;
+    const delay = step * order.get(i) - elapsed;
+    return delay + APPEAR_S > 0 ? delay : null;
+  };
+}
+
 function marker(parent, kind, cx, cy) {
   const r = 10;
   const shape = kind === "source" ? `${cx - r},${cy - r} ${cx + r},${cy - r} ${cx + r},${cy + r} ${cx - r},${cy + r}`
@@ -377,25 +479,9 @@ function marker(parent, kind, cx, cy) {
 function drawFrame(svg, toPage, shown) {
   const x = state.frame.positions, edges = state.frame.edges;
   const mode = state.modes[state.mode];
-  const own = state.motionPath && state.motionPath.own;
-  if (own) {
-    // Long paths of many nodes: one light polyline per node.
-    const g = el("g", { class: "trajectories" }, svg);
-    for (let i = 0; i < x.length; i++) {
-      const pts = state.motionPath.path.map((c) => toPage(c[i]).map((v) => v.toFixed(1)).join(",")).join(" ");
-      el("polyline", { points: pts, fill: "none", stroke: "#c6dbef", "stroke-width": 1.2 }, g);
-    }
-    shown.add("track");
-  } else if (state.motionPath) {
-    const g = el("g", { class: "trajectories" }, svg);
-    const path = state.motionPath.path, steps = path.length - 1;
-    for (let i = 0; i < x.length; i++) {
-      for (let k = 0; k < steps; k++) {
-        const [a, b] = [toPage(path[k][i]), toPage(path[k + 1][i])];
-        el("line", { x1: a[0], y1: a[1], x2: b[0], y2: b[1], stroke: mix(COLOURS.progress, (k + 0.5) / steps), "stroke-width": 1.2 }, g);
-      }
-    }
-    shown.add("path");
+  if (state.motionPath) {
+    svg.appendChild(trajectoryLayer(toPage, x.length));
+    shown.add(state.motionPath.own ? "track" : "path");
   }
   const p = currentPositions().map(toPage);
   const r = state.response;
@@ -416,11 +502,14 @@ function drawFrame(svg, toPage, shown) {
                                                           stroke: CHART.spring, "stroke-width": 1, opacity: 0.6 }, g));
     shown.add("spring");
   }
-  const bars = el("g", { class: "bars" }, svg);
-  edges.forEach(([i, j], b) => el("line", {
-    class: "bar", "data-edge": b, x1: p[i][0], y1: p[i][1], x2: p[j][0], y2: p[j][1],
-    stroke: COLOURS.bar, "stroke-width": r.springs ? 3 : 2, "stroke-linecap": "round",
-  }, bars));
+  const bars = el("g", { class: "bars" }, svg), appear = appearance(x.length, new Set(state.frame.specified));
+  edges.forEach(([i, j], b) => {
+    const attrs = { class: "bar", "data-edge": b, x1: p[i][0], y1: p[i][1], x2: p[j][0], y2: p[j][1],
+                    stroke: COLOURS.bar, "stroke-width": r.springs ? 3 : 2, "stroke-linecap": "round" };
+    const delay = Math.max(appear(i) ?? -Infinity, appear(j) ?? -Infinity);  // a bar comes with its newer node
+    if (delay > -Infinity) Object.assign(attrs, { class: "bar bar-new", style: `animation-delay: ${delay.toFixed(3)}s` });
+    el("line", attrs, bars);
+  });
   shown.add(r.springs ? "rod" : "bar");
   const pairs = r.chain ? r.chain.pairs : r.module ? [r.module.input_pair, r.module.output_pair] : null;
   if (pairs) {
@@ -445,16 +534,16 @@ function drawFrame(svg, toPage, shown) {
       el("line", { class: "arrow", "data-node": i, x1: p[i][0], y1: p[i][1], x2: tip[0], y2: tip[1],
                    stroke: COLOURS.motions[0], "stroke-width": 2.2, opacity: spec.has(i) ? 1 : 0.8, "marker-end": "url(#head-0)" }, arrows);
     });
-    shown.add("mode");
   }
+  // In the legend all along the motion (the arrows are drawn at its start): no jump while playing.
+  if (mode) shown.add("mode");
   const spec = new Set(state.frame.specified);
   const nodes = el("g", { class: "nodes" }, svg);
-  let round = 0;
   p.forEach((q, i) => {
     const isSpec = spec.has(i);
     const [fill, line] = isSpec ? COLOURS.specified : COLOURS.unspecified;
     const attrs = { class: "node " + (isSpec ? "specified" : "unspecified"), "data-node": i, cx: q[0], cy: q[1], r: 5.5, fill, stroke: line, "stroke-width": 1 };
-    if (!isSpec && state.fresh) { attrs.class += " node-new"; attrs.style = `animation-delay: ${(0.15 * round++).toFixed(2)}s`; }
+    if (appear(i) !== null) { attrs.class += " node-new"; attrs.style = `animation-delay: ${appear(i).toFixed(3)}s`; }
     el("circle", attrs, nodes);
     shown.add(isSpec ? "specified" : "unspecified");
   });
@@ -495,7 +584,7 @@ function legend(shown) {
     (s) => el("circle", { cx: 11, cy: 6, r: 4.5, fill: "none", stroke: colour, "stroke-width": 2 }, s)));
   entry("track", "node paths", line("#c6dbef", 2));
   state.motions.forEach((_, m) => entry(`motion-${m}`, `motion ${m + 1}`, line(COLOURS.motions[m % 4])));
-  entry("mode", "zero mode", line(COLOURS.motions[0]));
+  entry("mode", state.motionPath && !state.motionPath.own ? "zero mode (arrows at t = 0)" : "zero mode", line(COLOURS.motions[0]));
   state.spaces.forEach((_, m) => entry(`space-${m}`, `solution space${state.spaces.length > 1 ? " " + (m + 1) : ""}`, line(COLOURS.spaces[m % 4], 2)));
   entry("crossing", "crossing", (s) => el("circle", { cx: 11, cy: 6, r: 4, fill: "none", stroke: "#000", "stroke-width": 2 }, s));
   entry("path", "trajectory, start → end", (s) => {
@@ -521,6 +610,7 @@ function onPointerDown(event) {
   const w = pointerWorld(event), target = event.target;
   if (state.kind === "draw" && document.querySelector("input[name=place]:checked").value === "unspecified") {
     if (!state.frame) placeUnspecified(w, target.classList.contains("crossing") ? Number(target.dataset.crossing) : null);
+    else say("Design placed this frame's nodes: edit the drawing (or Undo) to place nodes by hand.", true);
     return;
   }
   let i;
@@ -567,6 +657,11 @@ function onPointerUp() { state.drag = null; }
 // A drawing changed: the old design no longer belongs to it.
 function edited() {
   if (state.response) clearDesign();
+  else if (state.pending) {  // a design on the way is of the old drawing
+    state.designs++;
+    state.pending = false;
+    say("the drawing changed while it was being designed: press Design again.");
+  }
   state.placed = [];
   updateSpaces();
   describeSpaces();
@@ -654,12 +749,12 @@ function drawnRequest() {
   }
   const spec = state.nodes.map((n, i) => [n, i]).filter(([n]) => n.role === "specified");
   if (state.kind === "space3d") {
-    return ["/v1/design", { dim: 3, positions: spec.map(([n]) => n.x), motions: [spec.map(([, i]) => state.motions[0][i])], options: { seed: 0, ...options } }];
+    return ["/v1/design", { dim: 3, positions: spec.map(([n]) => n.x), motions: [spec.map(([, i]) => state.motions[0][i])], options: { seed: 0, ...state.options, ...options } }];
   }
   if (spec.length < 2) throw new Error("place at least two specified nodes and drag their motions.");
   const motions = state.motions.map((m) => spec.map(([, i]) => m[i])).filter((m) => m.some((u) => u[0] || u[1]));
   if (!motions.length) throw new Error("drag from a node to give it a motion.");
-  return ["/v1/design", { dim: 2, positions: spec.map(([n]) => n.x), motions, options: { seed: 0, ...options } }];
+  return ["/v1/design", { dim: 2, positions: spec.map(([n]) => n.x), motions, options: { seed: 0, ...state.options, ...options } }];
 }
 
 async function design(event) {
@@ -667,6 +762,8 @@ async function design(event) {
   let endpoint, request;
   try { [endpoint, request] = drawnRequest(); } catch (e) { clearDesign(); say(e.message, true); return; }
   clearDesign();
+  const seq = state.designs;  // clearDesign() (an edit, another tab, a new design) replaces it
+  const wanted = () => state.designs === seq;
   state.placed = [];
   say(`designing (${endpoint}) …`);
   // A drawn 2D design answers in milliseconds; the rest may take seconds: a job with progress.
@@ -676,9 +773,10 @@ async function design(event) {
   const direct = (endpoint === "/v1/design" && request.dim === 2) || endpoint === "/v1/design/allosteric/network"
     || endpoint === "/v1/map" || (endpoint === "/v1/design/sequential" && !state.jobEndpoints.includes(endpoint));
   try {
-    const kind = state.kind;
-    let response = direct ? await post(endpoint, request) : await runJob(endpoint, request, "designing");
-    if (state.kind !== kind) return;  // another tab was chosen meanwhile
+    state.pending = true;
+    let response = direct ? await post(endpoint, request) : await runJob(endpoint, request, "designing", wanted);
+    if (!wanted()) return;
+    state.pending = false;  // the drawing changed, another tab was chosen or Design pressed again
     // A given module's map is drawn as a designed module's is, without features or chain.
     if (endpoint === "/v1/map") response = { map: response, module: { ...request, frame: { ...request.frame, specified: [] } }, features: [], chain: null };
     const own = ownMotion(response);
@@ -693,12 +791,10 @@ async function design(event) {
     state.fromDrawing = direct && !state.example && !state.network;
     const report = response.report || {};
     state.sites = { source: report.source || [], target: report.target || [] };
-    state.fresh = true;
+    state.appearAt = performance.now();
     draw();
     requestAnimationFrame(() => state.timings.design.push(performance.now() - t0));
-    state.fresh = false;
-    $("refine").disabled = !(state.modes.length === 1 && state.frame.specified.length >= 2);
-    $("certify").disabled = Boolean(own);
+    enableActions();
     if (own) {
       showOwnMotion(own.motion);
       // Rods and springs, and a chain, export as designs do (springs as their own cells).
@@ -709,16 +805,33 @@ async function design(event) {
     report_();
     await Promise.all([traceMotion(), listDownloads()]);
   } catch (e) {
+    if (!wanted()) return;  // a refusal of a replaced design says nothing of the current one
+    state.pending = false;
     clearDesign();
     say(e.message, true);
   }
 }
 
+const REFINE_TITLE = "Move the unspecified nodes so the finite motion follows the arrows (IPOPT)";
+// Refine applies to a design with specified nodes and one motion; Certify to any but a multistable
+// design or a chain (they come with their own checks).
+function enableActions() {
+  const f = state.frame, own = Boolean(state.response && ownMotion(state.response));
+  const fits = f && !own && state.modes.length === 1 && f.specified.length >= 2;
+  $("refine").disabled = !fits || state.running.has("refine");
+  // Why not, on hover: a disabled button that says nothing looks broken.
+  $("refine").title = fits || !f ? REFINE_TITLE
+    : `Refine follows one motion of two or more specified nodes; this design has ${own ? "its own motion" : `${state.modes.length} motions, ${f.specified.length} specified nodes`}.`;
+  $("certify").disabled = !f || own || state.running.has("certify");
+}
+
 function clearDesign() {
   stop();
+  state.designs++;
   Object.assign(state, { response: null, frame: null, modes: [], sites: {}, motionPath: null,
                          refined: null, refinedPath: null, certificate: null, fromDrawing: false, mapCheck: null });
   for (const id of ["slider", "play", "refine", "certify"]) $(id).disabled = true;
+  $("slider").max = $("slider").value = 0;
   $("where").textContent = "";
   $("downloads").replaceChildren();
   $("compare").hidden = true;
@@ -843,15 +956,17 @@ const specifiedRows = (mode) => state.frame.specified.map((i) => mode[i]);
 // A job on the current design with its button disabled meanwhile; ``use`` takes the result
 // unless the design changed while it ran.
 async function designJob(button, label, endpoint, request, use) {
-  const frame = state.frame;
+  const frame = state.frame, current = () => state.frame === frame;
   $(button).disabled = true;
+  state.running.add(button);
   try {
-    const result = await runJob(endpoint, request, label);
-    if (state.frame === frame) await use(result);
+    const result = await runJob(endpoint, request, label, current);
+    if (current()) await use(result);
   } catch (e) {
-    say(`${label}: ${e.message}`, true);
+    if (current()) say(`${label}: ${e.message}`, true);
   } finally {
-    $(button).disabled = !state.frame;
+    state.running.delete(button);
+    enableActions();
     report_();
   }
 }
@@ -888,8 +1003,10 @@ async function certify() {
   const request = { frame: { dim: f.dim, positions: f.positions, edges: f.edges }, modes: state.modes };
   await designJob("certify", "certifying", "/v1/certify", request, (result) => {
     state.certificate = result;
-    const p = result.prestress;
-    say(`certified: ${p.prestress_stable ? "prestress stable" : "not prestress stable"} (${p.decided_by}).`);
+    const p = result.prestress, g = result.rigidity_margin || result.margin;
+    const stable = p.prestress_stable ? `prestress stable (${p.decided_by})` : p.decided_by === "no_self_stress"
+      ? "no self-stress, so nothing stiffens the designed motion: it stays free, as designed" : `not prestress stable (${p.decided_by})`;
+    say(`certified: ${stable}${g ? `; ${g.undesigned_zero_modes} undesigned zero modes, rigidity margin ${fmt(g.uniform)}` : ""}.`);
   });
 }
 
@@ -1000,7 +1117,9 @@ function reportRows() {
   if (c) {
     rows.push(["Certificate"]);
     const p = c.prestress;
-    add("prestress stable", p.prestress_stable ? "yes" : "no", "", `Decided by ${p.decided_by}: a self-stress makes every undesigned flex cost energy.`);
+    add("prestress stable", p.prestress_stable ? "yes" : "no", "", p.decided_by === "no_self_stress"
+      ? "Decided by no_self_stress: without a self-stress nothing stiffens the frame's flexes — expected for a mechanism, whose designed motion must stay free; the rigidity margin is what resists every other motion."
+      : `Decided by ${p.decided_by}: a self-stress makes every undesigned flex cost energy.`);
     if (p.decided_by === "sdp") add("prestress margin", `[${fmt(p.margin)}, ${fmt(p.margin_upper_bound)}]`, "stiffness", "Certified lower bound and upper bound of the SDP's margin.");
     const g = c.rigidity_margin || c.margin;
     if (g) {
@@ -1076,7 +1195,8 @@ function report_() {
   }
   const raw = { design: state.response, motion: state.motionPath && { ...state.motionPath, path: `(${state.motionPath.path.length} configurations)` },
                 refinement: state.refined, certificate: state.certificate };
-  $("raw").textContent = state.response ? JSON.stringify(raw, null, 1) : "";
+  // One line per vector (a position, a motion's row), not one per number.
+  $("raw").textContent = state.response ? JSON.stringify(raw, null, 1).replace(/\[[-\d.e+,\s]*\]/g, (a) => a.replace(/\s+/g, "")) : "";
 }
 
 // ----------------------------------------------------------------------------- downloads
@@ -1086,21 +1206,25 @@ function designName() {
 }
 
 async function listDownloads() {
-  const box = $("downloads");
+  const box = $("downloads"), response = state.response;
   box.replaceChildren();
   if (!state.formats) state.formats = await (await api("GET", "/v1/export/formats")).json();
+  if (state.response !== response) return;  // cleared or replaced meanwhile: no buttons for it
   for (const f of state.formats.filter((f) => f.available)) {
     const button = el("button", { type: "button", "data-format": f.name, "data-testid": `download-${f.name}`, title: f.description }, box, true);
-    button.textContent = FORMAT_LABELS[f.name] || `${f.description.split(/[.:;(]/)[0]}`;
+    button.textContent = formatLabel(f);
     button.addEventListener("click", () => download(f));
   }
 }
+
+// The format's human name: ours, else the service's description up to its first stop.
+const formatLabel = (f) => FORMAT_LABELS[f.name] || f.description.split(/[.:;(]/)[0].trim();
 
 async function download(format) {
   if (!state.response) return;
   const body = { format: format.name, document: state.response, motion: { mode: 0 } };
   if (state.motionPath) { body.path = state.motionPath.path; body.parameter = state.motionPath.parameter; }
-  say(`exporting ${FORMAT_LABELS[format.name] || format.name} …`);
+  say(`exporting ${formatLabel(format)} …`);
   try {
     const blob = await (await api("POST", "/v1/export", body)).blob();
     const link = document.createElement("a");
@@ -1137,6 +1261,23 @@ function setKind(kind) {
     state.module = JSON.parse(JSON.stringify(GIVEN_MODULE));
     renderModule();
   }
+}
+
+// A drawing tab left keeps its drawing: coming back (by its tab) finds it as it was, undesigned.
+const SKETCHED = ["draw", "allostery"];
+function switchTab(kind) {
+  if (SKETCHED.includes(state.kind)) {
+    state.sketches[state.kind] = { nodes: state.nodes, motions: state.motions, network: state.network, options: state.options, name: $("name").value };
+  }
+  $("example").value = "";
+  $("example-text").textContent = "";
+  setKind(kind);
+  const kept = state.sketches[kind];
+  if (!SKETCHED.includes(kind) || !kept || !(kept.nodes.length || kept.network)) return;
+  Object.assign(state, { nodes: kept.nodes, motions: kept.motions, network: kept.network, options: kept.options });
+  kept.motions.slice(1).forEach((_, m) => { el("option", { value: m + 1 }, $("motion-index"), true).textContent = String(m + 2); });
+  $("name").value = kept.name;
+  edited();
 }
 
 // The given module of the Chain tab: the two-triangle module of docs/module_maps.md.
@@ -1303,7 +1444,7 @@ function renderTable() {
 }
 
 function clearSketch() {
-  Object.assign(state, { network: null, nodes: [], motions: [[]], motion: 0, placed: [] });
+  Object.assign(state, { network: null, nodes: [], motions: [[]], motion: 0, placed: [], options: {} });
   const select = $("motion-index");
   select.replaceChildren();
   el("option", { value: 0 }, select, true).textContent = "1";
@@ -1329,14 +1470,26 @@ function triangulatedSheet([nx, ny], h) {
   return { dim: 2, positions, edges };
 }
 
-function useNetwork(frame) {
+// A network is checked whole before it replaces the drawing: a bad file leaves the page as it was.
+function useNetwork(frame, name) {
   if (!frame || frame.dim !== 2 || !Array.isArray(frame.positions) || !Array.isArray(frame.edges)) {
     throw new Error("a network is a 2D frame: {\"dim\": 2, \"positions\": [...], \"edges\": [...]}.");
   }
+  const n = frame.positions.length;
+  const bad = frame.positions.findIndex((p) => !Array.isArray(p) || p.length !== 2 || !p.every(Number.isFinite));
+  if (bad >= 0) throw new Error(`position ${bad} is not two finite numbers [x, y].`);
+  const wrong = frame.edges.findIndex((e) => !Array.isArray(e) || e.length !== 2 || e[0] === e[1]
+                                            || !e.every((i) => Number.isInteger(i) && i >= 0 && i < n));
+  if (wrong >= 0) throw new Error(`edge ${wrong} is not two different node indices from 0 to ${n - 1}.`);
   clearSketch();
+  // No longer the example chosen before: its name and description go, the network's name comes.
+  $("example").value = "";
+  $("example-text").textContent = "";
+  $("name").value = name;
   state.network = { dim: 2, positions: frame.positions, edges: frame.edges };
   $("hint").textContent = "Click nodes of the network to make them source or target sites (choose below); drag from a site to set its motion.";
   edited();
+  say(`network: ${n} nodes, ${frame.edges.length} bars; click its nodes to make them sites.`);
 }
 
 function addMotion() {
@@ -1390,6 +1543,8 @@ async function pickExample() {
   } else {
     const request = await (await api("GET", `/v1/examples/${encodeURIComponent(name)}/request`)).json();
     setKind("draw");
+    // The example's options (e.g. n_unspecified of Fig. 3c) go with its drawing until it is cleared.
+    state.options = { ...request.options };
     $("example-text").textContent = state.examples[name];
     if (request.dim === 2) {
       state.motions = request.motions.map((m) => m.slice());
@@ -1398,6 +1553,7 @@ async function pickExample() {
       request.motions.slice(1).forEach((_, m) => { el("option", { value: m + 1 }, select, true).textContent = String(m + 2); });
     } else if (request.motions.length === 1) {
       setKind("space3d");
+      state.options = { ...request.options };
       $("example-text").textContent = state.examples[name];
       fillTable(request.positions, request.motions[0]);
     } else {
@@ -1413,7 +1569,7 @@ async function pickExample() {
 // ----------------------------------------------------------------------------- wiring
 
 let retrace = null;
-for (const b of document.querySelectorAll(".tabs button")) b.addEventListener("click", () => { $("example").value = ""; $("example-text").textContent = ""; setKind(b.dataset.kind); });
+for (const b of document.querySelectorAll(".tabs button")) b.addEventListener("click", () => switchTab(b.dataset.kind));
 $("canvas").addEventListener("pointerdown", onPointerDown);
 $("canvas").addEventListener("pointermove", onPointerMove);
 $("canvas").addEventListener("pointerup", onPointerUp);
@@ -1427,13 +1583,13 @@ $("play").addEventListener("click", play);
 $("undo").addEventListener("click", undo);
 $("clear").addEventListener("click", clearSketch);
 $("add-motion").addEventListener("click", addMotion);
-$("network-sheet").addEventListener("click", () => useNetwork(triangulatedSheet(NETWORK, NETWORK_SPACING)));
+$("network-sheet").addEventListener("click", () => useNetwork(triangulatedSheet(NETWORK, NETWORK_SPACING), "allosteric_sheet"));
 $("network-file").addEventListener("change", async () => {
   const file = $("network-file").files[0];
   if (!file) return;
   try {
     const doc = JSON.parse(await file.text());
-    useNetwork(doc.frame || doc);
+    useNetwork(doc.frame || doc, `${file.name.replace(/\.json$/i, "")}_sites`);
   } catch (e) {
     say(`${file.name}: ${e.message}`, true);
   }
@@ -1473,6 +1629,10 @@ $("amplitude").addEventListener("input", () => {
   $("amplitude-text").textContent = Number($("amplitude").value).toFixed(2);
   clearTimeout(retrace);
   retrace = setTimeout(() => { stop(); traceMotion(); }, 250);
+});
+// A key given after the examples were refused (401 at start-up) lists them then.
+$("apikey").addEventListener("change", () => {
+  if (!state.examples) loadExamples().then(() => say("examples listed."), (e) => say(e.message, true));
 });
 setKind("draw");
 loadExamples().catch((e) => say(e.message, true));

@@ -57,7 +57,8 @@ const SolutionSpace = (() => {
   // The space for positions x_S (k×d) and motions u_S (k×d). Returns
   // {dim, k, nullity, rank, kind, reason, points: [{position, motion}], curves: [[p, …], …],
   //  basis W̃ and quadric Q of the normalised problem}; kind is "points", "conic", "line",
-  // "plane" (k ≤ 2 in 2D: every position), "surface" (3D, m ≥ 3) or "none" with a reason.
+  // "plane" (every position in 2D: k ≤ 2, or arrows that move the nodes rigidly), "surface"
+  // (3D, m ≥ 3) or "none" with a reason.
   function compute(positions, motions) {
     const k = positions.length, d = positions[0].length, n = 2 * d + 1;
     const [cx, sx] = centreAndRms(positions), [cu, su] = centreAndRms(motions);
@@ -97,17 +98,40 @@ const SolutionSpace = (() => {
       return out;
     }
     const qnorm = Math.sqrt(Q.flat().reduce((s, v) => s + v * v, 0)) || 1;
+    // Q's entries are O(‖z*‖²) at most (W̃'s null columns are unit vectors): below this, Q = 0.
+    const qzero = QUADRIC_TOL * Math.max(1, Math.hypot(...zstar) ** 2);
     if (m === 0) {
-      if (Math.abs(Q[0][0]) <= QUADRIC_TOL * Math.max(1, Math.hypot(...zstar) ** 2)) {
+      if (Math.abs(Q[0][0]) <= qzero) {
         out.kind = "points"; out.points = [sample([1])];
       } else out.reason = "the one solution of the linear conditions breaks c = x_U·u_U.";
       return out;
     }
+    // Q = 0: every linear solution keeps c = p·v (no arrows yet, a rigid motion, collinear nodes).
+    if (m <= 2 && Q.flat().every((v) => Math.abs(v) <= qzero)) return everywhere(out, basis, m, d, sample);
     if (m === 1) return onLine(out, Q, qnorm, sample);
     if (m === 2) return onConic(out, Q, qnorm, sample, (p) => p.map((v, a) => (v - cx[a]) / sx));
     out.kind = d === 2 ? "plane" : "surface";
     out.reason = d === 2 ? `with ${k} specified node${k === 1 ? "" : "s"} every position has a motion (a ${m - 1}-dimensional set); place a third.`
       : `a ${m - 1}-dimensional quadric in (x_U, u_U), not drawn; five specified nodes in general position give a curve.`;
+    return out;
+  }
+
+  // Q = 0: every α ∈ R^m solves, and the positions are the image of p(α) = P α + p*, P the
+  // position rows of the null basis (unit columns): a point, a line or (2D) every position.
+  function everywhere(out, basis, m, d, sample) {
+    const { sigma, V } = svd(basis.slice(0, d).map((row) => row.slice(0, m)), m);
+    const along = sigma.map((s, j) => [s, j]).filter(([s]) => s > RANK_TOL).map(([, j]) => V.map((r) => r[j]));
+    const at = (alpha) => sample([...alpha, 1]);
+    if (!along.length) {
+      out.kind = "points"; out.points = [at(new Array(m).fill(0))];
+    } else if (along.length === 1) {
+      out.kind = "line";
+      out.curves = [[-FAR, FAR].map((t) => at(along[0].map((v) => t * v)).position)];
+    } else {
+      out.kind = "plane";
+      out.reason = d === 2 ? `every position has a motion: the ${out.k} bar conditions leave the new node free (its motion follows its position).`
+        : "a plane of positions, each with a motion; not drawn.";
+    }
     return out;
   }
 
