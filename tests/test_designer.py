@@ -4,8 +4,9 @@ Dask cluster behind the jobs API): a design drawn by hand, as the issue's Done-w
 Checked through independent routes: the solution space the page computes in JavaScript
 (service/rest/static/solution_space.js) against the definition — a point p of it has a motion v with
 (x_i − p)·(u_i − v) = 0 for every specified node i, found here by numpy's least squares; the
-outward square's space is the circle through its corners (closed form); the page's ε(a) against
-the service's ε before refinement; the downloaded file read back with meshio. Latency figures
+outward square's space is the circle through its corners (closed form); the ε chart's polylines
+and labels and the Play warning against the service's numbers in its response bodies (the
+curves themselves are checked against an oracle in test_epsilon_curve.py); the downloaded file read back with meshio. Latency figures
 are recorded by benchmarks/bench_designer.py, not asserted here (no test races the clock).
 """
 
@@ -59,6 +60,28 @@ def polyline_distance(line: np.ndarray, p: np.ndarray) -> float:
     return float(np.linalg.norm(a + t[:, None] * (b - a) - p, axis=1).min())
 
 
+def label_number(text: str) -> float:
+    """The number after "= " in a chart label as the page formats it ("0.431", "1.87e-8")."""
+    return float(text.rsplit("= ", 1)[1])
+
+
+def check_epsilon_chart(page, amplitudes, curves: dict) -> None:
+    """The ε chart (#epsilon) draws exactly ``curves`` (name → ε at ``amplitudes``): each
+    polyline's points are one affine image of (amplitude, ε) shared by all curves (to the
+    page's 0.1 px rounding), and each label states the last value to the page's 3 digits."""
+    lines = {name: np.array([[float(v) for v in p.split(",")] for p in page.get_attribute(
+        f"#epsilon polyline.epsilon.{name}", "points").split()]) for name in curves}
+    assert len(page.query_selector_all("#epsilon polyline.epsilon")) == len(curves)
+    values = np.concatenate([np.asarray(v, dtype=float) for v in curves.values()])
+    pixels = np.concatenate([lines[name] for name in curves])
+    scale_x, residual_x = affine_fit(np.tile(np.asarray(amplitudes, dtype=float), len(curves)), pixels[:, 0])
+    scale_y, residual_y = affine_fit(values, pixels[:, 1])
+    assert scale_x > 0 and scale_y < 0  # ε grows upwards
+    assert residual_x <= 0.06 and residual_y <= 0.06
+    for name, eps in curves.items():
+        assert label_number(page.text_content(f"#epsilon text.epsilon-label.{name}")) == pytest.approx(eps[-1], rel=5e-3)
+
+
 def test_draw_design_play_refine_certify_and_download(browser, designer_url, tmp_path):  # noqa: F811
     page, problems = open_page(browser, designer_url)
     page.fill("[data-testid=name]", "outward_2d")
@@ -94,6 +117,14 @@ def test_draw_design_play_refine_certify_and_download(browser, designer_url, tmp
     status = page.inner_text("[data-testid=status]")
     assert "leaves the arrows" in status and "Refine" in status and page.is_enabled("[data-testid=refine]")
     assert {"specified", "unspecified", "mode", "space-0"} <= legend(page) and "source" not in legend(page)
+    # The Play warning quotes the service's ε at the amplitude (POST /v1/motion's epsilon_curve).
+    linear = page.evaluate("designer.motionPath.epsilon_curve")
+    a = float(page.input_value("[data-testid=amplitude]"))
+    assert linear["amplitudes"][-1] == pytest.approx(a, rel=1e-12)
+    bound = "≥" if linear["at_end"][-1] else "="
+    quoted = str(float(f"{linear['epsilon'][-1]:.2f}"))  # as the page's fmt(ε, 2)
+    assert f"(ε {bound} {quoted} at a = {a:.2f}" in page.inner_text("#status")
+    check_epsilon_chart(page, linear["amplitudes"], {"linear": linear["epsilon"]})
 
     # Play: the slider moves and the nodes with it, every bar still on its nodes.
     reference = page.evaluate("designer.motionPath.reference_index")
@@ -128,14 +159,10 @@ def test_draw_design_play_refine_certify_and_download(browser, designer_url, tmp
     assert widths[0] == 0 and widths[-1] == 100 and widths == sorted(widths)
     refined = page.evaluate("designer.refined")
     assert refined["epsilon_after"] < refined["epsilon_before"]
-    # The page's ε(a) (traced samples joined straight, 2D Kabsch in closed form) near the service's ε
-    # (polished on the constraint manifold) for the linear design.
-    page_eps = page.evaluate("""() => {
-        const f = designer.frame, spec = f.specified, u = spec.map((i) => designer.modes[0][i]);
-        return epsilonCurve(designer.motionPath.path, spec, spec.map((i) => f.positions[i]), u, [0.2])[0];
-    }""")
-    assert page_eps == pytest.approx(refined["epsilon_before"], rel=0.1, abs=0.01)
-    assert len(page.query_selector_all("#epsilon polyline.epsilon")) == 2
+    # The chart draws the service's curves, whose last values are the report's ε before and after.
+    curve = refined["epsilon_curve"]
+    assert curve["before"][-1] == refined["epsilon_before"] and curve["after"][-1] == refined["epsilon_after"]
+    check_epsilon_chart(page, curve["amplitudes"], {"linear": curve["before"], "refined": curve["after"]})
     report = page.inner_text("[data-testid=report]")
     assert "ε before" in report and "ε after" in report
 

@@ -654,7 +654,8 @@ def motion(frame: Frame | Result | Mapping, mode: int | Points | None = None, **
         nontrivial zero mode.
     **fields
         The request's other fields: ``amplitude``, ``max_step``, ``max_steps``, ``direction``,
-        ``on_singularity``, ``boundary``, ``target``.
+        ``on_singularity``, ``boundary``, ``target``, ``epsilon_curve`` (``{"amplitude": a}``:
+        the body's ``epsilon_curve``, ε along the path for the specified nodes' linear target).
 
     Returns
     -------
@@ -702,7 +703,9 @@ def refine(frame: Frame | Result | Mapping, motion: Points | None = None, **fiel
     Returns
     -------
     RefineResult
-        ``solution`` is the solver's Refinement (``epsilon_before``, ``epsilon_after``, …).
+        ``solution`` is the solver's Refinement (``epsilon_before``, ``epsilon_after``, …, and
+        ``curve_before``/``curve_after``: ε at 12 amplitudes in (0, a], the body's
+        ``epsilon_curve``, ending on ε before and after).
 
     Raises
     ------
@@ -716,6 +719,8 @@ def refine(frame: Frame | Result | Mapping, motion: Points | None = None, **fiel
     >>> r = zm.design(square, square).refine().to_dict()
     >>> r["status"], r["epsilon_after"] <= r["epsilon_before"]
     ('ok', True)
+    >>> r["epsilon_curve"]["after"][-1] == r["epsilon_after"]
+    True
     """
     return _run("/v1/refine", {"frame": _frame_body(frame), "motion": motion, **fields}, RefineResult)
 

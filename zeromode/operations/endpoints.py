@@ -95,7 +95,13 @@ from zeromode.solver.certificates.fabrication import tolerance_report
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame
 from zeromode.solver.motion.boundary_strain import path_strains
-from zeromode.solver.motion.finite_motion import SingularPath, trace_motion
+from zeromode.solver.motion.finite_motion import (
+    CURVE_SAMPLES,
+    SingularPath,
+    fidelity_curve,
+    linear_target,
+    trace_motion,
+)
 from zeromode.solver.motion.periodic import trace_motion_through_cell
 from zeromode.solver.motion.refine import RefinementFailed
 from zeromode.solver.motion.target import MotionTarget, TargetUnreachable, aim_motion
@@ -293,10 +299,14 @@ def motion(r: MotionRequest) -> Outcome:
     each carrying the path's body up to where it stopped."""
     t0 = time.perf_counter()
     frame = motion_frame(r)
+    # The linear target of the ε curve, refused (or its mode found) before any tracing.
+    linear = None if r.epsilon_curve is None else linear_target(frame, r.epsilon_curve.amplitude, r.epsilon_curve.motion, r.mode)
 
     def body(path, aimed=None) -> dict:
         strains = None if r.boundary is None else path_strains(frame.positions, path.positions, r.boundary)
-        return motion_body(path, _ms_since(t0), strains, aimed)
+        spec = list(frame.specified)
+        curve = None if linear is None else fidelity_curve(path, spec, frame.positions[spec], *linear, CURVE_SAMPLES)
+        return motion_body(path, _ms_since(t0), strains, aimed, curve)
 
     steps = r.model_dump(include={"mode", "max_step", "direction", "max_steps"})
     aimed = None

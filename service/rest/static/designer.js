@@ -995,8 +995,11 @@ async function checkMap(response) {
 
 async function traceMotion() {
   if (!state.frame) return;
-  const body = { frame: state.frame, amplitude: Number($("amplitude").value), on_singularity: "report" };
+  const a = Number($("amplitude").value);
+  const body = { frame: state.frame, amplitude: a, on_singularity: "report" };
   if (state.modes.length) body.mode = state.modes[state.mode];
+  // The service's ε along the path for the arrows' target x_S + a·(r_S/ρ_u)·u_S (as /v1/refine).
+  if (fidelityApplies()) body.epsilon_curve = { amplitude: a, motion: specifiedRows(state.modes[0]) };
   if (state.response.report && state.response.report.boundary) body.boundary = state.response.report.boundary;
   const frame = state.frame;
   try {
@@ -1021,15 +1024,17 @@ async function traceMotion() {
   else if (state.motionPath && fidelityApplies()) compare();
 }
 
-// ε(a) is defined for a 2D design with specified nodes and one motion (as POST /v1/refine).
-const fidelityApplies = () => state.frame.dim === 2 && state.frame.specified.length >= 2 && state.modes.length === 1;
+// ε(a) is defined for a design with specified nodes and one motion (as POST /v1/refine).
+const fidelityApplies = () => state.frame.specified.length >= 2 && state.modes.length === 1;
 
-// One sentence when the finite path leaves the arrows (ε(a) at the amplitude above DEPARTS).
+// One sentence when the finite path leaves the arrows: the service's ε at the amplitude
+// (POST /v1/motion's epsilon_curve, the last of its amplitudes) above DEPARTS.
 function departure() {
-  if (!fidelityApplies()) return "";
-  const spec = state.frame.specified, a = Number($("amplitude").value);
-  const eps = epsilonCurve(state.motionPath.path, spec, spec.map((i) => state.frame.positions[i]), specifiedRows(state.modes[0]), [a])[0];
-  return eps > DEPARTS ? ` The finite path leaves the arrows (ε = ${fmt(eps, 2)} at a = ${a.toFixed(2)}: the design is exact only to first order); Refine moves the unspecified nodes so that it follows them.` : "";
+  const curve = state.motionPath.epsilon_curve;
+  if (!curve) return "";
+  const last = curve.epsilon.length - 1, eps = curve.epsilon[last], a = curve.amplitudes[last];
+  const bound = curve.at_end[last] ? "≥" : "=";  // ≥: the path ends before its closest point
+  return eps > DEPARTS ? ` The finite path leaves the arrows (ε ${bound} ${fmt(eps, 2)} at a = ${a.toFixed(2)}: the design is exact only to first order); Refine moves the unspecified nodes so that it follows them.` : "";
 }
 
 function stop() {
@@ -1113,39 +1118,6 @@ async function certify() {
   });
 }
 
-const SUBSTEPS = 8;
-
-// ε(a) of a traced path for the target x_S + a·(r_S/ρ_u)·u_S (as POST /v1/refine): the closest
-// point of the path after the best rotation and translation (2D Kabsch in closed form), over ‖Δ_S‖.
-function epsilonCurve(path, spec, x, u, amplitudes) {
-  const k = spec.length;
-  const centred = (pts) => { const c = [0, 1].map((a) => pts.reduce((s, p) => s + p[a], 0) / k); return pts.map((p) => [p[0] - c[0], p[1] - c[1]]); };
-  const rS = Math.sqrt(centred(x).reduce((s, p) => s + p[0] ** 2 + p[1] ** 2, 0) / k);
-  const rhoU = Math.sqrt(u.reduce((s, p) => s + p[0] ** 2 + p[1] ** 2, 0) / k);
-  // Between traced samples the path is taken straight (SUBSTEPS per step): at small a the
-  // target lies between the first samples, and ε is then a ratio of two small lengths.
-  const samples = [];
-  path.forEach((X, j) => {
-    const P = spec.map((i) => X[i]), next = j + 1 < path.length ? spec.map((i) => path[j + 1][i]) : null;
-    for (let s = 0; s < (next ? SUBSTEPS : 1); s++) {
-      const f = s / SUBSTEPS;
-      samples.push(centred(next ? P.map((p, i) => [p[0] + f * (next[i][0] - p[0]), p[1] + f * (next[i][1] - p[1])]) : P));
-    }
-  });
-  return amplitudes.map((a) => {
-    const delta = u.map((p) => [a * rS / rhoU * p[0], a * rS / rhoU * p[1]]);
-    const q = centred(x.map((p, i) => [p[0] + delta[i][0], p[1] + delta[i][1]]));
-    const qq = q.reduce((s, p) => s + p[0] ** 2 + p[1] ** 2, 0);
-    let best = Infinity;
-    for (const P of samples) {
-      let pp = 0, sd = 0, sc = 0;
-      P.forEach((p, i) => { pp += p[0] ** 2 + p[1] ** 2; sd += p[0] * q[i][0] + p[1] * q[i][1]; sc += p[0] * q[i][1] - p[1] * q[i][0]; });
-      best = Math.min(best, Math.sqrt(Math.max(pp + qq - 2 * Math.hypot(sd, sc), 0)));
-    }
-    return best / Math.sqrt(delta.reduce((s, p) => s + p[0] ** 2 + p[1] ** 2, 0));
-  });
-}
-
 function miniFrame(svg, frame, path) {
   svg.replaceChildren();
   if (!frame) {
@@ -1174,25 +1146,27 @@ function compare() {
   miniFrame($("path-refined"), state.refined && state.refined.frame, state.refinedPath);
   const chart = $("epsilon");
   chart.replaceChildren();
-  if (!state.motionPath || !fidelityApplies()) return;
-  const spec = state.frame.specified, x = spec.map((i) => state.frame.positions[i]), u = specifiedRows(state.modes[0]);
-  const top = Number($("amplitude").value), amplitudes = Array.from({ length: 20 }, (_, i) => top * (i + 1) / 20);
-  const curves = [[state.motionPath, COLOURS.spaces[0], "linear"]];
-  if (state.refinedPath) curves.push([state.refinedPath, COLOURS.spaces[1], "refined"]);
-  const values = curves.map(([path]) => epsilonCurve(path.path, spec, x, u, amplitudes));
+  // The service's ε(a), measured on the constraint manifold: POST /v1/refine's curves before and
+  // after, or before a refinement POST /v1/motion's along the linear design's path.
+  const refined = state.refined && state.refined.epsilon_curve, linear = state.motionPath && state.motionPath.epsilon_curve;
+  const source = refined || linear;
+  if (!source) return;
+  const amplitudes = source.amplitudes, top = amplitudes[amplitudes.length - 1];
+  const curves = refined ? [[COLOURS.spaces[0], "linear"], [COLOURS.spaces[1], "refined"]] : [[COLOURS.spaces[0], "linear"]];
+  const values = refined ? [refined.before, refined.after] : [linear.epsilon];
   const ymax = Math.max(1e-3, ...values.flat().filter(Number.isFinite)) * 1.1;
   const X = (a) => 40 + 245 * a / top, Y = (e) => 215 - 170 * e / ymax;  // labels above y = 40
   el("line", { x1: 40, y1: 215, x2: 290, y2: 215, stroke: "#888" }, chart);
   el("line", { x1: 40, y1: 45, x2: 40, y2: 215, stroke: "#888" }, chart);
-  const label = (x, y, text, anchor = "middle") => { el("text", { x, y, "font-size": 11, "text-anchor": anchor, fill: "#444" }, chart).textContent = text; };
+  const label = (x, y, text, anchor = "middle", attrs = {}) => { el("text", { x, y, "font-size": 11, "text-anchor": anchor, fill: "#444", ...attrs }, chart).textContent = text; };
   label(165, 236, "amplitude a");
   label(36, 49, fmt(ymax, 2), "end");
   label(36, 218, "0", "end");
   label(290, 228, fmt(top, 2), "end");
-  curves.forEach(([, colour, name], c) => {
+  curves.forEach(([colour, name], c) => {
     const pts = amplitudes.map((a, i) => `${X(a).toFixed(1)},${Y(values[c][i]).toFixed(1)}`).join(" ");
     el("polyline", { class: `epsilon ${name}`, points: pts, fill: "none", stroke: colour, "stroke-width": 2 }, chart);
-    label(285, 14 + 14 * c, `${name}: ε(${fmt(top, 2)}) = ${fmt(values[c][values[c].length - 1])}`, "end");
+    label(285, 14 + 14 * c, `${name}: ε(${fmt(top, 2)}) = ${fmt(values[c][values[c].length - 1])}`, "end", { class: `epsilon-label ${name}` });
   });
 }
 
