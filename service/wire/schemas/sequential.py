@@ -59,6 +59,7 @@ class MapBody(BaseModel):
 
 
 class MapResponse(MapBody):
+    frame: ResultFrame = Field(description="The module's frame as given: the answer draws and exports the module beside its map.")
     timings_ms: dict[str, float]
 
 
