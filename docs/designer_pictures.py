@@ -95,7 +95,7 @@ def shoot_played(page, tab: str, where: float | None, path: Path, example: str |
         n = len(page.evaluate("designer.response.chain.pairs")) - 1
         where = int(np.argmin(np.abs(np.array(walls) - n / 2))) / (len(walls) - 1)
     page.evaluate("f => { const s = document.getElementById('slider'); s.value = Math.round(f * s.max); s.dispatchEvent(new Event('input')); }", where)
-    page.wait_for_timeout(800)  # the progress bar's last transition
+    page.wait_for_timeout(2500)  # the progress bar's last transition; the new nodes' appearance (at most 2.3 s)
     page.screenshot(path=path, full_page=True)
 
 
