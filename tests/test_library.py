@@ -302,10 +302,20 @@ def test_repr_svg_draws_every_bar(square_design):
 
 
 def test_plot_is_a_matplotlib_figure(square_design):
+    from matplotlib.collections import LineCollection
     from matplotlib.figure import Figure
 
     figure = square_design.plot()
-    assert isinstance(figure, Figure) and figure.axes and figure.axes[0].collections + figure.axes[0].lines
+    assert isinstance(figure, Figure) and figure.axes
+    # The bars are drawn where the frame has them: one grey segment per bar, in the frame's bar
+    # order, each as long as its bar times one drawing scale (a picture of the frame, not any picture).
+    frame = square_design.frame
+    (bars,) = [c for c in figure.axes[0].collections
+               if isinstance(c, LineCollection) and len(c.get_segments()) == frame.n_edges]
+    drawn = np.array(bars.get_segments())
+    drawn_lengths = np.linalg.norm(drawn[:, 1] - drawn[:, 0], axis=1)
+    lengths = np.linalg.norm(frame.positions[frame.edges[:, 0]] - frame.positions[frame.edges[:, 1]], axis=1)
+    assert np.ptp(drawn_lengths / lengths) <= 1e-9 * np.mean(drawn_lengths / lengths)
 
 
 def test_sequential_results_plot_their_map():
