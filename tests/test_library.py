@@ -350,7 +350,16 @@ def test_export_picture_and_unknown_suffix(square_design, tmp_path):
 
 def test_animate_plays_the_motion(square_design):
     root = ET.fromstring(square_design.animate(animation={"frames": 6}))
-    assert root.tag == SVG + "svg" and any(True for _ in root.iter(SVG + "animate"))
+    assert root.tag == SVG + "svg"
+    # Every bar is animated and keeps its drawn length in every frame (the finite motion keeps
+    # every bar; the coordinates are written to 0.1 px), while the frame moves (ends travel).
+    bars = [{a.get("attributeName"): np.array(a.get("values").split(";"), dtype=float) for a in line.iter(SVG + "animate")}
+            for line in root.iter(SVG + "line") if "bar" in line.get("class", "").split()]
+    assert len(bars) == square_design.frame.n_edges
+    for bar in bars:
+        length = np.hypot(bar["x2"] - bar["x1"], bar["y2"] - bar["y1"])
+        assert len(length) > 2 and np.ptp(length) <= 0.3
+    assert max(np.ptp(bar["x1"]) + np.ptp(bar["y1"]) for bar in bars) > 10.0
 
 
 def test_to_networkx_has_the_bars_and_their_lengths(square_design):
