@@ -318,6 +318,19 @@ def test_plot_is_a_matplotlib_figure(square_design):
     assert np.ptp(drawn_lengths / lengths) <= 1e-9 * np.mean(drawn_lengths / lengths)
 
 
+def test_plot_shows_itself_in_jupyter():
+    # A researcher's cell ending in ``d.plot()`` (no %matplotlib, no pyplot) must show the picture,
+    # not ``<Figure size … with 1 Axes>``: a real kernel runs it (nbclient, as the guide's build).
+    import nbformat  # the docs extra, which CI's command installs with the test extra
+    from nbclient import NotebookClient
+
+    notebook = nbformat.v4.new_notebook()
+    notebook.cells = [nbformat.v4.new_code_cell(f"import zeromode as zm\nzm.design({SQUARE}, {SQUARE}).plot()")]
+    NotebookClient(notebook, timeout=120, kernel_name="python3").execute()
+    (output,) = notebook.cells[0].outputs
+    assert output.output_type == "execute_result" and "image/png" in output.data
+
+
 def test_sequential_results_plot_their_map():
     from matplotlib.figure import Figure
 

@@ -23,6 +23,7 @@ u_S = x_S.
 from __future__ import annotations
 
 import copy
+import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -135,7 +136,7 @@ class Result:
         scene = layout(self.picture(solution_space))
         figure, axes = scene_figure(scene, scale)
         draw_shapes(axes, scene.shapes)
-        return figure
+        return _shown_in_jupyter(figure)
 
     # --- taking it away ---------------------------------------------------------------------
 
@@ -287,7 +288,27 @@ class MultistableResult(Result):
         Figure)."""
         from zeromode.viz.landscape import landscape_figure
 
-        return landscape_figure(self.body, width, height)
+        return _shown_in_jupyter(landscape_figure(self.body, width, height))
+
+
+def _shown_in_jupyter(figure: Figure) -> Figure:
+    """The figure, shown as a PNG when it ends a Jupyter cell. ``plot()`` figures are plain
+    matplotlib Figures (no pyplot state, nothing left open in a script), and IPython draws a Figure
+    only once its PNG formatter is registered, which ``%matplotlib inline`` or a pyplot figure does;
+    without either, ``d.plot()`` showed ``<Figure size … with 1 Axes>``. Under IPython, the
+    formatter is registered here where none is (IPython's own, drawing the page as laid out)."""
+    ipython = sys.modules.get("IPython")
+    shell = ipython.get_ipython() if ipython is not None else None
+    if shell is not None:
+        from IPython.core.pylabtools import print_figure
+        from matplotlib.figure import Figure
+
+        png = shell.display_formatter.formatters["image/png"]
+        try:
+            png.lookup_by_type(Figure)
+        except KeyError:
+            png.for_type(Figure, lambda fig: print_figure(fig, "png", bbox_inches=None))
+    return figure
 
 
 def _plot_modes() -> int:
@@ -308,7 +329,7 @@ class MapResult(Result):
         """The graph of f on its usable range, the diagonal, fixed points and folds."""
         from zeromode.viz.sequential import map_figure
 
-        return map_figure(self.body, scale)
+        return _shown_in_jupyter(map_figure(self.body, scale))
 
 
 class SequentialResult(Result):
@@ -331,7 +352,7 @@ class SequentialResult(Result):
         against the drive."""
         from zeromode.viz.sequential import sequential_figure, soliton_figure
 
-        return (soliton_figure if self.body.get("soliton") else sequential_figure)(self.body, scale)
+        return _shown_in_jupyter((soliton_figure if self.body.get("soliton") else sequential_figure)(self.body, scale))
 
 
 # ----------------------------------------------------------------------------- helpers
