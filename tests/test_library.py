@@ -17,7 +17,7 @@ import meshio
 import numpy as np
 import pytest
 from oracles.designs import check_design, check_frame_modes
-from oracles.motion import relative_bar_error
+from oracles.motion import relative_bar_error, rigid_distance
 from oracles.rigidity import (
     compatibility_matrix,
     driven_response,
@@ -219,6 +219,20 @@ def test_continuations_motion_refine_certify(square_design, square_refined):
     assert c.to_dict()["self_stress"]["count"] == reference_counts(d.frame.positions, d.frame.edges)["self_stresses"] == 0
     # Each draws its frame: the motion beside its two ends (three panels).
     assert (svg_bars(m), svg_bars(square_refined), svg_bars(c)) == (3 * 8, 8, 8)
+
+
+def test_refined_frame_carries_the_specified_nodes_to_the_target(square_design, square_refined):
+    # ε(a) from its definition (oracles.motion.rigid_distance): the refined frame's finite motion,
+    # stopped where the diagonal 0–2 has grown by a = 0.1 (a motion target), carries x_S to
+    # x_S + a·u_S up to a rigid motion, every bar kept; the unrefined design cannot get there.
+    x_s = np.array(SQUARE)
+    target = x_s + 0.1 * x_s
+    diagonal = {"kind": "distance", "nodes": [0, 2], "value": float(np.linalg.norm(target[0] - target[2]))}
+    for result, reached in ((square_refined, True), (square_design, False)):
+        path = np.array(result.motion(target=diagonal).to_dict()["path"])
+        assert relative_bar_error(path, result.frame.edges, result.frame.positions) <= 1e-9
+        epsilon = rigid_distance(path[-1][: len(x_s)], target) / np.linalg.norm(0.1 * x_s)
+        assert bool(epsilon < 1e-6) == reached, epsilon
 
 
 def test_motion_and_certify_of_a_given_frame():
