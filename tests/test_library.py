@@ -202,6 +202,8 @@ def test_two_configuration_keeps_every_bar():
     assert np.allclose(y[: len(SQUARE)], final)
     lengths = lambda p: np.linalg.norm(p[edges[:, 0]] - p[edges[:, 1]], axis=1)
     assert np.allclose(lengths(x), lengths(y), rtol=1e-9)
+    # It draws both configurations, every bar in each.
+    assert svg_bars(t) == 2 * len(edges)
 
 
 def test_continuations_motion_refine_certify(square_design, square_refined):

@@ -225,7 +225,24 @@ class AnalysisResult(Result):
 
 
 class DesignResult(Result):
-    """``zm.design``, ``zm.auxetic``, ``zm.allosteric``, ``zm.two_configuration``: a designed frame."""
+    """``zm.design``, ``zm.auxetic``, ``zm.allosteric``: a designed frame (and, as
+    TwoConfigurationResult, ``zm.two_configuration``)."""
+
+
+class TwoConfigurationResult(DesignResult):
+    """``zm.two_configuration``: one frame that sits at both configurations (solution:
+    TwoConfigurationDesign); it draws itself at x_S and at y_S side by side."""
+
+    def picture(self, solution_space: bool = True) -> Picture:
+        """The frame at ``initial`` and at ``final`` (``final_positions``), every bar the same
+        length in both (a /v1/plot body)."""
+        from zeromode.operations.plotting import picture_for_document
+
+        return picture_for_document(
+            {"frame": self.body["frame"], "configurations": [self.body["final_positions"]],
+             "labels": ["initial", "final"]},
+            solution_space=False,
+        )
 
 
 class MotionResult(Result):
@@ -563,7 +580,8 @@ def allosteric(source: Any, target: Any, *, frame: Frame | Result | Mapping | No
     }, DesignResult)
 
 
-def two_configuration(initial: Points, final: Points, *, dim: int | None = None, seed: int = 0) -> DesignResult:
+def two_configuration(initial: Points, final: Points, *, dim: int | None = None,
+                      seed: int = 0) -> TwoConfigurationResult:
     """A frame whose specified nodes can sit at ``initial`` and at ``final`` with every bar
     keeping its length (POST /v1/design/two-configuration).
 
@@ -582,8 +600,9 @@ def two_configuration(initial: Points, final: Points, *, dim: int | None = None,
 
     Returns
     -------
-    DesignResult
-        ``solution`` is the solver's TwoConfigurationDesign.
+    TwoConfigurationResult
+        ``solution`` is the solver's TwoConfigurationDesign; it draws the frame at both
+        configurations.
 
     Examples
     --------
@@ -595,7 +614,7 @@ def two_configuration(initial: Points, final: Points, *, dim: int | None = None,
     """
     return _run("/v1/design/two-configuration", {
         "dim": _dim(initial, dim), "initial": initial, "final": final, "options": {"seed": seed},
-    }, DesignResult)
+    }, TwoConfigurationResult)
 
 
 def multistable(conformations: Sequence[Points], *, barrier: float | None = None, max_stiffness: float = 1.0,
