@@ -13,7 +13,11 @@ Against a `zeromode serve` on loopback (requests answered in process), measured 
    Chain tab reads once for its examples);
 4. a frame of the Multistable and Chain tabs' animations (issue #41): the slider moved to the
    next sample → drawing, springs or chain, and charts rebuilt, FRAMES frames of the default
-   example's design — p50/p95/max.
+   example's design (and of the Chain tab's soliton: its springs, wall and energy chart) —
+   p50/p95/max;
+5. the 3D tab with four specified nodes (their space a quadric surface): EDITS edits of a motion
+   in the table, each from the input event to the surface recomputed (its conic sections) and
+   redrawn, and TURNS moves of a drag that turns the view (event → drawing rebuilt).
 
 The load average is printed beside the figures (the machine is shared).
 
@@ -33,7 +37,7 @@ import numpy as np
 
 from benchmarks.bench_sweeps import start_service_with
 
-MOVES, DESIGNS, FRAMES = 300, 30, 60
+MOVES, DESIGNS, FRAMES, EDITS, TURNS = 300, 30, 60, 100, 100
 # The outward square of Fig. 3 on the page's snapping grid: corners and outward arrows.
 CORNERS = [(1.0, 1.0), (-1.0, 1.0), (-1.0, -1.0), (1.0, -1.0)]
 ARROW = 0.5
@@ -121,16 +125,45 @@ def measure(url: str) -> dict:
             page.wait_for_function(f"designer.timings.design.length > {n}")
             server.append(page.evaluate("designer.response.report.timings_ms.total"))
         design = page.evaluate("designer.timings.design")
-        frames = {tab: stats(animation_frames(page, tab)) for tab in ("multistable", "chain")}
+        frames = {tab: stats(animation_frames(page, tab)) for tab in ("multistable", "chain", "soliton")}
+        surface = surface_updates(page)
         browser.close()
-    return {"live": stats(live), "final_space": kinds, "design": stats(design), "server": stats(server), "frames": frames}
+    return {"live": stats(live), "final_space": kinds, "design": stats(design), "server": stats(server), "frames": frames, **surface}
+
+
+def surface_updates(page) -> dict:
+    """The 3D tab's four-node surface: EDITS table edits of node 4's u_x (swept over [−0.8, 0.8]),
+    then a drag of TURNS moves turning the view; the page's own timings of each (ms)."""
+    page.click("[data-testid=tab-3d]")
+    page.wait_for_function("designer.nodes.length === 5")
+    page.locator("#table3d tbody tr").nth(4).locator("button").click()
+    page.wait_for_function("designer.nodes.length === 4")
+    page.evaluate("designer.timings.table.length = 0; designer.timings.turn.length = 0")
+    cell = page.locator("#table3d tbody tr").nth(3).locator("input").nth(3)
+    shapes = set()
+    for value in 0.8 * np.sin(np.linspace(0, 2 * np.pi, EDITS)):
+        cell.fill(f"{value:.4f}")
+        shapes.add(page.evaluate("designer.spaces[0].shape || designer.spaces[0].kind"))
+    box = page.locator("[data-testid=canvas]").bounding_box()
+    page.mouse.move(box["x"] + 200, box["y"] + 200)
+    page.mouse.down()
+    for t in np.linspace(0, 2 * np.pi, TURNS):
+        page.mouse.move(box["x"] + 200 + 120 * np.sin(t), box["y"] + 200 + 40 * np.sin(2 * t))
+    page.mouse.up()
+    points = sum(len(c) for c in page.evaluate("designer.spaces[0].curves"))
+    return {"surface_edit": stats(page.evaluate("designer.timings.table")), "surface_turn": stats(page.evaluate("designer.timings.turn")),
+            "surface_shapes": sorted(shapes), "surface_points": points}
 
 
 def animation_frames(page, tab: str) -> list[float]:
-    """The tab's default example designed, then FRAMES slider steps timed in the page (the
-    input event's handler: the drawing and the charts rebuilt; ms each)."""
+    """The tab's default example designed ("soliton": the Chain tab's soliton example), then
+    FRAMES slider steps timed in the page (the input event's handler: the drawing and the
+    charts rebuilt; ms each)."""
+    example, tab = (tab, "chain") if tab == "soliton" else (None, tab)
     page.click(f"[data-testid=tab-{tab}]")
     page.wait_for_function("designer.features.length" if tab == "chain" else "designer.conformations.length")
+    if example:
+        page.select_option("[data-testid=chain-example]", example)
     page.click("[data-testid=design]")
     page.wait_for_function("!document.getElementById('play').disabled", timeout=600_000)
     return page.evaluate("""n => {
@@ -174,10 +207,17 @@ def main() -> None:
     ]
     for tab, f in figures["frames"].items():
         lines.append(f"| {tab} animation frame (slider step → drawing and charts rebuilt) | {f['n']} | {f['p50']:.1f} | {f['p95']:.1f} | {f['max']:.1f} | |")
+    for key, what, floor in (("surface_edit", "3D, four nodes: table edit → quadric surface recomputed and redrawn", "p95 ≤ 50"),
+                             ("surface_turn", "3D, four nodes: drag move → view turned, surface redrawn", "")):
+        f = figures[key]
+        lines.append(f"| {what} | {f['n']} | {f['p50']:.1f} | {f['p95']:.1f} | {f['max']:.1f} | {floor} |")
     lines += [
         "",
         (f"Page weight: {sum(weight.values())} bytes ({', '.join(f'{k} {v}' for k, v in weight.items())}); floor 400 KB. "
         f"The Chain tab reads /openapi.json ({openapi} bytes) once, when first opened, for its examples."),
+        "",
+        (f"The 3D edits swept the surface through {', '.join(figures['surface_shapes'])}; "
+         f"{figures['surface_points']} drawn points at the last edit."),
         "",
     ]
     text = "\n".join(lines)

@@ -1,7 +1,9 @@
 """Regenerate the pictures of docs/module_maps.md:
 
-    .venv/bin/python docs/sequential_pictures.py [bifurcation] [deployable] [curvature] [soliton]
+    .venv/bin/python docs/sequential_pictures.py [module] [bifurcation] [deployable] [curvature] [soliton]
 
+docs/img/sequential_map.png          the deployable example's module beside its map (what
+                                     ``zeromode plot`` draws of a /v1/map answer)
 docs/img/sequential_bifurcation.png  the orbit of f (iterates 300…399 from next to the fixed
                                      point) against the hinge's height h of the two-triangle
                                      module, its fixed point (solid: stable, dashed: unstable),
@@ -105,6 +107,13 @@ def bifurcation() -> None:
     figure.savefig(IMG / "sequential_bifurcation.png", dpi=110)
 
 
+def module() -> None:
+    body = SEQUENTIAL_EXAMPLES["deployable"]["value"]
+    designed = zm.sequential(body["features"]).to_dict()["module"]
+    frame = zm.Frame.build(designed["frame"]["positions"], designed["frame"]["edges"])
+    zm.module_map(frame, designed["input_pair"], designed["output_pair"]).plot().savefig(IMG / "sequential_map.png", dpi=100)
+
+
 def deployable() -> None:
     body = SEQUENTIAL_EXAMPLES["deployable"]["value"]
     result = zm.sequential(body["features"], n_modules=body["chain"]["n_modules"], d0=body["chain"]["d0"])
@@ -156,5 +165,5 @@ def soliton() -> None:
 if __name__ == "__main__":
     import sys
 
-    for name in sys.argv[1:] or ["bifurcation", "deployable", "curvature", "soliton"]:
+    for name in sys.argv[1:] or ["module", "bifurcation", "deployable", "curvature", "soliton"]:
         globals()[name]()

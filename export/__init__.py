@@ -8,6 +8,8 @@ for), from one neutral Takeaway (takeaway.py):
   dxf, cut_svg, stl, kit_csv  fabrication in mm: ezdxf, its SVG backend, meshio (fabrication.py)
   svg_animation, gif, mp4  the finite motion as an animation (zeromode.viz.animation; mp4 only
                          where ffmpeg is installed)
+  map_csv, map_svg, map_png  a module's map (a /v1/map answer): its samples, or the module beside
+                         its chart (maps.py)
 """
 
 from __future__ import annotations
@@ -42,6 +44,9 @@ FORMATS = {
     "svg_animation": Format("image/svg+xml", ".svg", True, "the finite motion as an animated SVG (SMIL)"),
     "gif": Format("image/gif", ".gif", True, "the finite motion as a GIF (matplotlib, Pillow)"),
     "mp4": Format("video/mp4", ".mp4", True, "the finite motion as an MP4 (matplotlib, ffmpeg; only where ffmpeg is installed)"),
+    "map_csv": Format("text/csv", ".csv", False, "a /v1/map answer's sampled map: d_in, f(d_in) and f′(d_in) at each sample of the usable range"),
+    "map_svg": Format("image/svg+xml", ".svg", False, "a /v1/map answer as a picture (matplotlib): the module, its pairs marked, beside f with the diagonal, usable range, fixed points and folds"),
+    "map_png": Format("image/png", ".png", False, "the map_svg picture as a PNG"),
 }
 
 
@@ -97,6 +102,10 @@ def export_bytes(
         writer = {"dxf": fabrication.dxf_bytes, "cut_svg": fabrication.cut_svg_bytes,
                   "stl": fabrication.stl_bytes, "kit_csv": fabrication.kit_csv_bytes}[fmt]
         return writer(takeaway, fab)
+    if fmt in ("map_csv", "map_svg", "map_png"):
+        from zeromode.export import maps
+
+        return maps.map_csv_bytes(takeaway) if fmt == "map_csv" else maps.map_picture_bytes(takeaway, fmt[4:])
     from zeromode.viz.animation import animation_svg, animation_video, motion_animation
 
     movie = motion_animation(

@@ -103,13 +103,15 @@ def cmd_example(args) -> int:
 
 
 PLOT_FORMATS = (".svg", ".png", ".pdf")
+# Dots per inch of a map's chart at --scale 1 (matplotlib's figure of inches, not SVG pixels).
+MAP_DPI = 72
 
 
 def cmd_plot(args) -> int:
     import dataclasses
     from pathlib import Path
 
-    from zeromode.operations.plotting import picture_for_document
+    from zeromode.operations.plotting import figure_for_document, picture_for_document
     from zeromode.viz.layout import layout
     from zeromode.viz.svg import scene_svg
 
@@ -117,7 +119,12 @@ def cmd_plot(args) -> int:
     if output.suffix.lower() not in PLOT_FORMATS:
         print(f"error: the output file must end in {', '.join(PLOT_FORMATS)}.", file=sys.stderr)
         return 2
-    picture = picture_for_document(_load_json(args.design), solution_space=not args.no_solution_space)
+    document = _load_json(args.design)
+    figure = figure_for_document(document, title=args.title)  # a module's map: a matplotlib chart
+    if figure is not None:
+        figure.savefig(output, dpi=MAP_DPI * args.scale)
+        return 0
+    picture = picture_for_document(document, solution_space=not args.no_solution_space)
     if args.title is not None:
         picture = dataclasses.replace(picture, title=args.title)
     scene = layout(picture)
@@ -153,17 +160,18 @@ def cmd_export(args) -> int:
     from pathlib import Path
 
     from zeromode.operations.documents import validated
-    from zeromode.operations.exporting import EXPORT_SUFFIXES, export_file
+    from zeromode.operations.exporting import export_file, format_for_suffix
     from zeromode.service.wire.schemas.export import ExportRequest
 
     output = Path(args.output)
-    fmt = args.format or EXPORT_SUFFIXES.get(output.suffix.lower())
+    document = _load_json(args.document)
+    fmt = args.format or format_for_suffix(output.suffix, document)
     if fmt is None:
         print(f"error: give --format (the suffix {output.suffix or '(none)'} does not name one format).", file=sys.stderr)
         return 2
     body = {
         "format": fmt,
-        "document": _load_json(args.document),
+        "document": document,
         "fabrication": {k: v for k, v in (
             ("mm_per_unit", args.mm_per_unit), ("pin_diameter_mm", args.pin_diameter),
             ("link_width_mm", args.link_width), ("thickness_mm", args.thickness),
@@ -341,7 +349,7 @@ def build_parser() -> argparse.ArgumentParser:
     pl = sub.add_parser(
         "plot", help="draw a response (or request, designed first) of /v1/design, /v1/design/auxetic, "
         "/v1/design/allosteric, /v1/design/multistable or /v1/design/sequential (its chain), a /v1/map "
-        "request (its module) or a /v1/plot body, as SVG, PNG or PDF"
+        "request or response (the module beside its map) or a /v1/plot body, as SVG, PNG or PDF"
     )
     pl.add_argument("design", help="JSON file (or - for stdin)")
     pl.add_argument("-o", "--output", required=True, help="out.svg, out.png or out.pdf")
@@ -382,14 +390,15 @@ def build_parser() -> argparse.ArgumentParser:
     de.set_defaults(func=cmd_design)
     exp = sub.add_parser(
         "export", help="write a design, lattice, allosteric, multistable or sequential design (its chain), "
-        "refinement or motion (a response, or a request designed first) for ParaView, networkx, a laser "
-        "cutter, a 3D printer, or as an animation"
+        "module map (its module; .csv: the sampled map), refinement or motion (a response, or a request "
+        "designed first) for ParaView, networkx, a laser cutter, a 3D printer, or as an animation"
     )
     exp.add_argument("document", help="JSON file (or - for stdin)")
     exp.add_argument("-o", "--output", required=True, help="e.g. out.vtu, out.graphml, out.dxf, out.stl, out.gif")
     exp.add_argument(
         "--format", default=None, help="vtk, xdmf, graphml, node_link_json, dxf, cut_svg, stl, kit_csv, "
-        "svg_animation, gif or mp4 (GET /v1/export/formats); default: from the output's suffix",
+        "svg_animation, gif, mp4, map_csv, map_svg or map_png (GET /v1/export/formats); default: from the "
+        "output's suffix (a module map's .csv, .svg, .png: map_csv, map_svg, map_png)",
     )
     exp.add_argument("--frame", default=None, help="the frame (JSON) a /v1/motion response moved")
     exp.add_argument("--mm-per-unit", type=float, default=None, help="cut files: mm per frame unit")

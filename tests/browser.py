@@ -50,3 +50,25 @@ def console_problems(page) -> list[str]:
     page.on("console", lambda msg: problems.append(msg.text) if msg.type == "error" else None)
     page.on("pageerror", lambda exc: problems.append(str(exc)))
     return problems
+
+
+@pytest.fixture(scope="module")
+def designer_url(dask_scheduler):
+    """The real app served by uvicorn on loopback for the designer page (GET /), its jobs on the
+    session's Dask cluster."""
+    from tests.client.conftest import served
+    from zeromode.service.rest.app import create_app
+    from zeromode.service.wire.settings import Settings
+
+    with served(create_app(Settings(dask_scheduler=dask_scheduler))) as url:
+        yield url
+
+
+def open_page(browser, url, width=1280):
+    """A new page of the designer at ``url``, ``width`` px wide, its examples listed; (page, the
+    list its console errors and uncaught exceptions are collected in)."""
+    from benchmarks.bench_designer import goto_designer
+
+    page = browser.new_page(viewport={"width": width, "height": 900}, accept_downloads=True)
+    problems = console_problems(page)
+    return goto_designer(page, url), problems

@@ -4,8 +4,9 @@ Dask cluster behind the jobs API): a design drawn by hand, as the issue's Done-w
 Checked through independent routes: the solution space the page computes in JavaScript
 (service/rest/static/solution_space.js) against the definition — a point p of it has a motion v with
 (x_i − p)·(u_i − v) = 0 for every specified node i, found here by numpy's least squares; the
-outward square's space is the circle through its corners (closed form); the page's ε(a) against
-the service's ε before refinement; the downloaded file read back with meshio. Latency figures
+outward square's space is the circle through its corners (closed form); the ε chart's polylines
+and labels and the Play warning against the service's numbers in its response bodies (the
+curves themselves are checked against an oracle in test_epsilon_curve.py); the downloaded file read back with meshio. Latency figures
 are recorded by benchmarks/bench_designer.py, not asserted here (no test races the clock).
 """
 
@@ -18,7 +19,8 @@ from pathlib import Path
 import meshio
 import numpy as np
 import pytest
-from browser import browser, console_problems  # noqa: F401 (a fixture)
+from browser import browser, designer_url, open_page  # noqa: F401 (fixtures)
+from oracles.rigidity import compatibility_matrix, reference_counts, rigid_generators
 from oracles.two_triangles import TwoTriangles
 from scipy.optimize import brentq
 
@@ -27,29 +29,12 @@ from benchmarks.bench_designer import (
     CORNERS,
     drag_arrow,
     draw_outward_square,
-    goto_designer,
     screen,
     space_d,
 )
-from tests.client.conftest import served
-from zeromode.service.rest.app import create_app
-from zeromode.service.wire.settings import Settings
 
 # Waits for the page: a design, a job on the cluster, on a busy 2-core machine.
 TIMEOUT_MS = 180_000
-
-
-@pytest.fixture(scope="module")
-def designer_url(dask_scheduler):
-    """The real app served by uvicorn on loopback, its jobs on the session's Dask cluster."""
-    with served(create_app(Settings(dask_scheduler=dask_scheduler))) as url:
-        yield url
-
-
-def open_page(browser, url, width=1280):  # noqa: F811 (the fixture's value)
-    page = browser.new_page(viewport={"width": width, "height": 900}, accept_downloads=True)
-    problems = console_problems(page)
-    return goto_designer(page, url), problems
 
 
 def motion_for(x: np.ndarray, u: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, float]:
@@ -73,6 +58,28 @@ def polyline_distance(line: np.ndarray, p: np.ndarray) -> float:
     a, b = line[:-1], line[1:]
     t = np.clip(np.einsum("ij,ij->i", p - a, b - a) / np.maximum(np.einsum("ij,ij->i", b - a, b - a), 1e-300), 0, 1)
     return float(np.linalg.norm(a + t[:, None] * (b - a) - p, axis=1).min())
+
+
+def label_number(text: str) -> float:
+    """The number after "= " in a chart label as the page formats it ("0.431", "1.87e-8")."""
+    return float(text.rsplit("= ", 1)[1])
+
+
+def check_epsilon_chart(page, amplitudes, curves: dict) -> None:
+    """The ε chart (#epsilon) draws exactly ``curves`` (name → ε at ``amplitudes``): each
+    polyline's points are one affine image of (amplitude, ε) shared by all curves (to the
+    page's 0.1 px rounding), and each label states the last value to the page's 3 digits."""
+    lines = {name: np.array([[float(v) for v in p.split(",")] for p in page.get_attribute(
+        f"#epsilon polyline.epsilon.{name}", "points").split()]) for name in curves}
+    assert len(page.query_selector_all("#epsilon polyline.epsilon")) == len(curves)
+    values = np.concatenate([np.asarray(v, dtype=float) for v in curves.values()])
+    pixels = np.concatenate([lines[name] for name in curves])
+    scale_x, residual_x = affine_fit(np.tile(np.asarray(amplitudes, dtype=float), len(curves)), pixels[:, 0])
+    scale_y, residual_y = affine_fit(values, pixels[:, 1])
+    assert scale_x > 0 and scale_y < 0  # ε grows upwards
+    assert residual_x <= 0.06 and residual_y <= 0.06
+    for name, eps in curves.items():
+        assert label_number(page.text_content(f"#epsilon text.epsilon-label.{name}")) == pytest.approx(eps[-1], rel=5e-3)
 
 
 def test_draw_design_play_refine_certify_and_download(browser, designer_url, tmp_path):  # noqa: F811
@@ -105,16 +112,32 @@ def test_draw_design_play_refine_certify_and_download(browser, designer_url, tmp
     assert len(page.query_selector_all("#canvas circle.node")) == len(frame)
     assert len(page.query_selector_all("#canvas line.bar")) == len(design["frame"]["edges"])
     assert page.evaluate("designer.timings.design.length") == 1
+    # The linear design's finite path leaves the arrows (ε ≈ 0.56 at a = 0.3): said, Refine offered.
+    page.wait_for_function("document.getElementById('status').textContent.includes('finite motion')", timeout=TIMEOUT_MS)
+    status = page.inner_text("[data-testid=status]")
+    assert "leaves the arrows" in status and "Refine" in status and page.is_enabled("[data-testid=refine]")
     assert {"specified", "unspecified", "mode", "space-0"} <= legend(page) and "source" not in legend(page)
+    # The Play warning quotes the service's ε at the amplitude (POST /v1/motion's epsilon_curve).
+    linear = page.evaluate("designer.motionPath.epsilon_curve")
+    a = float(page.input_value("[data-testid=amplitude]"))
+    assert linear["amplitudes"][-1] == pytest.approx(a, rel=1e-12)
+    bound = "≥" if linear["at_end"][-1] else "="
+    quoted = str(float(f"{linear['epsilon'][-1]:.2f}"))  # as the page's fmt(ε, 2)
+    assert f"(ε {bound} {quoted} at a = {a:.2f}" in page.inner_text("#status")
+    check_epsilon_chart(page, linear["amplitudes"], {"linear": linear["epsilon"]})
 
     # Play: the slider moves and the nodes with it, every bar still on its nodes.
     reference = page.evaluate("designer.motionPath.reference_index")
+    keys, legend_box = legend(page), page.locator("[data-testid=legend]").bounding_box()
     page.click("[data-testid=play]")
     page.wait_for_function(f"+document.getElementById('slider').value !== {reference}")
     page.click("[data-testid=play]")
     k = int(page.input_value("[data-testid=slider]"))
     moved = np.array(page.evaluate("designer.motionPath.path")[k])
     assert np.abs(moved - frame).max() > 1e-3
+    # The legend stays as it was (the mode's arrows, drawn at t = 0, keep their entry): nothing
+    # under the drawing jumps while it plays.
+    assert legend(page) == keys and page.locator("[data-testid=legend]").bounding_box() == legend_box
 
     # The amplitude control sets how far the motion is followed.
     page.eval_on_selector("[data-testid=amplitude]", "e => { e.value = '0.2'; e.dispatchEvent(new Event('input')); }")
@@ -122,26 +145,43 @@ def test_draw_design_play_refine_certify_and_download(browser, designer_url, tmp
                            timeout=TIMEOUT_MS)
 
     page.evaluate("designer.progressLog.length = 0")
+    # The bar as drawn: every width its fill takes while the job runs (read from the DOM).
+    page.evaluate("""() => {
+        const fill = document.querySelector('[data-testid=progress] > div');
+        window.widths = [];
+        new MutationObserver(() => window.widths.push(parseFloat(fill.style.width))).observe(fill, {attributes: true});
+    }""")
     page.click("[data-testid=refine]")
     page.wait_for_function("designer.refined && designer.refinedPath", timeout=TIMEOUT_MS)
     progress = page.evaluate("designer.progressLog")
     assert progress[-1] == 1 and len(set(progress)) >= 2 and progress == sorted(progress)
+    widths = page.evaluate("window.widths")
+    assert widths[0] == 0 and widths[-1] == 100 and widths == sorted(widths)
     refined = page.evaluate("designer.refined")
     assert refined["epsilon_after"] < refined["epsilon_before"]
-    # The page's ε(a) (traced samples joined straight, 2D Kabsch in closed form) near the service's ε
-    # (polished on the constraint manifold) for the linear design.
-    page_eps = page.evaluate("""() => {
-        const f = designer.frame, spec = f.specified, u = spec.map((i) => designer.modes[0][i]);
-        return epsilonCurve(designer.motionPath.path, spec, spec.map((i) => f.positions[i]), u, [0.2])[0];
-    }""")
-    assert page_eps == pytest.approx(refined["epsilon_before"], rel=0.1, abs=0.01)
-    assert len(page.query_selector_all("#epsilon polyline.epsilon")) == 2
+    # The chart draws the service's curves, whose last values are the report's ε before and after.
+    curve = refined["epsilon_curve"]
+    assert curve["before"][-1] == refined["epsilon_before"] and curve["after"][-1] == refined["epsilon_after"]
+    check_epsilon_chart(page, curve["amplitudes"], {"linear": curve["before"], "refined": curve["after"]})
     report = page.inner_text("[data-testid=report]")
     assert "ε before" in report and "ε after" in report
 
     page.click("[data-testid=certify]")
     page.wait_for_function("designer.certificate", timeout=TIMEOUT_MS)
     assert "rigidity margin" in page.inner_text("[data-testid=report]")
+    # No self-stress: "not prestress stable" is what a mechanism should be, and the page says so.
+    assert page.evaluate("designer.certificate.prestress.decided_by") == "no_self_stress"
+    assert "stays free" in page.inner_text("[data-testid=status]")
+    assert "expected for a mechanism" in page.get_attribute("[data-testid=report] tr[data-row='prestress stable']", "title")
+    # Every row of the report has its one-line meaning on hover; everything answered is behind
+    # the raw JSON toggle, a vector to a line.
+    titles = page.eval_on_selector_all("[data-testid=report] tr:not(.section)", "rs => rs.map(r => r.title)")
+    assert len(titles) > 20 and all(titles)
+    assert page.is_hidden("#raw")
+    page.check("[data-testid=raw-toggle]")
+    raw = page.inner_text("#raw")
+    assert json.loads(raw)["design"] == design and json.loads(raw)["certificate"] == page.evaluate("designer.certificate")
+    assert f"[{x[0][0]:g},{x[0][1]:g}]" in raw.replace(".0,", ",").replace(".0]", "]")
     assert page.get_attribute("[data-testid=progress]", "data-value") == "1"
 
     with page.expect_download() as info:
@@ -240,7 +280,7 @@ def test_sheet_and_allostery_forms_legends_errors_and_layout(browser, designer_u
     assert page.query_selector_all("#canvas polygon.marker.source") and page.query_selector_all("#canvas polygon.marker.target")
 
     # From 800 to 1920 px: the drawing fits the window, the slider keeps its width as t changes.
-    for width in (800, 1920):
+    for width in (800, 1024, 1400, 1920):
         page.set_viewport_size({"width": width, "height": 900})
         canvas = page.locator("[data-testid=canvas]").bounding_box()
         assert canvas["x"] >= 0 and canvas["x"] + canvas["width"] <= width and canvas["width"] > 300
@@ -319,6 +359,285 @@ def test_a_3d_target_from_the_table(browser, designer_url):  # noqa: F811
     page.close()
 
 
+def determinant(x: np.ndarray, u: np.ndarray, p: np.ndarray) -> float:
+    """det[x_i − p, (x_i − p)·u_i] for four specified nodes in 3D, relative to the product of the
+    rows' norms: zero iff (x_i − p)·v = (x_i − p)·u_i has a solution v (when the x_i − p span R³)."""
+    rows = np.column_stack([x - p, np.einsum("ij,ij->i", x - p, u)])
+    return float(abs(np.linalg.det(rows)) / np.prod(np.linalg.norm(rows, axis=1)))
+
+
+def four_node_surface(page) -> tuple[np.ndarray, np.ndarray]:
+    """The 3D tab with its fifth specified node removed: four nodes, their space a surface."""
+    page.click("[data-testid=tab-3d]")
+    page.wait_for_function("designer.nodes.length === 5")
+    page.locator("#table3d tbody tr").nth(4).locator("button").click()
+    page.wait_for_function("designer.nodes.length === 4 && designer.spaces[0].kind === 'quadric'")
+    return np.array(page.evaluate("designer.nodes.map((n) => n.x)")), np.array(page.evaluate("designer.motions[0]"))
+
+
+def drawn_points(page) -> np.ndarray:
+    return np.concatenate([np.array(c) for c in page.evaluate("designer.spaces[0].curves")])
+
+
+def test_four_nodes_in_3d_draw_their_quadric_surface(browser, designer_url):  # noqa: F811
+    """Four specified nodes in 3D (m = 3): the page draws a surface of positions (Fig. 2g), every
+    drawn point with a motion meeting the four conditions (numpy least squares and the determinant,
+    from the definition), spread over the box around the nodes; where a line meets the surface
+    (numpy's roots of the determinant, quadratic along a line) the page's ray hit lands; an edit of
+    the table redraws it; the degenerate cases — the tetrahedron's dilation (its circumsphere, closed
+    form), a plane pair, coplanar nodes (a plane), a rigid motion (every position, as numpy finds),
+    eight nodes (no solution, numpy agrees) — are named with their reason."""
+    page, problems = open_page(browser, designer_url)
+    x, u = four_node_surface(page)
+    assert page.get_attribute("[data-testid=solution-space]", "data-kind") == "quadric"
+    assert page.get_attribute("[data-testid=solution-space]", "data-shape").startswith("a hyperboloid")
+    assert "surface" in page.inner_text("[data-testid=space-text]")
+    points = drawn_points(page)
+    assert len(points) > 500
+    assert max(motion_for(x, u, p)[1] for p in points) < 1e-9
+    assert max(determinant(x, u, p) for p in points) < 1e-9
+    # The oracle tells the surface from the space around it: points off it fail.
+    rng = np.random.default_rng(3)
+    off = x.mean(axis=0) + rng.normal(size=(20, 3))
+    assert np.median([determinant(x, u, p) for p in off]) > 1e-3
+    # Spread over the box: the drawn points reach past the nodes' extent on every axis.
+    assert np.all(np.ptp(points, axis=0) >= np.ptp(x, axis=0))
+    for _ in range(6):
+        centre, e = x.mean(axis=0) + 0.3 * rng.normal(size=3), rng.normal(size=3)
+        e /= np.linalg.norm(e)
+        ts = np.array([-1.0, 0.0, 1.0])
+        coef = np.polyfit(ts, [np.linalg.det(np.column_stack([x - centre - t * e, np.einsum("ij,ij->i", x - centre - t * e, u)])) for t in ts], 2)
+        roots = sorted(t.real for t in np.roots(coef) if abs(t.imag) < 1e-9)
+        lo, hi = np.array(page.evaluate("designer.spaces[0].box"))
+        inside = [t for t in roots if np.all(centre + t * e >= lo - 1e-12) and np.all(centre + t * e <= hi + 1e-12)]
+        hit = page.evaluate("([o, d]) => SolutionSpace.hit(designer.spaces[0], o, d)", [(centre + 10 * e).tolist(), (-e).tolist()])
+        if inside:  # the first root met coming from +10 e
+            assert np.linalg.norm(np.array(hit) - (centre + max(inside) * e)) < 1e-9 * np.ptp(x)
+        else:
+            assert hit is None
+    before = space_d(page)
+    page.locator("#table3d tbody tr").nth(3).locator("input").nth(3).fill("0.4")  # u_x of node 4
+    page.wait_for_function(f"document.querySelector('[data-testid=solution-space]').getAttribute('d') !== {before!r}")
+    u[3, 0] = 0.4
+    assert np.allclose(page.evaluate("designer.motions[0]"), u)
+    assert max(motion_for(x, u, p)[1] for p in drawn_points(page)) < 1e-9
+
+    def space(x, u):
+        return page.evaluate("""([x, u]) => { const s = SolutionSpace.compute(x, u);
+            return {kind: s.kind, shape: s.shape, reason: s.reason, curves: s.curves}; }""", [x.tolist(), u.tolist()])
+
+    tetra = np.array([[1.0, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]])
+    sphere = space(tetra, 0.5 * tetra)
+    assert (sphere["kind"], sphere["shape"]) == ("quadric", "a sphere")
+    ball = np.concatenate([np.array(c) for c in sphere["curves"]])
+    assert np.allclose(np.linalg.norm(ball, axis=1), np.sqrt(3), atol=1e-9)  # the circumsphere
+    planes = space(tetra, tetra * [1, -1, 0])
+    assert (planes["kind"], planes["shape"]) == ("quadric", "a pair of crossing planes")
+    pair = np.concatenate([np.array(c) for c in planes["curves"]])
+    assert max(motion_for(tetra, tetra * [1, -1, 0], p)[1] for p in pair) < 1e-9
+    flat = rng.normal(size=(4, 3)) * [1, 1, 0]
+    motion = rng.normal(size=(4, 3))
+    plane = space(flat, motion)
+    assert (plane["kind"], plane["shape"]) == ("quadric", "a plane") and "coplanar" in page.evaluate(
+        "([x, u]) => { designer.spaces = [SolutionSpace.compute(x, u)]; describeSpaces(); return document.getElementById('space-text').textContent; }",
+        [flat.tolist(), motion.tolist()])
+    sheet = np.concatenate([np.array(c) for c in plane["curves"]])
+    assert np.linalg.svd(sheet - sheet.mean(axis=0), compute_uv=False)[2] < 1e-9 * np.ptp(sheet)
+    assert max(motion_for(flat, motion, p)[1] for p in sheet) < 1e-9
+    rigid = space(tetra, np.cross([0.0, 0, 1], tetra))
+    assert rigid["kind"] == "volume" and "every position" in rigid["reason"]
+    assert max(motion_for(tetra, np.cross([0.0, 0, 1], tetra), p)[1] for p in rng.normal(size=(10, 3))) < 1e-9
+    eight, motions = rng.normal(size=(8, 3)), rng.normal(size=(8, 3))
+    none = space(eight, motions)
+    a_tilde, b = np.column_stack([motions, eight, -np.ones(8)]), np.einsum("ij,ij->i", eight, motions)
+    z, *_ = np.linalg.lstsq(a_tilde, b, rcond=None)
+    assert np.linalg.norm(a_tilde @ z - b) > 1e-6 * np.linalg.norm(b)
+    assert none["kind"] == "none" and "contradict" in none["reason"]
+    assert problems == []
+    page.close()
+
+
+def residuals(x: np.ndarray, u: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """motion_for's relative residual at many points at once (batched pseudo-inverse)."""
+    rows = x[None] - points[:, None]
+    rhs = np.einsum("pij,ij->pi", rows, u)
+    v = np.einsum("pji,pi->pj", np.linalg.pinv(rows), rhs)
+    scale = np.abs(rows).max(axis=(1, 2)) * np.maximum(np.abs(u).max(), np.abs(v).max(axis=1))
+    return np.abs(np.einsum("pij,pj->pi", rows, v) - rhs).max(axis=1) / scale
+
+
+def determinant_quadric(x: np.ndarray, u: np.ndarray, rng) -> np.ndarray:
+    """The 4×4 symmetric D with p̃ᵀDp̃ = det[x_i − p, (x_i − p)·u_i] (degree two in p), fitted to
+    the determinant at 40 random points by least squares (the fit's residual checked)."""
+    ps = x.mean(axis=0) + rng.normal(size=(40, 3))
+    dets = np.array([np.linalg.det(np.column_stack([x - p, np.einsum("ij,ij->i", x - p, u)])) for p in ps])
+    pairs = [(a, b) for a in range(4) for b in range(a, 4)]
+    h = np.column_stack([ps, np.ones(len(ps))])
+    basis = np.column_stack([h[:, a] * h[:, b] for a, b in pairs])
+    coef, *_ = np.linalg.lstsq(basis, dets, rcond=None)
+    assert np.abs(basis @ coef - dets).max() <= 1e-8 * np.abs(dets).max()
+    d = np.zeros((4, 4))
+    for (a, b), c in zip(pairs, coef):
+        d[a, b] += c / 2
+        d[b, a] += c / 2
+    return d / np.linalg.norm(d)
+
+
+# (rank of D, rank of its 3×3 block) for each named surface: quadrics classified by ranks.
+SHAPE_RANKS = {
+    "an ellipsoid": (4, 3), "a sphere": (4, 3), "a hyperboloid of one sheet": (4, 3), "a hyperboloid of two sheets": (4, 3),
+    "a cone": (3, 3), "an elliptic paraboloid": (4, 2), "a hyperbolic paraboloid": (4, 2), "an elliptic cylinder": (3, 2),
+    "a hyperbolic cylinder": (3, 2), "a pair of crossing planes": (2, 2), "a parabolic cylinder": (3, 1),
+    "a pair of parallel planes": (2, 1), "a plane": (1, 1),
+}
+
+
+def test_every_kind_of_quadric_surface_from_the_definition(browser, designer_url):  # noqa: F811
+    """Four specified nodes on a small integer grid (or a regular tetrahedron), moved by integer
+    linear maps or at random: every surface the page draws has all its points on the space
+    (numpy least squares), and the name it gives matches the quadric numpy fits to the
+    determinant det[x_i − p, (x_i − p)·u_i] (its ranks; for rank 4 its signature), and the drawing
+    reaches wherever random lines meet that quadric inside the box — all thirteen
+    kinds met (coplanar nodes whose plane of solutions misses the box around them draw nothing:
+    numpy's plane has the box's corners on one side); "none" only where numpy finds Ã z = b inconsistent, "volume" only where every
+    random position has a motion."""
+    page, problems = open_page(browser, designer_url)
+    rng = np.random.default_rng(42)
+    tetra = np.array([[1.0, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]])
+    # The rarest kinds given (found by the same kind of draw), then random draws.
+    cases = [(tetra, np.array([[3.0, -1, 1], [-1, -1, -3], [-1, 3, 1], [-1, -1, 1]])),  # a sphere
+             (np.array([[2.0, 0, -1], [2, 1, 0], [0, -2, 0], [-2, 1, 1]]),
+              np.array([[-1.0, 1, -3], [0, 0, -1], [0, 0, -2], [1, -1, 4]])),  # a parabolic cylinder
+             (tetra, np.array([[-1.0, 1, 1], [1, 1, -1], [-1, -1, -1], [1, -1, 1]]))]  # parallel planes
+    for trial in range(120):
+        x = tetra if trial % 2 else rng.integers(-2, 3, size=(4, 3)).astype(float)
+        cases.append((x, x @ rng.integers(-1, 2, size=(3, 3)).T if trial % 3 else rng.integers(-1, 2, size=(4, 3)).astype(float)))
+    seen = set()
+    for x, u in cases:
+        s = page.evaluate("([x, u]) => { const s = SolutionSpace.compute(x, u); return {kind: s.kind, shape: s.shape, curves: s.curves, box: s.box}; }",
+                          [x.tolist(), u.tolist()])
+        a_tilde, b = np.column_stack([u, x, -np.ones(4)]), np.einsum("ij,ij->i", x, u)
+        z, *_ = np.linalg.lstsq(a_tilde, b, rcond=None)
+        consistent = np.linalg.norm(a_tilde @ z - b) <= 1e-9 * max(np.linalg.norm(b), 1)
+        if s["kind"] == "none":
+            assert not consistent, (x, u)
+            continue
+        assert consistent, (x, u)
+        if s["kind"] == "volume":
+            assert residuals(x, u, x.mean(axis=0) + rng.normal(size=(10, 3))).max() < 1e-9, (x, u)
+            continue
+        assert s["kind"] == "quadric", (x, u, s["kind"])
+        coplanar = np.linalg.matrix_rank(np.column_stack([x, np.ones(4)])) < 4
+        if not s["curves"]:
+            # Nothing drawn: only coplanar nodes (else the space holds them), whose space lies in the
+            # plane of the linear solutions' positions z*_p + span of the null vectors' position
+            # rows (numpy's SVD of Ã) — a plane that misses the box: its corners all on one side.
+            assert coplanar, (x, u)
+            _, _, vt = np.linalg.svd(a_tilde)
+            normal = np.linalg.svd(vt[4:, :3])[2][-1]
+            corners = np.array(list(itertools.product(*zip(*s["box"]))))
+            side = (corners - z[:3]) @ normal
+            assert np.all(side > 0) or np.all(side < 0), (x, u)
+            continue
+        drawn = np.concatenate([np.array(c) for c in s["curves"]])
+        assert residuals(x, u, drawn).max() < 1e-9, (x, u, s["shape"])
+        seen.add(s["shape"])
+        if coplanar:
+            continue  # coplanar nodes: the determinant gains the nodes' plane as a spurious factor
+        d = determinant_quadric(x, u, rng)
+        # The wireframe covers the surface in the box: where random lines through the box meet
+        # p̃ᵀDp̃ = 0 (numpy's roots) a drawn line is near (a fifth of the box's side).
+        lo, hi = np.array(s["box"])
+        for _ in range(4):
+            c, e = lo + (hi - lo) * rng.random(3), rng.normal(size=3)
+            line = np.array([[*(c + t * e), 1] for t in (-1.0, 0.0, 1.0)])
+            coef = np.polyfit([-1.0, 0.0, 1.0], np.einsum("ti,ij,tj->t", line, d, line), 2)
+            for t in np.roots(coef):
+                p = c + t.real * e
+                if abs(t.imag) < 1e-9 and np.all(p >= lo) and np.all(p <= hi):
+                    gap = min(polyline_distance(np.array(curve), p) for curve in s["curves"])
+                    assert gap < 0.1 * np.max(hi - lo), (x, u, s["shape"], p)
+        ranks = (np.linalg.matrix_rank(d, tol=1e-7), np.linalg.matrix_rank(d[:3, :3], tol=1e-7))
+        assert ranks == SHAPE_RANKS[s["shape"]], (x, u, s["shape"], ranks)
+        if ranks == (4, 3):
+            signs = np.sign(np.linalg.eigvalsh(d)), np.sign(np.linalg.eigvalsh(d[:3, :3]))
+            one_sheet = abs(signs[0].sum()) == 0
+            ellipsoid = abs(signs[1].sum()) == 3
+            assert (s["shape"] == "a hyperboloid of one sheet") == one_sheet and (s["shape"] in ("an ellipsoid", "a sphere")) == ellipsoid
+    assert seen == set(SHAPE_RANKS), set(SHAPE_RANKS) - seen
+    assert problems == []
+    page.close()
+
+
+def test_nodes_placed_by_hand_on_the_3d_surface_make_the_design(browser, designer_url):  # noqa: F811
+    """Five unspecified nodes placed by clicking the surface of four specified nodes: each on the
+    space to 1e-9 (numpy least squares), with the motion the linear system gives it; a click off
+    the drawing places nothing; with four placed, Design refuses (two non-rigid modes); Design uses the hand-built frame, and numpy's SVD of C (built here
+    from the positions and bars the service analysed) has exactly one non-rigid zero mode, which
+    moves the specified nodes along the requested motion; the finite motion is traced. On the five
+    nodes' curve, a click places a node on it too."""
+    page, problems = open_page(browser, designer_url)
+    x, u = four_node_surface(page)
+    page.check("[data-testid=place-3d]")
+    box = page.locator("[data-testid=canvas]").bounding_box()
+    page.mouse.click(box["x"] + 3, box["y"] + 3)  # empty corner: nothing
+    page.wait_for_selector("#status.error")
+    assert page.evaluate("designer.placed.length") == 0
+    points = drawn_points(page)
+    rng = np.random.default_rng(40)
+    for n, i in enumerate(rng.choice(len(points), 5, replace=False)):
+        page.mouse.click(*screen(page, points[i]))
+        page.wait_for_function(f"designer.placed.length === {n + 1}")
+        if n == 3:  # four placed: the frame still has two non-rigid modes, and Design says so
+            page.click("[data-testid=design]")
+            page.wait_for_function("document.getElementById('status').textContent.includes('not the one target motion')",
+                                   timeout=TIMEOUT_MS)
+            assert "2 non-rigid zero modes" in page.inner_text("[data-testid=status]")
+            assert page.evaluate("designer.response") is None and page.evaluate("designer.placed.length") == 4
+    placed = page.evaluate("designer.placed")
+    for node in placed:
+        p, v = np.array(node["x"]), np.array(node["u"])
+        assert motion_for(x, u, p)[1] < 1e-9
+        assert np.allclose(v, motion_for(x, u, p)[0], rtol=1e-9, atol=1e-9 * np.abs(u).max())
+    page.wait_for_function("document.getElementById('status').textContent.includes('built by hand: 9 nodes')", timeout=TIMEOUT_MS)
+    assert "20 bars, 1 non-rigid zero mode, 0 self-stresses" in page.inner_text("[data-testid=status]")
+    page.click("[data-testid=design]")
+    page.wait_for_selector("[data-testid=play]:not([disabled])", timeout=TIMEOUT_MS)
+    design = page.evaluate("designer.response")
+    frame = np.array(design["frame"]["positions"])
+    assert np.allclose(frame[:4], x) and np.allclose(frame[4:], [n["x"] for n in placed])
+    c = compatibility_matrix(frame, design["frame"]["edges"])
+    counts = reference_counts(frame, design["frame"]["edges"])
+    assert (counts["zero_modes"], counts["nontrivial_zero_modes"], counts["self_stresses"]) == (7, 1, 0)
+    sigma = np.linalg.svd(c, compute_uv=False)
+    assert len(sigma) == 20 and sigma[-1] > 1e-6 * sigma[0]  # full row rank, decided with a wide gap
+    # That one carries the requested motion: u_S extends to a zero mode (C_U v_U = −C_S u_S) ...
+    rhs = -c[:, :12] @ u.ravel()
+    v_u, *_ = np.linalg.lstsq(c[:, 12:], rhs, rcond=None)
+    assert np.linalg.norm(c[:, 12:] @ v_u - rhs) < 1e-9 * np.linalg.norm(rhs)
+    # ... and u_S is not a rigid motion of the specified nodes (so it is the non-rigid one).
+    rigid = rigid_generators(x)
+    w, *_ = np.linalg.lstsq(rigid, u.ravel(), rcond=None)
+    assert np.linalg.norm(rigid @ w - u.ravel()) > 0.1 * np.linalg.norm(u)
+    mode = np.array(design["modes"][0])
+    assert np.allclose(mode[:4], u) and np.linalg.norm(c @ mode.ravel()) < 1e-9 * np.linalg.norm(c) * np.linalg.norm(mode)
+    assert page.evaluate("designer.motionPath.path.length") > 2
+    page.click("[data-testid=clear-placed]")  # back to judicious placement
+    assert page.evaluate("[designer.placed.length, designer.response]") == [0, None]
+
+    # Five specified nodes: their curve (Fig. 2e); a click on it places a node exactly on it.
+    page.click("[data-testid=tab-3d]")
+    page.wait_for_function("designer.nodes.length === 5 && designer.spaces[0].kind === 'conic'")
+    x5, u5 = np.array(page.evaluate("designer.nodes.map((n) => n.x)")), np.array(page.evaluate("designer.motions[0]"))
+    curve = drawn_points(page)
+    page.mouse.click(*screen(page, curve[np.argmin(np.linalg.norm(curve - x5.mean(axis=0), axis=1))]))
+    page.wait_for_function("designer.placed.length === 1")
+    assert motion_for(x5, u5, np.array(page.evaluate("designer.placed[0].x")))[1] < 1e-9
+    # The refused click is the page's one error line (a status, not a console error).
+    assert problems == []
+    page.close()
+
+
 def test_allosteric_sites_picked_on_a_network(browser, designer_url, tmp_path):  # noqa: F811
     """Allostery inside a given network: the drawn triangulated sheet, two source and two target
     nodes picked on it with their motions dragged; the modified frame's mode moves every bar
@@ -333,7 +652,7 @@ def test_allosteric_sites_picked_on_a_network(browser, designer_url, tmp_path): 
     page.set_input_files("[data-testid=network-file]", str(upload))
     page.wait_for_function("designer.network && designer.network.positions.length === 3")
     assert len(page.query_selector_all("#canvas circle.network-node")) == 3
-    assert len(page.query_selector_all("#canvas line.bar.network")) == 3
+    assert page.get_attribute("#canvas path.bar.network", "d").count("L") == 3
     page.click("[data-testid=network-sheet]")
     positions = np.array(page.evaluate("designer.network.positions"))
     order = np.lexsort((positions[:, 0], positions[:, 1]))
@@ -360,6 +679,16 @@ def test_allosteric_sites_picked_on_a_network(browser, designer_url, tmp_path): 
     assert {"source", "target"} <= legend(page)
     assert problems == []
     page.close()
+
+
+def designed(page) -> dict:
+    """Design pressed, and the body once the page has its motion to play (the refusal said if not)."""
+    page.click("[data-testid=design]")
+    page.wait_for_function("(designer.response && !document.getElementById('play').disabled) || document.getElementById('status').className === 'error'",
+                           timeout=TIMEOUT_MS)
+    body = page.evaluate("designer.response")
+    assert body, page.inner_text("[data-testid=status]")
+    return body
 
 
 def affine_fit(values: np.ndarray, pixels: np.ndarray) -> tuple[float, float]:
@@ -410,11 +739,7 @@ def test_multistable_design_with_its_energy_landscape(browser, designer_url):  #
     assert height(after) - height(before) == pytest.approx(0.15, abs=1e-3)
     page.fill(apex, "1.15")
     page.fill("[data-testid=barrier]", "0.0001")  # the default is 8.5e-5, the springs reach 1.7e-4
-    page.click("[data-testid=design]")
-    page.wait_for_function("(designer.response && !document.getElementById('play').disabled) || document.getElementById('status').className === 'error'",
-                           timeout=TIMEOUT_MS)
-    body = page.evaluate("designer.response")
-    assert body, page.inner_text("[data-testid=status]")
+    body = designed(page)
     land, minima = body["landscape"], body["minima"]
     assert body["report"]["barrier"] == 0.0001
     assert np.array(body["conformations"])[2, 2, 1] == 1.15
@@ -489,11 +814,7 @@ def test_chain_animated_with_its_map_as_a_cobweb(browser, designer_url, tmp_path
     assert page.input_value("[data-testid=d0]") == "1.21"
     assert len(page.query_selector_all("[data-testid=features] tr")) == 2
     page.fill("[data-testid=n-modules]", "10")
-    page.click("[data-testid=design]")
-    page.wait_for_function("(designer.response && !document.getElementById('play').disabled) || document.getElementById('status').className === 'error'",
-                           timeout=TIMEOUT_MS)
-    body = page.evaluate("designer.response")
-    assert body, page.inner_text("[data-testid=status]")
+    body = designed(page)
     chain = body["chain"]
     path = np.array(chain["path"])
     assert len(chain["pairs"]) == 11 and len(page.query_selector_all("#canvas line.pair")) == 11
@@ -614,4 +935,149 @@ def test_a_given_module_mapped(browser, designer_url):  # noqa: F811
     assert page.get_attribute("[data-testid=tab-multistable]", "aria-selected") == "true"
     assert page.evaluate("designer.response") is None and page.is_hidden("#map-box")
     assert problems == []
+    page.close()
+
+
+def drawn_segment(d: str) -> np.ndarray:
+    """The first and last points of an SVG path's ``d`` (M x y L … L x y)."""
+    numbers = np.array([float(v) for v in d.replace("M", " ").replace("L", " ").split()]).reshape(-1, 2)
+    return np.array([numbers[0], numbers[-1]])
+
+
+def wall_from_definition(d: np.ndarray, d_u: float, d_s: float) -> float:
+    """The domain wall of distances d (n + 1,): the fractional index where the switched fraction
+    s_k = (d_k − d_u)/(d_s − d_u) first reaches ½, s interpolated linearly between pairs; NaN if
+    it never does."""
+    s = (d - d_u) / (d_s - d_u)
+    up = np.flatnonzero((s[:-1] < 0.5) & (s[1:] >= 0.5))
+    if not len(up):
+        return float("nan")
+    k = up[0]
+    return float(k + (0.5 - s[k]) / (s[k + 1] - s[k]))
+
+
+def test_soliton_springs_and_travelling_wall(browser, designer_url):  # noqa: F811
+    """Issue #41's soliton in the Chain tab (its OpenAPI example): the chain's rods and one spring
+    per copy drawn as zig-zags whose ends are the body's spring nodes (through the drawing's map
+    fitted on the drawn nodes), the domain wall drawn on the chain where the wall recomputed here
+    from the body's d_k (numpy, from its definition) puts it — the point of the chain at
+    the fractional index, the pairs' midpoints interpolated — and moving monotonically out along the
+    chain as Play drives the input from d_s towards d_u; under it, d_k along the chain with the
+    wall at that index, and the springs' energy along the drive with the cursor."""
+    page, problems = open_page(browser, designer_url)
+    page.click("[data-testid=tab-chain]")
+    page.wait_for_function("designer.features.length === 2")
+    page.select_option("[data-testid=chain-example]", "soliton")
+    assert page.is_checked("[data-testid=soliton]") and page.is_visible("[data-testid=stiffness]")
+    assert page.is_hidden("[data-testid=d0]")
+    page.fill("[data-testid=n-modules]", "10")
+    page.fill("[data-testid=stiffness]", "2")
+    body = designed(page)
+    chain, sol = body["chain"], body["soliton"]
+    assert sol["stiffness"] == 2 and len(sol["springs"]["pairs"]) == 10 and len(chain["pairs"]) == 11
+    path, distances, pairs = np.array(chain["path"]), np.array(chain["distances"]), np.array(chain["pairs"])
+    d_u, d_s = sol["unstable"]["d"], sol["stable"]["d"]
+    rows = np.array(sol["rows"])
+    samples = len(rows)
+    # The wall from its definition at every drive sample, against the body's.
+    walls = np.array([wall_from_definition(distances[r], d_u, d_s) for r in rows])
+    body_walls = np.array([np.nan if w is None else w for w in sol["wall"]])
+    assert np.array_equal(np.isnan(walls), np.isnan(body_walls))
+    assert np.allclose(walls[~np.isnan(walls)], body_walls[~np.isnan(walls)], rtol=0, atol=1e-12)
+    assert np.nanmax(walls) - np.nanmin(walls) >= 8
+
+    assert page.evaluate("+document.getElementById('slider').max") == samples - 1
+    # It opens where the wall has entered the chain (the first sample from the stable end with one).
+    entered = max(k for k in range(samples) if not np.isnan(walls[k]) and np.all(np.isnan(walls[k + 1:])))
+    assert int(page.input_value("[data-testid=slider]")) == samples - 1 - entered
+    assert len(page.query_selector_all("#canvas line.bar")) == len(chain["frame"]["edges"])
+    assert {"rod", "spring", "wall", "pair"} <= legend(page)
+
+    def frame():
+        """What one animation frame shows, read at once: the slider, the drawn nodes, springs and wall."""
+        return page.evaluate("""() => {
+            const wall = document.querySelector('#canvas circle.wall'), a = (e, n) => +e.getAttribute(n);
+            return { k: +document.getElementById('slider').value,
+                     nodes: [...document.querySelectorAll('#canvas circle.node')].map((c) => [a(c, 'cx'), a(c, 'cy')]),
+                     springs: [...document.querySelectorAll('#canvas path.spring')].map((p) => p.getAttribute('d')),
+                     wall: wall && { w: +wall.dataset.wall, at: [a(wall, 'cx'), a(wall, 'cy')] },
+                     profileWall: (() => { const l = document.querySelector('#profile line.wall'); return l && a(l, 'x1'); })(),
+                     bars: [...document.querySelectorAll('#profile rect.distance')].map((r) => a(r, 'x') + a(r, 'width') / 2),
+                     cursor: +document.querySelector('[data-testid=landscape-cursor]').getAttribute('x1') };
+        }""")
+
+    def check(f, to_page=None):
+        """Frame f against the body: slider sample k shows drive sample P − 1 − k (the drive played
+        from the stable end); springs and wall through the drawing's map (fitted here unless given)."""
+        row = rows[samples - 1 - f["k"]]
+        x = path[row]
+        if to_page is None:
+            to_page, residual = similarity_fit(x, np.array(f["nodes"]))
+            assert residual < 0.01
+        assert np.abs(to_page(x) - np.array(f["nodes"])).max() < 0.01
+        ends = np.array([drawn_segment(d) for d in f["springs"]])
+        want = np.stack([to_page(x[[i for i, _ in sol["springs"]["pairs"]]]), to_page(x[[j for _, j in sol["springs"]["pairs"]]])], axis=1)
+        assert ends.shape == want.shape and np.abs(ends - want).max() <= 0.1
+        w = walls[samples - 1 - f["k"]]
+        if np.isnan(w):
+            assert f["wall"] is None and f["profileWall"] is None
+            return to_page, w
+        assert f["wall"]["w"] == pytest.approx(w, abs=1e-9)
+        k = min(int(np.floor(w)), len(pairs) - 2)
+        phi = w - k
+        middle = x[pairs].mean(axis=1)  # each pair's midpoint
+        place = (1 - phi) * middle[k] + phi * middle[k + 1]  # pair k's and pair k + 1's, interpolated as w is
+        assert np.abs(to_page(place[None])[0] - np.array(f["wall"]["at"])).max() <= 0.1
+        # d_k along the chain: the wall's line where index w is on the bars' axis.
+        a, residual = affine_fit(np.arange(len(f["bars"]), dtype=float), np.array(f["bars"]))
+        b = np.polyfit(np.arange(len(f["bars"])), f["bars"], 1)[1]
+        assert residual < 0.01 and abs(f["profileWall"] - (a * w + b)) < 0.1
+        return to_page, w
+
+    # The first frame, and one with the wall in the bulk; the energy along the drive.
+    to_page, _ = check(frame())
+    energy = np.array(sol["energy"])[::-1]
+    curve = np.array([[float(v) for v in p.split(",")] for p in page.get_attribute("#landscape polyline.energy", "points").split()])
+    assert len(curve) == samples and page.is_visible("[data-testid=landscape]")
+    ay, y_residual = affine_fit(energy, curve[:, 1])
+    ax, x_residual = affine_fit(np.log10(np.abs(np.array(sol["drive"])[::-1] - d_u)), curve[:, 0])
+    assert ay < 0 and ax < 0 and y_residual < 0.06 and x_residual < 0.06  # |d₀ − d_u| falls to the right
+    middle = int(np.nanargmin(np.abs(walls - 5)))
+    page.evaluate("k => { const s = document.getElementById('slider'); s.value = k; s.dispatchEvent(new Event('input')); }", samples - 1 - middle)
+    f = frame()
+    _, w = check(f, to_page)
+    assert 4 < w < 6 and abs(f["cursor"] - curve[f["k"], 0]) < 0.1
+
+    # Play from where the wall is near the input: it moves out along the chain, frame after frame
+    # (back in when the sweep turns at the end: with the animation, always).
+    near = int(np.nanargmin(np.abs(walls - 1.5)))
+    page.evaluate("k => { const s = document.getElementById('slider'); s.value = k; s.dispatchEvent(new Event('input')); }", samples - 1 - near)
+    page.click("[data-testid=play]")
+    seen = []
+    for _ in range(12):
+        k = page.evaluate("+document.getElementById('slider').value")
+        page.wait_for_function(f"+document.getElementById('slider').value !== {k}")
+        seen.append(frame())
+    page.click("[data-testid=play]")
+    placed = []
+    for f in seen:
+        _, w = check(f, to_page)
+        if not np.isnan(w):
+            placed.append((f["k"], w))
+    assert len(placed) >= 6 and placed[-1][1] > placed[0][1] + 1
+    assert all((wb - wa) * (kb - ka) > 0 for (ka, wa), (kb, wb) in itertools.pairwise(placed))
+    report = page.inner_text("[data-testid=report]")
+    for words in ("Soliton", "wall travel", "uniform at d_u", "barrier"):
+        assert words in report
+    assert problems == []
+
+    # More copies than the wall can reach from round-off of d_u (≈ 59 for f′(d_u) = 1.8): refused
+    # before any work, the old soliton cleared.
+    page.fill("[data-testid=n-modules]", "80")
+    page.click("[data-testid=design]")
+    page.wait_for_selector("#status.error", timeout=TIMEOUT_MS)
+    assert "soliton_out_of_reach" in page.inner_text("[data-testid=status]")
+    assert page.evaluate("designer.response") is None and page.query_selector("#canvas circle.wall") is None
+    assert page.is_hidden("#landscape-box")
+    assert problems == ["Failed to load resource: the server responded with a status of 422 (Unprocessable Entity)"]
     page.close()

@@ -273,15 +273,20 @@ def test_the_cli_designs_plots_and_exports_a_sequential_document(tmp_path: Path)
         assert len(list(nodes)) == 5 + 3 * 3
     run = zeromode("plot", "answer.json", "-o", "chain.svg", cwd=tmp_path)
     assert run.returncode == 0 and (tmp_path / "chain.svg").read_text().lstrip().startswith("<"), run.stderr
-    # A map document: its answer by `design`; its response has no frame to draw (exit 2, one line).
+    # A map document: its answer by `design`, drawn as the module beside its map
+    # (tests/test_map_documents.py checks the chart); an answer without its frame (from before
+    # answers carried one) has no module to draw in the picture of `export` (exit 2, one line).
     (tmp_path / "map.json").write_text(json.dumps(map_request(MODULES[1])))
     run = zeromode("design", "map.json", "-o", "map_answer.json", cwd=tmp_path)
     assert run.returncode == 0, run.stderr
-    evaluated = json.loads((tmp_path / "map_answer.json").read_text())["evaluated"]
-    assert evaluated[0]["d_out"] == pytest.approx(oracle_map(MODULES[1], AT[0]), rel=1e-9)
+    answer = json.loads((tmp_path / "map_answer.json").read_text())
+    assert answer["evaluated"][0]["d_out"] == pytest.approx(oracle_map(MODULES[1], AT[0]), rel=1e-9)
     run = zeromode("plot", "map_answer.json", "-o", "map.svg", cwd=tmp_path)
-    assert run.returncode == 2 and run.stderr.startswith("error [invalid_document]") and "Traceback" not in run.stderr
-    assert not (tmp_path / "map.svg").exists()
+    assert run.returncode == 0 and ET.parse(tmp_path / "map.svg").getroot().tag.endswith("svg"), run.stderr
+    (tmp_path / "old_answer.json").write_text(json.dumps({k: v for k, v in answer.items() if k != "frame"}))
+    run = zeromode("export", "old_answer.json", "-o", "module.vtu", cwd=tmp_path)
+    assert run.returncode == 2 and run.stderr.startswith("error [invalid_request]") and "Traceback" not in run.stderr
+    assert not (tmp_path / "module.vtu").exists()
     # A refusal of the solver's up-front checks: its code, no traceback.
     (tmp_path / "far.json").write_text(json.dumps({"features": [{"kind": "fixed_point", "d": 9.0, "slope": 0.5}]}))
     run = zeromode("design", "far.json", cwd=tmp_path)

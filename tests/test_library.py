@@ -353,7 +353,7 @@ def test_sequential_results_plot_their_map():
     s = zm.sequential([{"kind": "fixed_point", "d": 1.5, "slope": -0.5}], n_modules=6)
     figure = s.plot()
     assert isinstance(figure, Figure) and len(figure.axes) == 2
-    (graph,) = [line for line in figure.axes[0].lines if line.get_label() == "f (usable range)"]
+    (graph,) = [line for line in figure.axes[0].lines if line.get_gid() == "map-f"]
     assert graph.get_xydata()[:, 0] == pytest.approx(s.to_dict()["map"]["d_in"])
     assert svg_bars(s) == s.frame.n_edges == 6 * 6  # the drawing is the chain's frame
     with pytest.raises(DomainError) as far:

@@ -195,6 +195,21 @@ def test_energy_along_the_drive_from_the_definition(result):
     assert np.ptp(sol.energy[bulk]) <= 0.01 * sol.barrier
 
 
+def test_wall_point_from_the_definition(result):
+    """c(w): pair k's and pair k + 1's midpoints interpolated at the fractional index w, written
+    here sample by sample (the designer draws the wall there); NaN exactly where the wall is."""
+    sol, verified = result.soliton, result.chain
+    pairs = verified.chain.pairs
+    assert sol.wall_point.shape == (len(sol.drive), 2)
+    assert np.array_equal(np.isnan(sol.wall_point).any(axis=1), np.isnan(sol.wall))
+    for i in np.flatnonzero(np.isfinite(sol.wall))[::5]:
+        x, w = verified.positions[sol.rows[i]], sol.wall[i]
+        k = min(int(w), len(pairs) - 2)
+        a = (x[pairs[k, 0]] + x[pairs[k, 1]]) / 2
+        b = (x[pairs[k + 1, 0]] + x[pairs[k + 1, 1]]) / 2
+        assert sol.wall_point[i] == pytest.approx(a + (w - k) * (b - a), abs=1e-12)
+
+
 def test_both_uniform_states_are_strict_minima(result, scipy_map):
     sol, chain = result.soliton, result.chain.chain
     edges = chain.frame.edges

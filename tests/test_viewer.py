@@ -84,7 +84,7 @@ def test_design_play_and_download_in_a_real_browser(browser, live_url, tmp_path)
     assert np.abs(start - before).max() > 0.01 * size and np.abs(end - start).max() > 0.01 * size
     for centres, bar_ends in ((start, ends_start), (end, ends_end)):
         assert np.allclose(bar_ends, centres[edges], atol=1e-6)
-    assert page.query_selector_all("#canvas g.trajectories line")
+    assert page.query_selector_all("#canvas g.trajectories path.step")
 
     page.wait_for_selector("[data-testid=download-vtk]")
     with page.expect_download() as info:

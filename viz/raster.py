@@ -67,15 +67,31 @@ def scene_figure(scene: Scene, scale: float):
     return fig, ax
 
 
+def draw_scene(ax, scene: Scene) -> list:
+    """The scene on ``ax``, one panel of a larger figure: data units are SVG pixels, y down, equal
+    aspect, no axes drawn; returns the artists (draw_shapes)."""
+    ax.set_xlim(0.0, scene.width)
+    ax.set_ylim(scene.height, 0.0)
+    ax.set_aspect("equal")
+    ax.set_axis_off()
+    return draw_shapes(ax, scene.shapes)
+
+
 def draw_shapes(ax, shapes, z0: int = 0) -> list:
-    """Draw shapes in order on the axes (zorder from z0 up); returns the artists."""
+    """Draw shapes in order on the axes (zorder from z0 up); returns the artists. A run whose
+    shapes share the first word of their ``cls`` (``bar``, ``node``, ``marker``, …) carries it
+    as its gid: matplotlib's SVG names the group so."""
     flat = list(_flatten(shapes, np.zeros(2), None))
     drawn = []
     for z, ((kind, offset, clip), run) in enumerate(
         groupby(flat, key=lambda item: (type(item[0]), tuple(item[1]), item[2])), start=z0
     ):
-        artists = _draw(ax, kind, [shape for shape, _, _ in run], np.asarray(offset))
+        run_shapes = [shape for shape, _, _ in run]
+        artists = _draw(ax, kind, run_shapes, np.asarray(offset))
+        names = {(shape.cls or " ").split(" ")[0] for shape in run_shapes}
         for artist in artists:
+            if len(names) == 1 and names != {""}:
+                artist.set_gid(next(iter(names)))
             artist.set_zorder(z)
             if clip is not None:
                 x, y, w, h = clip

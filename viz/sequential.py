@@ -1,7 +1,13 @@
 """Charts of a module's map (a /v1/map body) and of a chain (a /v1/design/sequential body), with
-matplotlib: the graph of f over its usable range with the diagonal, its fixed points (filled:
-stable, open: unstable) and folds; a chain's orbit as a cobweb, and the distances d_k along the
-chain at the ends and middle of its traced motion."""
+matplotlib: the graph of f over its usable range (shaded) with the diagonal, its fixed points
+(filled: stable, |f′| < 1; open: unstable) and folds, beside the module itself in the paper's
+visual language; a chain's orbit as a cobweb, and the distances d_k along the chain at the ends
+and middle of its traced motion.
+
+Every element of a map chart carries an id (matplotlib's gid: a ``<g id=…>`` in SVG) —
+``map-f``, ``map-diagonal``, ``usable-range``, ``fixed-point-<k>-stable`` or ``-unstable``,
+``fold-lower`` / ``fold-upper`` and ``module`` (the module's panel) — so that a reader (or a
+test) can find them in the file."""
 
 from __future__ import annotations
 
@@ -12,19 +18,32 @@ if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
+    from zeromode.solver.frame import Frame
+    from zeromode.viz.picture import Picture
+
+
+# The map's panel (inches, at scale 1), the room its axes' labels take inside it, and the band
+# of a title above the chart.
+MAP_PANEL_INCHES, MAP_MARGIN_INCHES, MAP_TITLE_INCHES = 5.0, 0.6, 0.45
+
 
 def draw_map(axes: Axes, body: dict) -> None:
-    """f, the diagonal, fixed points and folds of a /v1/map body on ``axes``."""
+    """f, the diagonal, the usable range, fixed points and folds of a /v1/map body on ``axes``."""
     d_in, d_out = body["d_in"], body["d_out"]
-    axes.plot(d_in, d_out, color="C0", lw=2, label="f (usable range)")
+    lower, upper = body["lower"], body["upper"]
+    axes.axvspan(lower["d_in"], upper["d_in"], color="C0", alpha=0.08, gid="usable-range",
+                 label=f"usable range [{lower['d_in']:.4g}, {upper['d_in']:.4g}] ({lower['kind']} to {upper['kind']})")
+    axes.plot(d_in, d_out, color="C0", lw=2, label="f", gid="map-f")
     lo, hi = min(d_in + d_out), max(d_in + d_out)
-    axes.plot([lo, hi], [lo, hi], color="0.6", lw=1, ls="--", label="d_out = d_in")
-    for p in body["fixed_points"]:
+    axes.plot([lo, hi], [lo, hi], color="0.6", lw=1, ls="--", label="d_out = d_in", gid="map-diagonal")
+    for k, p in enumerate(body["fixed_points"]):
+        stability = "stable" if p["stable"] else "unstable"
         axes.plot([p["d"]], [p["d"]], "o", ms=8, color="C3", mfc="C3" if p["stable"] else "white",
-                  label=f"fixed point f′ = {p['slope']:.3g}")
-    for end in (body["lower"], body["upper"]):
+                  label=f"fixed point {p['d']:.4g}, f′ = {p['slope']:.3g} ({stability})", gid=f"fixed-point-{k}-{stability}")
+    for name, end in (("lower", lower), ("upper", upper)):
         if end["kind"] == "fold":
-            axes.plot([end["d_in"]], [end["d_out"]], "|", ms=14, color="k")
+            axes.plot([end["d_in"]], [end["d_out"]], "|", ms=14, color="k", gid=f"fold-{name}",
+                      label="fold (f′ = ±∞)" if name == "lower" or lower["kind"] != "fold" else None)
     axes.set_xlabel("d_in")
     axes.set_ylabel("d_out = f(d_in)")
     axes.set_aspect("equal", adjustable="datalim")
@@ -39,12 +58,48 @@ def draw_cobweb(axes: Axes, iterates: list[float]) -> None:
     axes.plot(xs, ys, color="C2", lw=1, label="chain's orbit")
 
 
-def map_figure(body: dict, scale: float = 1.0) -> Figure:
-    """A /v1/map body's chart."""
+def module_picture(frame: Frame, input_pair, output_pair) -> Picture:
+    """The module as viz draws frames (nodes, rods), its input pair marked as the source
+    (squares) and its output pair as the target (diamonds), captioned so."""
+    from zeromode.viz.picture import Picture
+
+    (a, b), (c, e) = input_pair, output_pair
+    return Picture.build(
+        frame, source=(a, b), target_nodes=(c, e), labels=["the module"],
+        captions=[f"input pair {a}–{b} (squares): d_in; output pair {c}–{e} (diamonds): d_out"],
+    )
+
+
+def map_figure(body: dict, frame: Frame | None = None, scale: float = 1.0, title: str | None = None) -> Figure:
+    """A /v1/map body's chart: the map (draw_map) in a panel of 5·scale inches and, with the
+    module's ``frame``, the module on its left (module_picture, at its own size: one SVG pixel a
+    point, so its strokes and text are as in the SVG picture); ``title`` in a band above both."""
     from matplotlib.figure import Figure
 
-    figure = Figure(figsize=(5 * scale, 5 * scale), layout="constrained")
-    axes = figure.add_subplot()
+    side = MAP_PANEL_INCHES * scale
+    if frame is None:
+        figure = Figure(figsize=(side, side), layout="constrained")
+        axes = figure.add_subplot()
+        if title is not None:
+            figure.suptitle(title)
+    else:
+        from zeromode.viz.layout import layout
+        from zeromode.viz.raster import POINTS_PER_INCH, draw_scene
+
+        scene = layout(module_picture(frame, body["input_pair"], body["output_pair"]))
+        w, h = scene.width / POINTS_PER_INCH, scene.height / POINTS_PER_INCH
+        band = 0.0 if title is None else MAP_TITLE_INCHES
+        width, body_height = w + side, max(h, side)
+        height = body_height + band
+        figure = Figure(figsize=(width, height))
+        if title is not None:
+            figure.suptitle(title, y=1 - 0.5 * band / height, va="center")
+        module = figure.add_axes((0.0, (body_height - h) / (2 * height), w / width, h / height), gid="module")
+        draw_scene(module, scene)
+        margin = MAP_MARGIN_INCHES
+        axes = figure.add_axes((
+            (w + margin) / width, margin / height, (side - 1.4 * margin) / width, (body_height - 1.6 * margin) / height
+        ))
     draw_map(axes, body)
     axes.legend(fontsize="small")
     return figure

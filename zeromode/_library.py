@@ -161,9 +161,9 @@ class Result:
 
                 write_raster(scene, path)
             return path
-        from zeromode.operations.exporting import EXPORT_SUFFIXES, export_file
+        from zeromode.operations.exporting import export_file, format_for_suffix
 
-        fmt = format or EXPORT_SUFFIXES.get(suffix)
+        fmt = format or format_for_suffix(suffix, self.document())
         if fmt is None:
             raise ValueError(f"the suffix {suffix or '(none)'} names no export format; give format=.")
         content, _, _ = export_file(self._export_request(fmt, **options))
@@ -337,16 +337,25 @@ def _plot_modes() -> int:
 
 class MapResult(Result):
     """``zm.module_map``: a module's map d_out = f(d_in) (solution: ModuleMap); ``plot()`` charts
-    f, the drawings are of the module's frame."""
-
-    def document(self) -> dict:
-        return {"frame": self.request.frame.model_dump()}
+    the module beside f, the drawing (``_repr_svg_``) is the module with its pairs marked; its
+    document is the /v1/map answer (documents.MAP)."""
 
     def plot(self, scale: float = 1.0, solution_space: bool = True) -> Figure:
-        """The graph of f on its usable range, the diagonal, fixed points and folds."""
+        """The module (its pairs marked) beside the graph of f on its usable range, the diagonal,
+        fixed points (filled: stable) and folds (viz.sequential.map_figure)."""
         from zeromode.viz.sequential import map_figure
 
-        return _shown_in_jupyter(map_figure(self.body, scale))
+        return _shown_in_jupyter(map_figure(self.body, self.frame, scale))
+
+    def export(self, path: str | Path, format: str | None = None, **options: Any) -> Path:
+        """As Result.export, but ``.svg``, ``.png`` and ``.pdf`` without ``format`` are the chart
+        of ``plot()`` (as ``zeromode plot`` writes it) and ``.csv`` the sampled map (map_csv);
+        the frame formats write the module, its input pair as source and output pair as target."""
+        path = Path(path)
+        if format is None and path.suffix.lower() in _PICTURE_SUFFIXES:
+            self.plot().savefig(path)
+            return path
+        return super().export(path, format, **options)
 
 
 class SequentialResult(Result):
@@ -685,7 +694,8 @@ def motion(frame: Frame | Result | Mapping, mode: int | Points | None = None, **
         nontrivial zero mode.
     **fields
         The request's other fields: ``amplitude``, ``max_step``, ``max_steps``, ``direction``,
-        ``on_singularity``, ``boundary``, ``target``.
+        ``on_singularity``, ``boundary``, ``target``, ``epsilon_curve`` (``{"amplitude": a}``:
+        the body's ``epsilon_curve``, ε along the path for the specified nodes' linear target).
 
     Returns
     -------
@@ -733,7 +743,9 @@ def refine(frame: Frame | Result | Mapping, motion: Points | None = None, **fiel
     Returns
     -------
     RefineResult
-        ``solution`` is the solver's Refinement (``epsilon_before``, ``epsilon_after``, …).
+        ``solution`` is the solver's Refinement (``epsilon_before``, ``epsilon_after``, …, and
+        ``curve_before``/``curve_after``: ε at 12 amplitudes in (0, a], the body's
+        ``epsilon_curve``, ending on ε before and after).
 
     Raises
     ------
@@ -747,6 +759,8 @@ def refine(frame: Frame | Result | Mapping, motion: Points | None = None, **fiel
     >>> r = zm.design(square, square).refine().to_dict()
     >>> r["status"], r["epsilon_after"] <= r["epsilon_before"]
     ('ok', True)
+    >>> r["epsilon_curve"]["after"][-1] == r["epsilon_after"]
+    True
     """
     return _run("/v1/refine", {"frame": _frame_body(frame), "motion": motion, **fields}, RefineResult)
 

@@ -24,7 +24,7 @@ from zeromode.solver.certificates.prestress import (
     SelfStressCertificate,
 )
 from zeromode.solver.frame import Frame
-from zeromode.solver.motion.finite_motion import MotionPath
+from zeromode.solver.motion.finite_motion import FidelityCurve, MotionPath
 from zeromode.solver.motion.target import AimedMotion
 
 # The integer fields of /v1/analyze, in the contract's order (docs/API.md).
@@ -339,10 +339,16 @@ def _singularity(s) -> dict:
     }
 
 
-def motion_body(path: MotionPath, timings_ms: dict | None = None, strains=None, aimed: AimedMotion | None = None) -> dict:
+def motion_body(
+    path: MotionPath,
+    timings_ms: dict | None = None,
+    strains=None,
+    aimed: AimedMotion | None = None,
+    curve: FidelityCurve | None = None,
+) -> dict:
     """/v1/motion; ``strains`` (ε (P, 2), secant ν (P,)) of a lattice's configurations, or None;
     ``aimed``: the motion aimed at a target (its ``path`` is ``path``; in a refusal, ``reached``
-    is the nearest value found)."""
+    is the nearest value found); ``curve``: ε along the path for the linear target, or None."""
     body = {
         "path": path.positions.tolist(),
         "parameter": path.parameter.tolist(),
@@ -371,6 +377,15 @@ def motion_body(path: MotionPath, timings_ms: dict | None = None, strains=None, 
             "range_end": end[0],
             "range_end_reason": end[1],
         }
+    if curve is not None:
+        body["epsilon_curve"] = json_safe(
+            {
+                "amplitudes": curve.amplitudes.tolist(),
+                "epsilon": curve.epsilon.tolist(),
+                "parameter": curve.parameter.tolist(),
+                "at_end": curve.at_end.tolist(),
+            }
+        )
     return body
 
 
@@ -398,6 +413,13 @@ def refinement_body(r) -> dict:
             "status": "ok" if r.ok else "refinement_failed",
             "message": r.message,
             "modes": None if r.mode is None else [r.mode.tolist()],
+            "epsilon_curve": None
+            if r.curve_before is None
+            else {
+                "amplitudes": r.curve_before.amplitudes.tolist(),
+                "before": r.curve_before.epsilon.tolist(),
+                "after": r.curve_after.epsilon.tolist(),
+            },
         }
     )
 
@@ -693,6 +715,12 @@ def module_map_body(the_map, at=()) -> dict:
     }
 
 
+def map_response_body(the_map, at=()) -> dict:
+    """/v1/map's body (without timings): module_map_body with the module's ``frame``, so that the
+    answer alone draws and exports the module beside its map (documents.MAP)."""
+    return {"frame": frame_body(the_map.module.frame), **module_map_body(the_map, at)}
+
+
 def sequential_body(result, timings_ms: dict) -> dict:
     """/v1/design/sequential's body for a solver SequentialDesign (a SolitonDesign adds ``soliton``)."""
     from zeromode.solver.tolerances import MAP_RTOL
@@ -731,7 +759,8 @@ def sequential_body(result, timings_ms: dict) -> dict:
 
 def soliton_body(soliton) -> dict:
     """The ``soliton`` part of /v1/design/sequential's body for a solver Soliton: springs, uniform
-    states, drive, wall, energy, snapshots (the chain's conformations are the chain's ``path``)."""
+    states, drive, wall (its fractional index and its point on the chain), energy, snapshots
+    (the chain's conformations are the chain's ``path``)."""
     module = soliton.module
 
     def uniform(k: int, fixed) -> dict:
@@ -750,6 +779,7 @@ def soliton_body(soliton) -> dict:
         "drive": soliton.drive.tolist(),
         "rows": soliton.rows.tolist(),
         "wall": soliton.wall.tolist(),
+        "wall_point": [c.tolist() if np.isfinite(w) else None for w, c in zip(soliton.wall, soliton.wall_point, strict=True)],
         "energy": soliton.energy.tolist(),
         "travel": soliton.travel,
         "required_travel": soliton.required_travel,

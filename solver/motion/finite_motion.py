@@ -65,6 +65,9 @@ Finite-motion fidelity (the definition used by /v1/motion, /v1/refine and /v1/de
     with the inner minimum by Kabsch alignment (rotation + translation, det R = +1) and the
     outer one over the path samples, polished between the neighbours of the best sample on
     the constraint manifold itself (the corrector), so no interpolation error enters ε.
+    The curve b ↦ ε(b) over amplitudes b_j = (j/m)·a, j = 1 … m (fidelity_curve) is the same
+    minimum on the same traced path for the targets x_S + (j/m)·Δ_S along the ray to x_S + Δ_S;
+    its last value is ε(a) itself, bit for bit.
 """
 
 from __future__ import annotations
@@ -77,7 +80,7 @@ from scipy.optimize import minimize_scalar
 
 from zeromode.solver.analysis.bordered import BorderedFactor, pinned_coordinates
 from zeromode.solver.analysis.eigen import nontrivial_zero_modes, smallest_eigenpairs
-from zeromode.solver.analysis.normalisation import Normalisation
+from zeromode.solver.analysis.normalisation import Normalisation, rms_radius
 from zeromode.solver.analysis.rank import RTOL, complement_within, nullspace
 from zeromode.solver.analysis.rigidity import (
     DENSE_MAX_DOF,
@@ -138,6 +141,10 @@ REFERENCE_SHARE = 0.05
 # cluster to machine precision would cost minutes).
 SIGMA_MAX_RTOL = 1e-2
 SIGMA_RTOL = 1e-2
+# Amplitudes of an ε curve (fidelity_curve) in (0, a]: enough for a chart's polyline to show
+# how ε grows, while a refinement's two curves cost about 15 % of its time (each amplitude is a
+# polished minimum, ~9 ms on the outward square: docs/designer.md).
+CURVE_SAMPLES = 12
 
 
 @dataclass(frozen=True)
@@ -927,8 +934,21 @@ def kabsch_distance(moving: np.ndarray, target: np.ndarray) -> float:
     moving, target: (k, d). The residual is formed explicitly (not from the singular values) so
     that distances near 1e-12 of the size keep their digits.
     """
-    p, q, rotation = _kabsch(moving, target)
-    return float(np.linalg.norm(p @ rotation - q))
+    return float(kabsch_distances(moving[None], target)[0])
+
+
+def kabsch_distances(moving: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """kabsch_distance of every point set in ``moving`` (s, k, d) to ``target`` (k, d): (s,).
+
+    The s Kabsch problems at once (one batched SVD of the covariances pᵀq, the last axis of
+    each flipped where its best orthogonal map is a reflection)."""
+    p = moving - moving.mean(axis=1, keepdims=True)
+    q = target - target.mean(axis=0)
+    u, _, vt = np.linalg.svd(np.einsum("ski,kj->sij", p, q))
+    flip = np.ones(u.shape[:2])
+    flip[:, -1] = np.where(np.linalg.det(u @ vt) < 0, -1.0, 1.0)
+    rotation = (u * flip[:, None, :]) @ vt
+    return np.linalg.norm(p @ rotation - q, axis=(1, 2))
 
 
 @dataclass(frozen=True)
@@ -956,7 +976,7 @@ def fidelity(path: MotionPath, specified, x_s, u_s, a: float) -> Fidelity:
     scale = np.linalg.norm(a * u_s)
     if scale == 0:
         raise InvalidInput("invalid_motion", "the target displacement a·u_S is zero.")
-    dist = np.array([kabsch_distance(p[spec], target) for p in path.positions])
+    dist = kabsch_distances(path.positions[:, spec], target)
     best = int(np.argmin(dist))
     tau, value = float(path.parameter[best]), float(dist[best])
     if len(dist) >= 2:
@@ -1007,9 +1027,7 @@ def motion_fidelity(frame: Frame, displacement_s: np.ndarray, horizon: float = 0
     spec = np.asarray(frame.specified, dtype=int)
     x_s = frame.positions[spec]
     norm = Normalisation.of(frame.positions)
-    x0 = norm.positions_in(frame.positions)
-    method = "dense" if frame.dim * frame.n_nodes <= DENSE_MAX_DOF else "sparse"
-    u = start_direction(BarConstraints(frame.edges, x0, method), x0, None)[0].reshape(x0.shape)
+    u = single_mode(frame)
     # Linear estimate: X_S(τ) ≈ x_S + τ·r·√N·u_S (u unit in dN), fitted to Δ_S in least squares.
     along = norm.length * np.sqrt(frame.n_nodes) * u[spec]
     tau_lin = abs(float(np.sum(along * displacement_s) / max(np.sum(along * along), 1e-300)))
@@ -1022,3 +1040,113 @@ def motion_fidelity(frame: Frame, displacement_s: np.ndarray, horizon: float = 0
             break
         amplitude *= 2
     return fid, path
+
+
+def single_mode(frame: Frame) -> np.ndarray:
+    """The frame's single nontrivial zero mode as trace_motion follows it by default: (N, d),
+    unit in dN, signed by signed_mode (DomainError ``ambiguous_mode`` or ``no_motion``
+    otherwise)."""
+    x0 = Normalisation.of(frame.positions).positions_in(frame.positions)
+    method = "dense" if frame.dim * frame.n_nodes <= DENSE_MAX_DOF else "sparse"
+    return start_direction(BarConstraints(frame.edges, x0, method), x0, None)[0].reshape(x0.shape)
+
+
+def target_displacement(frame: Frame, motion_s=None, amplitude=None, targets=None):
+    """Δ_S (k × d) and the relative amplitude a of a target of the specified nodes.
+
+    With ``motion_s`` (u_S, k × d) and ``amplitude`` a: Δ_S = a·(r_S/ρ_u)·u_S, where r_S is the
+    RMS radius of the specified positions and ρ_u = √(mean_i |u_Si|²): a is the RMS displacement
+    of the specified nodes relative to their RMS size (a = 0.2 moves them by 20 % of it).
+    With ``targets`` (final positions, k × d): Δ_S = targets − x_S and a = ρ_Δ/r_S.
+    """
+    spec = list(frame.specified)
+    if len(spec) < 2:
+        raise InvalidInput(
+            "too_few_specified",
+            "a target of the specified nodes needs at least 2 of them (a rigid motion reaches any target of one).",
+        )
+    x_s = frame.positions[spec]
+    r_s = rms_radius(x_s)
+    k = len(spec)
+    if (motion_s is None) == (targets is None):
+        raise InvalidInput(
+            "invalid_request", "give exactly one of `motion` (with `amplitude`) or `targets`."
+        )
+    if targets is not None:
+        y = check_positions(targets, frame.dim, name="targets")
+        if y.shape[0] != k:
+            raise InvalidInput(
+                "invalid_shape", f"targets must have one row per specified node ({k})."
+            )
+        delta = y - x_s
+        rho = float(np.sqrt(np.mean(np.sum(delta**2, axis=1))))
+        if rho == 0:
+            raise InvalidInput(
+                "invalid_motion", "targets equal the specified positions: nothing to reach."
+            )
+        return delta, rho / r_s
+    u = check_positions(motion_s, frame.dim, name="motion")
+    if u.shape[0] != k:
+        raise InvalidInput("invalid_shape", f"motion must have one row per specified node ({k}).")
+    rho = float(np.sqrt(np.mean(np.sum(u**2, axis=1))))
+    if rho == 0:
+        raise InvalidInput("invalid_motion", "motion is zero.")
+    if amplitude is None or not np.isfinite(amplitude) or amplitude <= 0:
+        raise InvalidInput("invalid_amplitude", "amplitude must be a positive number.")
+    return float(amplitude) * (r_s / rho) * u, float(amplitude)
+
+
+def linear_target(frame: Frame, amplitude: float, motion_s=None, mode=None):
+    """(Δ_S, a) of the linear target x_S + a·(r_S/ρ_u)·u_S (target_displacement) of the frame's
+    specified nodes S: u_S = ``motion_s`` (k, d), else rows S of ``mode`` (N, d), else of the
+    frame's single nontrivial mode (single_mode: the one trace_motion follows by default)."""
+    spec = list(frame.specified)
+    if motion_s is None and len(spec) >= 2:  # fewer: target_displacement's refusal, before any work
+        u = single_mode(frame) if mode is None else given_mode(mode, frame.n_nodes, frame.dim)
+        motion_s = u[spec]
+    return target_displacement(frame, motion_s, amplitude)
+
+
+@dataclass(frozen=True, eq=False)
+class FidelityCurve:
+    """ε(b) along the ray of a target x_S + Δ_S of relative amplitude a, on one traced path.
+
+    Attributes
+    ----------
+    amplitudes : np.ndarray
+        (m,): b_j = (j/m)·a, j = 1 … m; the last is a.
+    epsilon : np.ndarray
+        (m,): ε(b_j) = fidelity of the target x_S + (j/m)·Δ_S (module docstring).
+    parameter : np.ndarray
+        (m,): the path parameter τ where each minimum is attained.
+    at_end : np.ndarray
+        (m,) bool: the minimum sits at an end of the path (a longer path might do better, or
+        the path ended at a singular point there).
+    """
+
+    amplitudes: np.ndarray
+    epsilon: np.ndarray
+    parameter: np.ndarray
+    at_end: np.ndarray
+
+
+def fidelity_curve(path: MotionPath, specified, x_s, displacement_s, amplitude: float, samples: int) -> FidelityCurve:
+    """ε at ``samples`` = m amplitudes evenly spaced in (0, a] for the target x_S + Δ_S.
+
+    specified: indices S (k); x_s, displacement_s (Δ_S): (k, d); amplitude a > 0 labels Δ_S.
+    ε(b_j) = fidelity(path, S, x_S, Δ_S, j/m): the minimum over the path's samples polished on
+    the constraint manifold (curve_minimum), with u_S = Δ_S, so the last value (j = m) is the
+    very number motion_fidelity reports for this path.  Costs m fidelity evaluations: m
+    distances per sample of the path and m one-dimensional minimisations of a few tight
+    corrector solves each.
+    """
+    if samples < 1:
+        raise InvalidInput("invalid_option", "an ε curve needs at least one amplitude.")
+    fractions = np.arange(1, samples + 1) / samples
+    points = [fidelity(path, specified, x_s, displacement_s, float(s)) for s in fractions]
+    return FidelityCurve(
+        amplitudes=float(amplitude) * fractions,
+        epsilon=np.array([p.epsilon for p in points]),
+        parameter=np.array([p.parameter for p in points]),
+        at_end=np.array([p.at_end for p in points], dtype=bool),
+    )

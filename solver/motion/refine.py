@@ -48,13 +48,18 @@ from zeromode.solver.analysis.normalisation import Normalisation, rms_radius
 from zeromode.solver.analysis.rigidity import Analysis, analyze
 from zeromode.solver.budget import check_budget, remaining
 from zeromode.solver.errors import DomainError, InvalidInput
-from zeromode.solver.frame import Frame, check_positions
+from zeromode.solver.frame import Frame
 from zeromode.solver.motion.finite_motion import (
+    CURVE_SAMPLES,
+    FidelityCurve,
+    MotionPath,
     _kabsch,
     bar_lengths,
+    fidelity_curve,
     kabsch_distance,
     motion_fidelity,
     relative_bar_error,
+    target_displacement,
 )
 from zeromode.solver.progress import progress_heartbeat, progress_stage, report_progress
 from zeromode.solver.tolerances import IPOPT_TOL, REACHED_EPS, REPORT_MIN_TIME_S
@@ -119,6 +124,10 @@ class Refinement:
     mode : np.ndarray or None
         (N, d): the refined frame's nontrivial zero mode at its reference, None when it has not
         exactly one.
+    curve_before, curve_after : FidelityCurve or None
+        ε(b) at CURVE_SAMPLES amplitudes b in (0, a] on the paths that measured epsilon_before
+        and epsilon_after (their last values are those two numbers; curve_after is curve_before
+        when the original frame is kept); None for a rigid target (no path is traced).
     """
 
     frame: Frame
@@ -139,6 +148,8 @@ class Refinement:
     ok: bool
     message: str
     mode: np.ndarray | None = None
+    curve_before: FidelityCurve | None = None
+    curve_after: FidelityCurve | None = None
 
 
 class RefinementFailed(DomainError):
@@ -148,51 +159,6 @@ class RefinementFailed(DomainError):
     def __init__(self, best: Refinement):
         super().__init__("refinement_failed", best.message)
         self.best = best
-
-
-def target_displacement(frame: Frame, motion_s=None, amplitude=None, targets=None):
-    """Δ_S (k × d) and the relative amplitude a.
-
-    With ``motion_s`` (u_S, k × d) and ``amplitude`` a: Δ_S = a·(r_S/ρ_u)·u_S, where r_S is the
-    RMS radius of the specified positions and ρ_u = √(mean_i |u_Si|²): a is the RMS displacement
-    of the specified nodes relative to their RMS size (a = 0.2 moves them by 20 % of it).
-    With ``targets`` (final positions, k × d): Δ_S = targets − x_S and a = ρ_Δ/r_S.
-    """
-    spec = list(frame.specified)
-    if len(spec) < 2:
-        raise InvalidInput(
-            "too_few_specified",
-            "refinement needs at least 2 specified nodes (a rigid motion reaches any target of one).",
-        )
-    x_s = frame.positions[spec]
-    r_s = rms_radius(x_s)
-    k = len(spec)
-    if (motion_s is None) == (targets is None):
-        raise InvalidInput(
-            "invalid_request", "give exactly one of `motion` (with `amplitude`) or `targets`."
-        )
-    if targets is not None:
-        y = check_positions(targets, frame.dim, name="targets")
-        if y.shape[0] != k:
-            raise InvalidInput(
-                "invalid_shape", f"targets must have one row per specified node ({k})."
-            )
-        delta = y - x_s
-        rho = float(np.sqrt(np.mean(np.sum(delta**2, axis=1))))
-        if rho == 0:
-            raise InvalidInput(
-                "invalid_motion", "targets equal the specified positions: nothing to reach."
-            )
-        return delta, rho / r_s
-    u = check_positions(motion_s, frame.dim, name="motion")
-    if u.shape[0] != k:
-        raise InvalidInput("invalid_shape", f"motion must have one row per specified node ({k}).")
-    rho = float(np.sqrt(np.mean(np.sum(u**2, axis=1))))
-    if rho == 0:
-        raise InvalidInput("invalid_motion", "motion is zero.")
-    if amplitude is None or not np.isfinite(amplitude) or amplitude <= 0:
-        raise InvalidInput("invalid_amplitude", "amplitude must be a positive number.")
-    return float(amplitude) * (r_s / rho) * u, float(amplitude)
 
 
 def _single_mode(analysis: Analysis) -> bool:
@@ -303,7 +269,7 @@ def refine(
             f"refinement follows one nontrivial zero mode; the frame has {before.nontrivial_zero_modes}.",
         )
     with progress_stage(0.1, 0.3, "the design's finite motion"):
-        fid_before, _ = motion_fidelity(frame, delta)
+        fid_before, path_before = motion_fidelity(frame, delta)
 
     # IPOPT's K configurations can straddle two branches of the configuration space (the
     # refined motion then misses the target); a finer path (2K) usually stays on one.
@@ -317,10 +283,15 @@ def refine(
         attempts.append(attempt)
         if not attempt.problems or not attempt.discontinuous or 2 * k_try > MAX_K:
             break
-    report_progress(1.0, "refined")
     best = min(attempts, key=lambda t: (bool(t.problems), t.eps_after))
     ok = not best.problems
+    # A finite eps_after (so a traced best.motion) whenever the refined frame is kept.
     keep_refined = best.eps_after < fid_before.epsilon or ok
+    # ε(b) for b in (0, a] on the paths already traced (their last values are ε before and after).
+    x_s = frame.positions[spec]
+    curve_before = fidelity_curve(path_before, spec, x_s, delta, a, CURVE_SAMPLES)
+    curve_after = fidelity_curve(best.motion, spec, x_s, delta, a, CURVE_SAMPLES) if keep_refined else curve_before
+    report_progress(1.0, "refined")
     result = Refinement(
         frame=best.refined if keep_refined else frame,
         displacement=delta,
@@ -342,6 +313,8 @@ def refine(
         if ok
         else "refinement failed: " + "; ".join(best.problems) + ".",
         mode=best.mode if keep_refined else None,
+        curve_before=curve_before,
+        curve_after=curve_after,
     )
     if not ok:
         raise RefinementFailed(result)
@@ -365,6 +338,7 @@ class _Attempt:
     problems: list[str]
     discontinuous: bool
     mode: np.ndarray | None
+    motion: MotionPath | None  # the refined frame's traced motion that measured eps_after
 
 
 def _attempt(
@@ -420,6 +394,7 @@ def _attempt(
     refined = frame
     an_ref = an_end = None
     eps_after = np.inf
+    motion = None
     try:
         refined = Frame.build(path[0], frame.edges, frame.specified, dim=d)
         # Counts decide the re-verification; the reference's bases give the refined mode.
@@ -444,7 +419,8 @@ def _attempt(
             horizon = 1.5 * float(np.sum(steps)) / (np.sqrt(n) * (rms_radius(path[0]) or 1.0))
             try:
                 with progress_stage(0.8, 1.0, "the refined frame's finite motion"):
-                    eps_after = motion_fidelity(refined, delta, horizon=horizon)[0].epsilon
+                    fid_after, motion = motion_fidelity(refined, delta, horizon=horizon)
+                eps_after = fid_after.epsilon
             except DomainError as exc:
                 problems.append(f"the refined frame's motion could not be traced ({exc.message})")
     # IPOPT's configurations may jump between branches of the configuration space; then the
@@ -470,6 +446,7 @@ def _attempt(
         problems,
         discontinuous,
         an_ref.modes[0] if an_ref is not None and _single_mode(an_ref) else None,
+        motion,
     )
 
 

@@ -12,7 +12,13 @@ index
 
     w(d_0) = k + (½ − s_k)/(s_{k+1} − s_k)     (s_k < ½ ≤ s_{k+1}),
 
-undefined when the whole chain is on one side (w < 0 or w > n).  Linearised at d_u,
+undefined when the whole chain is on one side (w < 0 or w > n).  On the chain, the wall is at
+the pairs' midpoints m_k = (x_{a_k} + x_{b_k})/2 (pair k = (a_k, b_k) the input pair of copy k)
+interpolated as w interpolates s: with φ = w − k,
+
+    c(w) = (1 − φ) m_k + φ m_{k+1}.                                            (wall point)
+
+Linearised at d_u,
 w ≈ const − ln|d_0 − d_u| / ln λ_u: as the drive d_0 approaches d_u the wall walks to the far end
 of the chain, as it approaches d_s the wall walks to the input; the switched region is the part
 of the chain beyond the wall.  ``wall_slope`` is the least-squares slope of w against
@@ -103,7 +109,8 @@ class Soliton:
     from the anchor to node ``spring_node``; unstable, stable: (d*, f′(d*)); springs: on the
     chain's nodes, one per copy; drive: (P,) d_0 at the drive samples (ordered from d_u towards
     d_s; ``rows`` their indices in the verification's distances); distances: (P, n + 1); wall: (P,)
-    (NaN where the chain is on one side); energy: (P,) E; travel: max − min of the wall;
+    (NaN where the chain is on one side); wall_point: (P, 2) c(w) in the chain's conformation at
+    each drive sample (NaN with the wall); energy: (P,) E; travel: max − min of the wall;
     uniform: (2, N_chain, 2) the uniform states (at d_u, at d_s); uniform_energy: (2,) E there;
     uniform_hessian: (2,) the smallest eigenvalue of the stiff-rod Hessian there modulo rigid
     motions; wall_slope: dw/d ln|d_0 − d_u| fitted over the bulk; barrier: max E along the drive;
@@ -119,6 +126,7 @@ class Soliton:
     rows: np.ndarray
     distances: np.ndarray
     wall: np.ndarray
+    wall_point: np.ndarray
     energy: np.ndarray
     travel: float
     required_travel: float
@@ -156,6 +164,20 @@ def wall_position(distances: np.ndarray, unstable: float, stable: float) -> np.n
             k = up[0]
             out[i] = k + (0.5 - row[k]) / (row[k + 1] - row[k])
     return out.reshape(s.shape[:-1])
+
+
+def wall_point(positions: np.ndarray, pairs: np.ndarray, wall: np.ndarray) -> np.ndarray:
+    """c(w) (…, 2) of the module docstring for conformations ``positions`` (…, N, 2) of a chain
+    with ``pairs`` (n + 1, 2) and walls ``wall`` (…,); NaN where w is."""
+    positions, wall = np.asarray(positions, dtype=float), np.asarray(wall, dtype=float)
+    out = np.full(wall.shape + (2,), np.nan)
+    finite = np.isfinite(wall)
+    k = np.minimum(np.floor(wall[finite]).astype(int), len(pairs) - 2)
+    phi = (wall[finite] - k)[:, None]
+    middles = positions[finite][:, pairs].mean(axis=2)  # (F, n + 1, 2): m_k
+    rows = np.arange(len(middles))
+    out[finite] = (1 - phi) * middles[rows, k] + phi * middles[rows, k + 1]
+    return out
 
 
 def _refined(the_map: ModuleMap, d: float) -> tuple[float, float]:
@@ -346,7 +368,7 @@ def _drive(verification: ChainVerification, springs: Springs, the_map: ModuleMap
     uniform = np.stack([chain_at(the_map, np.full(n + 1, d)).frame.positions for d in (d_u, d_s)])
     return Soliton(
         module, tuple(bar), int(node), tuple(unstable), tuple(stable), springs, d0[keep], keep, distances, wall,
-        energy, travel, float(n - TRAVEL_MARGIN), monotone, uniform,
+        wall_point(positions, chain.pairs, wall), energy, travel, float(n - TRAVEL_MARGIN), monotone, uniform,
         np.array([springs.energy(x) for x in uniform]), np.array([_hessian_floor(stiff, x) for x in uniform]),
         slope, float(energy.max()) if len(energy) else 0.0, stiffness, ROD_STIFFNESS_RATIO, snapshots,
     )

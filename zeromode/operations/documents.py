@@ -4,8 +4,9 @@ POST /v1/plot and POST /v1/export accept besides their own bodies.
 A document is a request or response body of /v1/design, /v1/design/auxetic,
 /v1/design/allosteric, /v1/design/multistable or /v1/design/sequential — a request is designed
 first (``endpoints.respond``), so a request and its response give the same document — a /v1/map
-request (its module), a /v1/refine response, a /v1/motion response (which has no frame: the
-frame it moved comes with it), or any other body with a ``frame``.
+request or response (MAP: the module beside its map), a /v1/refine response, a /v1/motion
+response (which has no frame: the frame it moved comes with it), or any other body with a
+``frame``.
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from pydantic import BaseModel, ValidationError
+from pydantic import BaseModel, ValidationError, model_validator
 
 from zeromode.service.wire.convert import feature_points, module_from_model
 from zeromode.service.wire.schemas.allostery import AllostericRequest
@@ -21,14 +22,21 @@ from zeromode.service.wire.schemas.common import FrameModel, Points
 from zeromode.service.wire.schemas.design import DesignRequest
 from zeromode.service.wire.schemas.lattice import AuxeticRequest, LatticeState
 from zeromode.service.wire.schemas.multistable import MinimumModel, MultistableRequest, SpringsModel
-from zeromode.service.wire.schemas.sequential import ChainBody, DesignedModule, SequentialRequest
+from zeromode.service.wire.schemas.sequential import (
+    ChainBody,
+    DesignedModule,
+    MapBody,
+    SequentialRequest,
+)
 from zeromode.solver.errors import InvalidInput
 from zeromode.solver.pipeline import RefineStage, ToleranceStage
 
 # What a document is, by its fields (``kind``).
-DESIGN, AUXETIC, ALLOSTERIC, REFINEMENT, MOTION, FRAME, MULTISTABLE, SEQUENTIAL = (
-    "design", "auxetic", "allosteric", "refinement", "motion", "frame", "multistable", "sequential"
+DESIGN, AUXETIC, ALLOSTERIC, REFINEMENT, MOTION, FRAME, MULTISTABLE, SEQUENTIAL, MAP = (
+    "design", "auxetic", "allosteric", "refinement", "motion", "frame", "multistable", "sequential", "map"
 )
+# The fields that make a body a /v1/map answer (its ``frame`` is optional: answers before it had none).
+MAP_FIELDS = frozenset({"input_pair", "output_pair", "d_in", "d_out", "lower", "upper"})
 
 
 # The fields of each response the plotting and export code read (pydantic ignores the rest).
@@ -91,6 +99,19 @@ class SequentialDocument(BaseModel):
     map_rtol: float | None = None
 
 
+class MapDocument(MapBody):
+    """A /v1/map response: the module's frame (None in answers that predate it) and its map,
+    whose samples d_in, d_out and slope are one per sample (at least one)."""
+
+    frame: FrameModel | None = None
+
+    @model_validator(mode="after")
+    def _samples(self) -> MapDocument:
+        if not self.d_in or not len(self.d_in) == len(self.d_out) == len(self.slope):
+            raise ValueError("d_in, d_out and slope must hold the same number (at least one) of samples")
+        return self
+
+
 class PathDocument(BaseModel):
     """A finite motion: a /v1/motion response, or the path of a /v1/refine response."""
 
@@ -104,8 +125,10 @@ def kind(doc: dict) -> str:
     (``report`` with ``source``, ``target``, ``relays``), MULTISTABLE (``frame``,
     ``conformations`` and ``springs``), DESIGN (any other ``report``), REFINEMENT (``path`` and
     ``epsilon_after``), MOTION (``path`` and ``parameter``, no ``frame``), SEQUENTIAL
-    (``module`` and ``map``, no ``frame``), else FRAME."""
+    (``module`` and ``map``, no ``frame``), MAP (a /v1/map response: MAP_FIELDS), else FRAME."""
     report = doc.get("report") if isinstance(doc.get("report"), dict) else {}
+    if MAP_FIELDS <= doc.keys():
+        return MAP
     if "frame" not in doc and "path" in doc and "parameter" in doc:
         return MOTION
     if "frame" not in doc and "module" in doc and "map" in doc:
@@ -123,29 +146,18 @@ def kind(doc: dict) -> str:
     return FRAME
 
 
-def refuse_map_answer(doc) -> None:
-    """A /v1/map response (``d_in``, ``d_out``, ``lower``, ``upper``, no ``frame``) holds the map,
-    not a frame: nothing to draw or export (InvalidInput ``invalid_document``)."""
-    if isinstance(doc, dict) and "frame" not in doc and {"d_in", "d_out", "lower", "upper"} <= doc.keys():
-        raise InvalidInput(
-            "invalid_document", "a /v1/map response holds the map, not a frame: plot or export its request "
-            "(the module's frame and pairs) instead.",
-        )
+def is_map_request(doc) -> bool:
+    """A /v1/map request: ``frame``, ``input_pair`` and ``output_pair`` without the map."""
+    return isinstance(doc, dict) and {"frame", "input_pair", "output_pair"} <= doc.keys() and "d_in" not in doc
 
 
 def framed(doc: dict) -> dict:
-    """What a picture shows of a module map's documents (others unchanged): a
+    """What a picture shows of a sequential design (others unchanged): a
     /v1/design/sequential response (SEQUENTIAL) as its chain's frame at the orbit from d0 when it
-    was chained, else the designed module's; a /v1/map request (``frame``, ``input_pair``,
-    ``output_pair``) as its module's frame; a /v1/map response refused (refuse_map_answer)."""
-    refuse_map_answer(doc)
-    if not isinstance(doc, dict):
-        return doc
-    if kind(doc) == SEQUENTIAL:
+    was chained, else the designed module's."""
+    if isinstance(doc, dict) and kind(doc) == SEQUENTIAL:
         sequential = validated(doc, SequentialDocument)
         return {"frame": (sequential.chain or sequential.module).frame.model_dump()}
-    if "frame" in doc and {"input_pair", "output_pair"} <= doc.keys():
-        return {"frame": doc["frame"]}
     return doc
 
 

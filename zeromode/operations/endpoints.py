@@ -20,9 +20,12 @@ from typing import Any
 from pydantic import BaseModel
 
 from zeromode.operations.documents import (
+    MAP,
     allosteric_arguments,
     auxetic_arguments,
     design_arguments,
+    is_map_request,
+    kind,
     multistable_arguments,
     sequential_arguments,
     validated,
@@ -39,7 +42,7 @@ from zeromode.service.wire.responses import (
     elastic_allosteric_body,
     inaccurate_design_best,
     json_safe,
-    module_map_body,
+    map_response_body,
     motion_body,
     multistable_body,
     network_allosteric_body,
@@ -92,7 +95,13 @@ from zeromode.solver.certificates.fabrication import tolerance_report
 from zeromode.solver.errors import DomainError, InvalidInput
 from zeromode.solver.frame import Frame
 from zeromode.solver.motion.boundary_strain import path_strains
-from zeromode.solver.motion.finite_motion import SingularPath, trace_motion
+from zeromode.solver.motion.finite_motion import (
+    CURVE_SAMPLES,
+    SingularPath,
+    fidelity_curve,
+    linear_target,
+    trace_motion,
+)
 from zeromode.solver.motion.periodic import trace_motion_through_cell
 from zeromode.solver.motion.refine import RefinementFailed
 from zeromode.solver.motion.target import MotionTarget, TargetUnreachable, aim_motion
@@ -270,6 +279,16 @@ def respond(doc: dict) -> tuple[dict, BaseModel]:
     )
 
 
+def map_answer(doc) -> dict | None:
+    """A document as a /v1/map answer: itself (documents.MAP), a /v1/map request answered as the
+    route answers it (respond), else None."""
+    if not isinstance(doc, dict):
+        return None
+    if kind(doc) == MAP:
+        return doc
+    return respond(doc)[0] if is_map_request(doc) else None
+
+
 # ----------------------------------------------------------------------------- beyond the linear design
 
 
@@ -280,10 +299,14 @@ def motion(r: MotionRequest) -> Outcome:
     each carrying the path's body up to where it stopped."""
     t0 = time.perf_counter()
     frame = motion_frame(r)
+    # The linear target of the ε curve, refused (or its mode found) before any tracing.
+    linear = None if r.epsilon_curve is None else linear_target(frame, r.epsilon_curve.amplitude, r.epsilon_curve.motion, r.mode)
 
     def body(path, aimed=None) -> dict:
         strains = None if r.boundary is None else path_strains(frame.positions, path.positions, r.boundary)
-        return motion_body(path, _ms_since(t0), strains, aimed)
+        spec = list(frame.specified)
+        curve = None if linear is None else fidelity_curve(path, spec, frame.positions[spec], *linear, CURVE_SAMPLES)
+        return motion_body(path, _ms_since(t0), strains, aimed, curve)
 
     steps = r.model_dump(include={"mode", "max_step", "direction", "max_steps"})
     aimed = None
@@ -342,7 +365,7 @@ def module_map(r: MapRequest) -> Outcome:
     t0 = time.perf_counter()
     with progress_stage(0.0, 1.0, "module map"):
         result = map_of(module_from_model(r))
-    return Outcome(result, {**module_map_body(result, r.at), "timings_ms": _ms_since(t0)})
+    return Outcome(result, {**map_response_body(result, r.at), "timings_ms": _ms_since(t0)})
 
 
 def sequential(r: SequentialRequest) -> Outcome:

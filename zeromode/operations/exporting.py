@@ -9,8 +9,12 @@ type in every format), each conformation as a configuration ``conformation_<c>``
 motion formats, the conformations in turn as the path (parameter: each minimum's arc length s
 along the motion; placed as the design gives them, not re-posed). A sequential design exports its
 chain (or, without one, its module): its rods, the input pair as source and the last output
-pair as target; a soliton's springs (one per copy) as springs, and its two uniform states as
-configurations ``unstable`` and ``stable``.
+pair as target, and for the motion formats the chain's verified motion as it comes
+(``chain.path``, time: the input distance d_0 of each sample; not traced again); a soliton's
+springs (one per copy) as springs, and its two uniform states as configurations ``unstable`` and
+``stable``. A /v1/map answer (a request answered first) exports its module: the input pair as
+source, the output pair as target, the map in the metadata (``map``), which the map formats
+(map_csv, map_svg, map_png) write.
 """
 
 from __future__ import annotations
@@ -22,17 +26,19 @@ from zeromode.operations.documents import (
     ALLOSTERIC,
     AUXETIC,
     FRAME,
+    MAP,
     MOTION,
     MULTISTABLE,
     SEQUENTIAL,
     AllostericDocument,
     AuxeticDocument,
     DesignDocument,
+    MapDocument,
     MultistableDocument,
     PathDocument,
     SequentialDocument,
+    is_map_request,
     kind,
-    refuse_map_answer,
     validated,
 )
 from zeromode.service.wire.convert import frame_from_model
@@ -48,6 +54,17 @@ EXPORT_SUFFIXES = {
     ".vtu": "vtk", ".xdmf": "xdmf", ".graphml": "graphml", ".json": "node_link_json", ".dxf": "dxf",
     ".stl": "stl", ".csv": "kit_csv", ".gif": "gif", ".mp4": "mp4",
 }
+# A /v1/map answer's suffixes name its map formats instead.
+MAP_SUFFIXES = {".csv": "map_csv", ".svg": "map_svg", ".png": "map_png"}
+
+
+def format_for_suffix(suffix: str, doc) -> str | None:
+    """The export format a file's suffix names for a document (``zeromode export``, the library's
+    ``export``): EXPORT_SUFFIXES, but a /v1/map request or response writes its map as .csv, .svg
+    and .png (MAP_SUFFIXES); None when the suffix names none."""
+    suffix = suffix.lower()
+    is_map = isinstance(doc, dict) and (kind(doc) == MAP or is_map_request(doc))
+    return (MAP_SUFFIXES.get(suffix) if is_map else None) or EXPORT_SUFFIXES.get(suffix)
 
 
 def export_file(request: ExportRequest) -> tuple[bytes, str, str]:
@@ -67,19 +84,23 @@ def export_file(request: ExportRequest) -> tuple[bytes, str, str]:
 
 def takeaway_for(request: ExportRequest) -> Takeaway:
     """The request's document (designed first when it is a request) with the request's own
-    frame, modes, path and springs taking precedence; the path traced when the format needs one.
-    A /v1/map request exports its module's frame (its pairs are read by no format)."""
-    doc = request.document or {}
-    refuse_map_answer(doc)
-    if doc and "frame" not in doc and kind(doc) not in (MOTION, SEQUENTIAL):
+    frame, modes, path and springs taking precedence; the path traced when the format needs one
+    and the document carries none (a chain carries its own: ``chain.path``). A /v1/map request
+    is answered first (endpoints.map_answer)."""
+    doc = endpoints.map_answer(request.document) or request.document or {}
+    if doc and "frame" not in doc and kind(doc) not in (MOTION, SEQUENTIAL, MAP):
         doc, _ = endpoints.respond(doc)
     what = kind(doc) if doc else FRAME
     metadata: dict = {"kind": what}
     if isinstance(doc.get("report"), dict):
         metadata["report"] = doc["report"]
-    sites, configurations, boundary, springs, placed = {}, {}, None, None, None
+    sites, configurations, boundary, springs, placed, chained = {}, {}, None, None, None, None
     frame_model = validated(doc, DesignDocument).frame if "frame" in doc else None
-    if what == SEQUENTIAL:
+    if what == MAP:
+        the_map = validated(doc, MapDocument)
+        sites = {"source": the_map.input_pair, "target": the_map.output_pair}
+        metadata["map"] = the_map.model_dump(exclude={"frame"})
+    elif what == SEQUENTIAL:
         sequential = validated(doc, SequentialDocument)
         chain, module = sequential.chain, sequential.module
         frame_model = (chain or module).frame
@@ -89,6 +110,8 @@ def takeaway_for(request: ExportRequest) -> Takeaway:
         if chain:
             metadata["report"]["chain"] = {"deviation": chain.deviation, "iterate_deviation": chain.iterate_deviation}
             metadata["chain"] = {"pairs": chain.pairs, "iterates": chain.iterates}
+            # the verified motion, each sample at its input distance d_0
+            chained = chain.path, [row[0] for row in chain.distances], chain.reference_index
         if sequential.soliton is not None:
             springs = sequential.soliton.springs
             states = {"unstable": sequential.soliton.unstable, "stable": sequential.soliton.stable}
@@ -128,6 +151,8 @@ def takeaway_for(request: ExportRequest) -> Takeaway:
         path, parameter = request.path, request.parameter
     elif placed is not None:
         path, parameter = placed
+    elif chained is not None:
+        path, parameter, reference = chained
     elif "path" in doc:
         traced = validated(doc, PathDocument)
         path, parameter, reference = traced.path, traced.parameter, traced.reference_index

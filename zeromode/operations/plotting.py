@@ -8,6 +8,8 @@ give the same picture.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from zeromode.operations import endpoints
 from zeromode.operations.documents import (
     ALLOSTERIC,
@@ -17,6 +19,7 @@ from zeromode.operations.documents import (
     AllostericDocument,
     AuxeticDocument,
     DesignDocument,
+    MapDocument,
     framed,
     kind,
     validated,
@@ -27,6 +30,10 @@ from zeromode.service.wire.schemas.plot import PlotRequest
 from zeromode.solver.errors import InvalidInput
 from zeromode.viz.designs import allosteric_picture, design_picture, lattice_picture
 from zeromode.viz.picture import Picture
+from zeromode.viz.sequential import map_figure, module_picture
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 
 def picture_from_request(request: PlotRequest) -> Picture:
@@ -45,8 +52,10 @@ def picture_for_document(doc: dict, solution_space: bool = True) -> Picture:
     - a /v1/design response (``frame``, ``modes``, ``report``): viz.designs.design_picture;
     - any other document with a ``frame``: a /v1/plot body, whose ``solution_space`` defaults
       to true here;
-    - a /v1/design/sequential response: its chain's frame (else its module's), a /v1/map
-      request: its module's frame (documents.framed);
+    - a /v1/design/sequential response: its chain's frame (else its module's) (documents.framed);
+    - a /v1/map request or response: the module with its input pair marked as the source and its
+      output pair as the target (viz.sequential.module_picture; its chart beside the map is
+      figure_for_document's);
     - requests of /v1/design/allosteric (``source``, ``target``), /v1/design/auxetic (``cells``
       or ``poisson_ratio``), /v1/design (``positions``, ``motions``), /v1/design/multistable and
       /v1/design/sequential (``features``) are designed first; an allosteric request's own
@@ -57,6 +66,9 @@ def picture_for_document(doc: dict, solution_space: bool = True) -> Picture:
     """
     if not isinstance(doc, dict):
         raise InvalidInput("invalid_document", "the document must be a JSON object.")
+    answer = endpoints.map_answer(doc)
+    if answer is not None:
+        return module_picture(*map_module(answer))
     doc = framed(doc)
     if "frame" not in doc:
         response, request = endpoints.respond(doc)
@@ -85,3 +97,26 @@ def picture_for_document(doc: dict, solution_space: bool = True) -> Picture:
     return picture_from_request(
         request.model_copy(update={"solution_space": bool(wanted and has_motion and request.frame.specified)})
     )
+
+
+def map_module(answer: dict):
+    """(frame, input_pair, output_pair) of a /v1/map answer; InvalidInput ``invalid_document``
+    for an answer without its frame (one from before answers carried it)."""
+    m = validated(answer, MapDocument)
+    if m.frame is None:
+        raise InvalidInput(
+            "invalid_document", "this /v1/map answer has no frame (it predates them): draw its request instead."
+        )
+    return frame_from_model(m.frame), m.input_pair, m.output_pair
+
+
+def figure_for_document(doc, scale: float = 1.0, title: str | None = None) -> Figure | None:
+    """The matplotlib chart of a /v1/map request or response (a request answered first): the
+    module beside its map f with the diagonal, usable range, fixed points (filled: stable) and
+    folds, ``title`` above (viz.sequential.map_figure; the map alone for an answer without its
+    frame); None for any other document, whose picture is picture_for_document's."""
+    answer = endpoints.map_answer(doc)
+    if answer is None:
+        return None
+    frame = validated(answer, MapDocument).frame
+    return map_figure(answer, None if frame is None else frame_from_model(frame), scale, title)

@@ -16,6 +16,7 @@ from zeromode_client._errors import ZeromodeConnectionError, ZeromodeError, Zero
 from zeromode_client._models import (
     Analysis,
     Design,
+    EpsilonCurve,
     ExportFile,
     Frame,
     Health,
@@ -34,6 +35,7 @@ __all__ = [
     "AsyncClient",
     "Client",
     "Design",
+    "EpsilonCurve",
     "ExportFile",
     "Frame",
     "Health",

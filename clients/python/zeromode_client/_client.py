@@ -167,16 +167,20 @@ class Client(_BaseClient):
         direction: Literal["both", "forward", "backward"] | None = None,
         on_singularity: Literal["error", "report"] | None = None,
         boundary: Mapping[str, Any] | None = None,
+        epsilon_curve: Mapping[str, Any] | None = None,
     ) -> Result:
         """POST /v1/motion: the finite motion of ``frame`` along ``mode`` (default its single
         nontrivial mode), to ``amplitude`` or, instead, until ``target`` is reached exactly —
         ``{"kind": "distance", "nodes": [i, j], "value": L}``, ``{"kind": "angle", "nodes":
         [i, j, k], "value": θ}`` (radians at j; signed in 2D), ``{"kind": "strain", "axis": "x",
         "value": ε}`` (with ``boundary``) or ``{"kind": "fraction", "value": f}``; the answer's
-        ``["target"]`` says where. Unset keywords take the service's defaults."""
+        ``["target"]`` says where. ``epsilon_curve={"amplitude": a}`` (and optionally
+        ``"motion": u_S``) also answers the fidelity ε along the path for the specified nodes'
+        linear target (``result.epsilon_curve``). Unset keywords take the service's defaults."""
         return self._send(ep.motion(frame, _given(
             mode=mode, amplitude=amplitude, target=target, max_step=max_step, max_steps=max_steps,
             direction=direction, on_singularity=on_singularity, boundary=boundary,
+            epsilon_curve=epsilon_curve,
         )))
 
     def refine(self, frame: FrameLike, **fields: Any) -> Result:
@@ -419,10 +423,12 @@ class AsyncClient(_BaseClient):
         direction: Literal["both", "forward", "backward"] | None = None,
         on_singularity: Literal["error", "report"] | None = None,
         boundary: Mapping[str, Any] | None = None,
+        epsilon_curve: Mapping[str, Any] | None = None,
     ) -> Result:
         return await self._send(ep.motion(frame, _given(
             mode=mode, amplitude=amplitude, target=target, max_step=max_step, max_steps=max_steps,
             direction=direction, on_singularity=on_singularity, boundary=boundary,
+            epsilon_curve=epsilon_curve,
         )))
 
     async def refine(self, frame: FrameLike, **fields: Any) -> Result:

@@ -197,6 +197,26 @@ class Design:
 
 
 @dataclass(frozen=True, eq=False)
+class EpsilonCurve:
+    """The service's finite-motion fidelity ε(b) at amplitudes b in (0, a] (``epsilon_curve`` of
+    POST /v1/refine, or of POST /v1/motion when asked): ``amplitudes`` (m,), and ``curves`` by
+    name, each (m,): ``before`` and ``after`` (refine) or ``epsilon`` (motion). A value the service
+    could not measure (null) is NaN."""
+
+    amplitudes: FloatArray
+    curves: dict[str, FloatArray]
+
+    @classmethod
+    def from_json(cls, data: dict[str, Any]) -> EpsilonCurve:
+        # numpy reads null (None) as NaN in a float array.
+        names = [k for k in ("before", "after", "epsilon") if k in data]
+        return cls(amplitudes=readonly(data["amplitudes"]), curves={k: readonly(data[k]) for k in names})
+
+    def __getitem__(self, name: str) -> FloatArray:
+        return self.curves[name]
+
+
+@dataclass(frozen=True, eq=False)
 class Result:
     """The answer of a capability endpoint (certify, motion, refine, design/auxetic, ...).
 
@@ -227,6 +247,12 @@ class Result:
             return None
         frame = self.frame
         return readonly(self.raw["modes"], frame.positions.shape if frame is not None else ())
+
+    @property
+    def epsilon_curve(self) -> EpsilonCurve | None:
+        """ε(b) of a refinement, or of a motion asked for it; None when the answer has none."""
+        data = self.raw.get("epsilon_curve")
+        return None if data is None else EpsilonCurve.from_json(data)
 
 
 @dataclass(frozen=True, eq=False)

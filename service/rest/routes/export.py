@@ -1,5 +1,5 @@
-"""POST /v1/export — a design, lattice, allosteric or multistable design, chain, motion or refinement as a file for
-ParaView, a graph library, a laser cutter, a 3D printer or a talk; parse → write → serialise."""
+"""POST /v1/export — a design, lattice, allosteric or multistable design, chain, module map, motion or refinement as
+a file for ParaView, a graph library, a laser cutter, a 3D printer or a talk; parse → write → serialise."""
 
 from __future__ import annotations
 
@@ -29,7 +29,9 @@ router = APIRouter(prefix="/v1", tags=["export"])
 def post_export(request: ExportRequest) -> Response:
     """Write a document (a response of /v1/design, /v1/design/auxetic, /v1/design/allosteric,
     /v1/design/multistable or /v1/refine, a request of the first four — designed first — a
-    /v1/design/sequential response, or a /v1/motion response with its `frame`), or a frame with
+    /v1/design/sequential response, a /v1/map response or request — its module, or with map_csv,
+    map_svg or map_png its sampled map or the module beside its chart — or a /v1/motion response
+    with its `frame`), or a frame with
     modes, a path and springs, in `format` (springs always as springs, never as rods): VTK or XDMF for ParaView (meshio),
     GraphML or node-link JSON (networkx), a DXF or SVG cut file, STL plates or a CSV kit list in mm,
     or the finite motion as an animated SVG, GIF or MP4 (traced first when the document has no

@@ -15,6 +15,8 @@ const SNAP_POSITION = 1 / 8, SNAP_MOTION = 1 / 16;
 const CROSSING_GAP = 0.01;
 // ε(a) above this is worth a word: the finite path visibly leaves the drawn arrows.
 const DEPARTS = 0.05;
+// The soliton's domain wall: a disc of this radius (px) on the chain where it is.
+const WALL_RADIUS = 22;
 const COLOURS = {
   specified: ["#d7301f", "#8c1d12"], unspecified: ["#2c7fb8", "#1b4f72"], bar: "#a3a3a3",
   source: "#6a3d9a", target: "#ff7f00", crossing: "#000000",
@@ -37,20 +39,26 @@ const DEFAULT_3D = {
   positions: [[2, 0, 1], [1, 0, 2], [3, 0, 3], [3.5, -1, 2.5], [3.5, 1, 2.5]],
   motion: [[-0.8, 0, 0.8], [0.8, 0, -0.8], [-0.8, 0, 0], [0, -0.8, 0], [0, 0.8, 0]],
 };
+// A click that moves the pointer less than this (px) places a node in 3D; more turns the view.
+const CLICK_SLOP = 4;
+// A click farther than this (px) from every drawn space places nothing.
+const PICK_RADIUS = 20;
 // The drawn network of the Allostery tab: a triangulated sheet, NETWORK columns × rows, rigid.
 const NETWORK = [9, 7], NETWORK_SPACING = 0.5;
 // Human names of the export formats (GET /v1/export/formats); the service's description is the tooltip.
 const FORMAT_LABELS = {
-  vtk: "ParaView (.vtu)", node_link_json: "Graph, JSON", kit_csv: "Build kit, CSV", cut_svg: "Cutting plan, SVG",
-  stl: "3D print (.stl)", gltf: "glTF model", graphml: "GraphML", json: "Design, JSON", csv: "Tables, CSV",
+  vtk: "ParaView (.vtu)", xdmf: "ParaView motion (.xdmf)", node_link_json: "Graph, JSON", graphml: "GraphML",
+  kit_csv: "Build kit, CSV", dxf: "Cut file, DXF", cut_svg: "Cutting plan, SVG", stl: "3D print (.stl)",
+  svg_animation: "Animation, SVG", gif: "Animation, GIF", mp4: "Animation, MP4",
+  map_csv: "Module map, CSV", map_svg: "Module map, SVG", map_png: "Module map, PNG",
 };
 
 const $ = (id) => document.getElementById(id);
 const state = {
-  kind: "draw", network: null, nodes: [], motions: [[]], motion: 0, placed: [], spaces: [], crossings: [],
+  kind: "draw", network: null, layers: {}, sketches: {}, options: {}, designs: 0, pending: false, running: new Set(), waiting: new Set(), nodes: [], motions: [[]], motion: 0, placed: [], spaces: [], crossings: [],
   example: null, response: null, frame: null, modes: [], mode: 0, sites: {}, motionPath: null,
   refined: null, refinedPath: null, certificate: null, timer: null, drag: null, view: VIEW_3D.slice(),
-  formats: null, jobs: 0, timings: { live: [], design: [] }, progressLog: [], map: null, fresh: true,
+  formats: null, jobs: 0, timings: { live: [], design: [], table: [], turn: [] }, progressLog: [], map: null, appearAt: -Infinity,
   conformations: [], features: [], chainExamples: null, jobEndpoints: [], mapCheck: null, module: null,
 };
 window.designer = state;  // for outside tests and the curious
@@ -63,7 +71,37 @@ function headers() {
   return h;
 }
 
+// A direct request (no job: a 2D design, a motion, an export, allostery in a network) still
+// unanswered after this long shows the bar as busy until it is answered: the service's
+// synchronous endpoints report no fraction, but a GIF can take ten seconds.
+const BUSY_MS = 1000;
+
 async function api(method, path, body) {
+  const busy = setTimeout(() => showBusy(`${method} ${path}`), BUSY_MS);
+  try {
+    return await request(method, path, body);
+  } finally {
+    clearTimeout(busy);
+    hideBusy(`${method} ${path}`);
+  }
+}
+
+function showBusy(what) {
+  const bar = document.querySelector("[data-testid=progress]");
+  if (!$("progress-box").hidden && !bar.classList.contains("busy")) return;  // a job's progress is showing
+  state.waiting.add(what);
+  bar.classList.add("busy");
+  $("progress-box").hidden = false;
+  $("progress-text").textContent = `waiting for ${[...state.waiting].join(", ")} …`;
+}
+
+function hideBusy(what) {
+  if (!state.waiting.delete(what) || state.waiting.size) return;
+  document.querySelector("[data-testid=progress]").classList.remove("busy");
+  $("progress-box").hidden = true;
+}
+
+async function request(method, path, body) {
   const r = await fetch(path, { method, headers: headers(), body: body === undefined ? undefined : JSON.stringify(body) });
   if (!r.ok) {
     let message = `HTTP ${r.status}`;
@@ -71,6 +109,10 @@ async function api(method, path, body) {
       const detail = (await r.json()).detail;
       message = Array.isArray(detail) ? detail.map((e) => `${e.loc.join(".")}: ${e.msg}`).join("; ") : `${detail.code}: ${detail.message}`;
     } catch (e) { /* not JSON */ }
+    if (r.status === 401) {  // the service asks for a key: where to give it
+      $("apikey").closest("details").open = true;
+      message += " Enter the API key under Service.";
+    }
     throw new Error(message);
   }
   return r;
@@ -78,14 +120,19 @@ async function api(method, path, body) {
 const post = async (path, body) => (await api("POST", path, body)).json();
 const sleep = (ms) => new Promise((done) => setTimeout(done, ms));
 
-// A long request as a job (POST /v1/jobs), its progress on the bar until it is done.
-async function runJob(endpoint, request, label) {
+// A long request as a job (POST /v1/jobs), its progress on the bar until it is done; once
+// ``wanted()`` is false (its design was replaced or cleared) the job is cancelled and null returned.
+async function runJob(endpoint, request, label, wanted) {
   const seq = ++state.jobs;
   const accepted = await post("/v1/jobs", { endpoint, request });
   showProgress(0, `${label}: queued`);
   try {
     for (;;) {
       await sleep(200);
+      if (!wanted()) {
+        api("DELETE", `/v1/jobs/${accepted.id}`).catch(() => {});  // finished meanwhile: nothing to cancel
+        return null;
+      }
       const job = await (await api("GET", `/v1/jobs/${accepted.id}`)).json();
       showProgress(job.progress, `${label}: ${job.message || job.status}`);
       if (job.status === "done") return job.result;
@@ -94,13 +141,15 @@ async function runJob(endpoint, request, label) {
       }
     }
   } finally {
-    setTimeout(() => { if (state.jobs === seq) $("progress-box").hidden = true; }, 600);
+    setTimeout(() => { if (state.jobs === seq && !state.waiting.size) $("progress-box").hidden = true; }, 600);
   }
 }
 
 function showProgress(fraction, text) {
   const bar = document.querySelector("[data-testid=progress]");
   $("progress-box").hidden = false;
+  bar.classList.remove("busy");
+  state.waiting.clear();
   bar.firstElementChild.style.width = `${(100 * fraction).toFixed(1)}%`;
   bar.dataset.value = String(fraction);
   bar.setAttribute("aria-valuenow", String(fraction));
@@ -121,7 +170,7 @@ function viewBasis([azimuth, elevation]) {
   const toward = [Math.cos(e) * Math.cos(a), Math.cos(e) * Math.sin(a), Math.sin(e)];
   const up = [toward[1] * right[2] - toward[2] * right[1], toward[2] * right[0] - toward[0] * right[2],
               toward[0] * right[1] - toward[1] * right[0]];
-  return [right, up];
+  return [right, up, toward];  // toward: from the drawing to the viewer
 }
 
 function projector(dim) {
@@ -138,8 +187,11 @@ function makeMap() {
   const fit = dim === 3 || state.kind === "multistable" || state.kind === "chain";
   let lo = fit ? [Infinity, Infinity] : WINDOW.lo.slice(), hi = fit ? [-Infinity, -Infinity] : WINDOW.hi.slice();
   const tips = state.nodes.map((n, i) => n.x.map((v, a) => v + (state.motions[0][i] || [0, 0, 0])[a]));
-  const configs = state.frame ? (state.motionPath ? state.motionPath.path : [state.frame.positions])
-    : dim === 3 ? [state.nodes.map((n) => n.x), tips] : state.kind === "multistable" ? state.conformations
+  // A surface's box is part of the 3D drawing, before and after a design.
+  const boxes = dim === 3 ? state.spaces.filter((s) => s.box).map(boxCorners) : [];
+  const configs = state.frame ? [...(state.motionPath ? state.motionPath.path : [state.frame.positions]), ...boxes]
+    : dim === 3 ? [state.nodes.map((n) => n.x), tips, ...boxes]
+    : state.kind === "multistable" ? state.conformations
     : state.network ? [state.network.positions] : [];
   for (const points of configs) for (const p of points) {
     const s = project(p);
@@ -197,11 +249,19 @@ function describeSpaces() {
   box.className = "space";
   if (!sketching()) { box.textContent = ""; return; }
   if (!state.spaces.length) { box.textContent = "The solution space of an unspecified node appears once you place specified nodes."; return; }
+  const still = (m) => state.nodes.every((n, i) => n.role !== "specified" || !(state.motions[m][i] || []).some((v) => v));
   const words = state.spaces.map((s, m) => {
     const tag = state.spaces.length > 1 ? `motion ${m + 1}: ` : "";
+    if (still(m)) return `${tag}no arrows yet: drag from a node to give it a motion.`;
     if (s.kind === "none") return `${tag}no real solution — ${s.reason}`;
     if (s.kind === "points") return `${tag}${s.points.length} point${s.points.length === 1 ? "" : "s"} (m = ${s.nullity}); click one to place an unspecified node.`;
-    if (s.kind === "conic" && s.dim === 3) return `${tag}a curve (m = ${s.nullity}), a conic in a plane of space (Fig. 2e).`;
+    if (s.kind === "conic" && s.dim === 3) return `${tag}a curve (m = ${s.nullity}), a conic in a plane of space (Fig. 2e); click on it to place an unspecified node.`;
+    if (s.kind === "quadric") {
+      const why = { "a pair of crossing planes": " (degenerate: the quadric factors into two planes)", "a cone": " (degenerate: a cone, singular at its apex)",
+                    "a plane": " (degenerate: the specified nodes are coplanar, so every solution's position lies in one plane)" }[s.shape] || "";
+      if (!s.curves.length) return `${tag}a surface (m = ${s.nullity}): ${s.shape}${why}; ${s.reason}`;
+      return `${tag}a surface (m = ${s.nullity}): ${s.shape}${why}, drawn as its plane sections inside a box around the nodes (Fig. 2g); click on it to place an unspecified node.`;
+    }
     if (s.kind === "conic") return `${tag}a ${s.degenerate ? "degenerate " : ""}conic (m = ${s.nullity}); click on it to place an unspecified node.`;
     if (s.kind === "line") return `${tag}a line of positions (m = ${s.nullity}).`;
     return `${tag}${s.reason}`;
@@ -209,6 +269,27 @@ function describeSpaces() {
   if (state.spaces.length > 1) words.push(`${state.crossings.length} crossing${state.crossings.length === 1 ? "" : "s"}: a node there moves with every motion.`);
   box.textContent = words.join(" ");
   if (state.spaces.every((s) => s.kind === "none")) box.className = "space none";
+}
+
+// The eight corners of a surface's box (world), in the order of the bits x, y, z.
+const boxCorners = (space) => [0, 1, 2, 3, 4, 5, 6, 7].map((c) => [0, 1, 2].map((a) => space.box[(c >> a) & 1][a]));
+
+// The parts of a surface's curves nearer the viewer than its box's centre: drawn over the whole
+// wireframe so that the front of the surface reads in front of its back.
+function frontCurves(space) {
+  const toward = viewBasis(state.view)[2];
+  const depth = (p) => p.reduce((t, v, a) => t + (v - (space.box[0][a] + space.box[1][a]) / 2) * toward[a], 0);
+  const parts = [];
+  for (const c of space.curves) {
+    let run = [];
+    for (const p of c) {
+      if (depth(p) >= 0) { run.push(p); continue; }
+      if (run.length > 1) parts.push(run);
+      run = [];
+    }
+    if (run.length > 1) parts.push(run);
+  }
+  return parts;
 }
 
 // The SVG path of a space: polylines for curves, small circles for points.
@@ -250,11 +331,13 @@ function draw() {
   const defs = el("defs", {}, svg);
   arrowHeads(defs, COLOURS.motions);
   const shown = new Set();
-  if (!state.frame && !state.nodes.length && !state.example && !(state.kind === "multistable" && state.conformations.length)) {
-    const t = el("text", { x: WIDTH / 2, y: HEIGHT / 2, "text-anchor": "middle", fill: "#999", "font-size": 18 }, svg);
+  if (!state.frame && !state.nodes.length && !state.example && !state.network && !(state.kind === "multistable" && state.conformations.length)) {
+    // 22 units: 12 px when the drawing is at its narrowest (800 px windows).
+    const t = el("text", { x: WIDTH / 2, y: HEIGHT / 2, "text-anchor": "middle", fill: "#999", "font-size": 22 }, svg);
     t.textContent = state.kind === "auxetic" ? "Set the sheet on the left, then press Design."
       : state.kind === "chain" ? "Choose the map's features on the left, then press Design."
       : state.kind === "multistable" ? "Type the conformations on the left, then press Design."
+      : state.kind === "allostery" ? "Click to place a source node (or pick sites in a network); drag from it to set its motion."
       : "Click to place a node; drag from it to set its motion.";
   }
   drawSpaces(svg, toPage, shown);
@@ -279,19 +362,31 @@ function drawConformations(svg, toPage, shown) {
 }
 
 // The charts under the drawing, at the slider's sample: the energy landscape of a multistable
-// design; the module's map with the chain's cobweb, and d_k along the chain.
+// design; the module's map with the chain's cobweb, and d_k along the chain (for a soliton, with
+// its wall, and the springs' energy along the drive).
 function drawCharts() {
-  const r = state.response, k = state.motionPath ? Number($("slider").value) : null;
-  $("landscape-box").hidden = !(r && r.landscape && k !== null);
+  const r = state.response, m = state.motionPath, k = m ? Number($("slider").value) : null;
+  const soliton = Boolean(m && m.own === "soliton");
+  $("landscape-box").hidden = !(r && (r.landscape || soliton) && k !== null);
   $("map-box").hidden = !(r && r.map);
   if (r && r.landscape && k !== null) drawLandscape($("landscape"), r, k);
+  if (soliton) drawDriveEnergy($("landscape"), m, k);
+  caption("landscape-caption", soliton, "Energy of the springs along the drive: zero in both uniform states (dashed), the drawing's position (blue)");
+  caption("profile-caption", soliton, "d_k along the chain, the wall where the switched fraction crosses ½ (purple)");
   if (r && r.map) {
-    const d = r.chain && k !== null ? r.chain.distances[k] : null;
+    const d = r.chain && k !== null ? r.chain.distances[m.rows ? m.rows[k] : k] : null;
     drawMapChart($("map-chart"), r.map, d);
     $("profile").parentNode.hidden = !d;
     $("map-caption").textContent = d ? "the module's map f, the chain as a cobweb" : "the module's map f, its fixed points and folds";
-    if (d) drawProfile($("profile"), r.map, d);
+    if (d) drawProfile($("profile"), r.map, d, soliton ? { wall: m.wall[k], d_u: r.soliton.unstable.d, d_s: r.soliton.stable.d } : undefined);
   }
+}
+
+// A chart's caption: ``text`` for a soliton, else the page's own.
+function caption(id, soliton, text) {
+  const c = $(id);
+  if (c.dataset.plain === undefined) c.dataset.plain = c.textContent;
+  c.textContent = soliton ? text : c.dataset.plain;
 }
 
 function drawSpaces(svg, toPage, shown) {
@@ -300,11 +395,23 @@ function drawSpaces(svg, toPage, shown) {
   state.spaces.forEach((space, m) => {
     const colour = COLOURS.spaces[m % COLOURS.spaces.length];
     const d = spacePath(space, toPage);
-    el("path", {
+    const attrs = {
       class: `space ${space.kind}`, "data-testid": m ? `solution-space-${m + 1}` : "solution-space", "data-kind": space.kind,
       "data-motion": m, d, stroke: colour, "stroke-width": 2.2, fill: space.kind === "points" ? colour : "none",
       "fill-opacity": 0.25, "pointer-events": "none",
-    }, g);
+    };
+    // A surface: a wireframe of conic sections in its box, its back faint and its front stronger.
+    if (space.kind === "quadric") {
+      Object.assign(attrs, { "data-shape": space.shape, "stroke-width": 1, "stroke-opacity": 0.35, "stroke-linejoin": "round" });
+      const corners = boxCorners(space).map(toPage), box = [];
+      for (let c = 0; c < 8; c++) for (const a of [1, 2, 4]) if (!(c & a)) box.push(`M${corners[c].join(" ")}L${corners[c | a].join(" ")}`);
+      el("path", { class: "space-box", d: box.join(""), stroke: "#bdbdbd", "stroke-width": 1, "stroke-dasharray": "3 3", fill: "none", "pointer-events": "none" }, g);
+    }
+    el("path", attrs, g);
+    if (space.kind === "quadric") {
+      el("path", { class: "space front", d: spacePath({ curves: frontCurves(space), points: [] }, toPage), stroke: colour,
+                   "stroke-width": 1.4, "stroke-opacity": 0.85, fill: "none", "pointer-events": "none" }, g);
+    }
     if (space.curves.length || space.points.length) shown.add(`space-${m}`);
   });
   for (const [i, p] of state.crossings.entries()) {
@@ -319,12 +426,7 @@ function drawSketch(svg, toPage, shown) {
   const spec = state.nodes.map((n, i) => [n, i]).filter(([n]) => n.role === "specified");
   const bars = el("g", { class: "bars" }, svg);
   if (state.network) {
-    const p = state.network.positions.map(toPage);
-    for (const [i, j] of state.network.edges) {
-      el("line", { class: "bar network", x1: p[i][0], y1: p[i][1], x2: p[j][0], y2: p[j][1], stroke: COLOURS.bar, "stroke-width": 1.5 }, bars);
-    }
-    p.forEach(([x, y], i) => el("circle", { class: "network-node", "data-network": i, cx: x, cy: y, r: 6,
-                                            fill: COLOURS.unspecified[0], stroke: COLOURS.unspecified[1] }, bars));
+    bars.appendChild(networkLayer(toPage));
     shown.add("bar"); shown.add("unspecified");
   }
   for (const node of state.placed) {
@@ -361,9 +463,75 @@ function drawSketch(svg, toPage, shown) {
   });
   for (const node of state.placed) {
     const [x, y] = toPage(node.x);
+    if (node.u) {  // 3D: its motion from the linear system
+      const tip = toPage(node.x.map((v, c) => v + node.u[c]));
+      el("line", { class: "arrow placed", x1: x, y1: y, x2: tip[0], y2: tip[1], stroke: COLOURS.motions[0], "stroke-width": 2,
+                   opacity: 0.7, "marker-end": "url(#head-0)" }, arrows);
+    }
     el("circle", { class: "node placed unspecified", cx: x, cy: y, r: 6, fill: COLOURS.unspecified[0], stroke: COLOURS.unspecified[1] }, nodes);
     shown.add("unspecified");
   }
+}
+
+// A layer that does not move with the slider or the pointer (a given network, the trajectories),
+// rebuilt only when what it shows (``source``) or the drawing's map or view changes: a redraw at
+// every pointer move or animation frame re-attaches it instead of rebuilding thousands of elements.
+function cachedLayer(slot, source, build) {
+  const key = `${state.map.scale} ${state.map.toPage([0, 0, 0])} ${state.view}`, cached = state.layers[slot];
+  if (cached && cached.source === source && cached.key === key) return cached.g;
+  state.layers[slot] = { source, key, g: build() };
+  return state.layers[slot].g;
+}
+
+const pageXY = (q) => `${q[0].toFixed(1)} ${q[1].toFixed(1)}`;
+
+// The given network: its bars as one path, its nodes to click.
+function networkLayer(toPage) {
+  return cachedLayer("network", state.network, () => {
+    const g = el("g", { class: "network" }), p = state.network.positions.map(toPage);
+    el("path", { class: "bar network", "data-bars": state.network.edges.length, d: state.network.edges.map(([i, j]) => `M${pageXY(p[i])}L${pageXY(p[j])}`).join(""),
+                 stroke: COLOURS.bar, "stroke-width": 1.5, fill: "none" }, g);
+    p.forEach(([x, y], i) => el("circle", { class: "network-node", "data-network": i, cx: x, cy: y, r: 6,
+                                            fill: COLOURS.unspecified[0], stroke: COLOURS.unspecified[1] }, g));
+    return g;
+  });
+}
+
+// The nodes' trajectories along the traced motion: one light polyline per node for a long path
+// (multistable, chain); else step k of every node in one path of step k's colour (start → end).
+function trajectoryLayer(toPage, n) {
+  return cachedLayer("trajectories", state.motionPath, () => {
+    const g = el("g", { class: "trajectories" }), path = state.motionPath.path;
+    if (state.motionPath.own) {
+      for (let i = 0; i < n; i++) {
+        el("polyline", { points: path.map((c) => toPage(c[i]).map((v) => v.toFixed(1)).join(",")).join(" "), fill: "none", stroke: "#c6dbef", "stroke-width": 1.2 }, g);
+      }
+      return g;
+    }
+    const pages = path.map((c) => c.map(toPage)), steps = path.length - 1;
+    for (let k = 0; k < steps; k++) {
+      el("path", { class: "step", "data-step": k, d: pages[k].map((a, i) => `M${pageXY(a)}L${pageXY(pages[k + 1][i])}`).join(""),
+                   fill: "none", stroke: mix(COLOURS.progress, (k + 0.5) / steps), "stroke-width": 1.2 }, g);
+    }
+    return g;
+  });
+}
+
+// Judicious placement adds the unspecified nodes one round after another (in index order): each
+// appears APPEAR_STEP after the one before (the whole at most APPEAR_TOTAL), its bars with it. The
+// delays count from the design's arrival, so a redraw meanwhile (the motion traced, the slider)
+// carries the animation on instead of restarting or cutting it. appear(i): node i's CSS animation
+// delay in s (negative: under way), null for a specified node or once it has appeared.
+const APPEAR_STEP = 0.15, APPEAR_TOTAL = 2, APPEAR_S = 0.3;
+function appearance(n, specified) {
+  const order = new Map(), elapsed = (performance.now() - state.appearAt) / 1000;
+  for (let i = 0; i < n; i++) if (!specified.has(i)) order.set(i, order.size);
+  const step = Math.min(APPEAR_STEP, APPEAR_TOTAL / Math.max(order.size, 1));
+  return (i) => {
+    if (!order.has(i)) return null;
+    const delay = step * order.get(i) - elapsed;
+    return delay + APPEAR_S > 0 ? delay : null;
+  };
 }
 
 function marker(parent, kind, cx, cy) {
@@ -378,24 +546,9 @@ function drawFrame(svg, toPage, shown) {
   const x = state.frame.positions, edges = state.frame.edges;
   const mode = state.modes[state.mode];
   const own = state.motionPath && state.motionPath.own;
-  if (own) {
-    // Long paths of many nodes: one light polyline per node.
-    const g = el("g", { class: "trajectories" }, svg);
-    for (let i = 0; i < x.length; i++) {
-      const pts = state.motionPath.path.map((c) => toPage(c[i]).map((v) => v.toFixed(1)).join(",")).join(" ");
-      el("polyline", { points: pts, fill: "none", stroke: "#c6dbef", "stroke-width": 1.2 }, g);
-    }
-    shown.add("track");
-  } else if (state.motionPath) {
-    const g = el("g", { class: "trajectories" }, svg);
-    const path = state.motionPath.path, steps = path.length - 1;
-    for (let i = 0; i < x.length; i++) {
-      for (let k = 0; k < steps; k++) {
-        const [a, b] = [toPage(path[k][i]), toPage(path[k + 1][i])];
-        el("line", { x1: a[0], y1: a[1], x2: b[0], y2: b[1], stroke: mix(COLOURS.progress, (k + 0.5) / steps), "stroke-width": 1.2 }, g);
-      }
-    }
-    shown.add("path");
+  if (state.motionPath && own !== "soliton") {  // not a soliton's: its chain is the picture
+    svg.appendChild(trajectoryLayer(toPage, x.length));
+    shown.add(own ? "track" : "path");
   }
   const p = currentPositions().map(toPage);
   const r = state.response;
@@ -410,24 +563,42 @@ function drawFrame(svg, toPage, shown) {
       shown.add(`conformation-${c}`);
     });
   }
-  if (r.springs) {
+  const soliton = own === "soliton" ? state.motionPath : null, k = soliton && Number($("slider").value);
+  if (soliton && soliton.point[k]) {
+    // The domain wall behind the chain, at the body's point where the switched fraction is ½.
+    const [cx, cy] = toPage(soliton.point[k]);
+    el("circle", { class: "wall", "data-testid": "wall", "data-wall": soliton.wall[k], cx, cy, r: WALL_RADIUS,
+                   fill: CHART.wall, "fill-opacity": 0.25, stroke: CHART.wall, "stroke-width": 2 }, svg);
+    shown.add("wall");
+  }
+  const springs = r.springs || (r.soliton && r.soliton.springs);
+  if (springs) {
     const g = el("g", { class: "springs" }, svg);
-    r.springs.pairs.forEach(([i, j], s) => el("path", { class: "spring", "data-spring": s, d: springPath(p[i], p[j]), fill: "none",
+    springs.pairs.forEach(([i, j], s) => el("path", { class: "spring", "data-spring": s, d: springPath(p[i], p[j]), fill: "none",
                                                           stroke: CHART.spring, "stroke-width": 1, opacity: 0.6 }, g));
     shown.add("spring");
   }
-  const bars = el("g", { class: "bars" }, svg);
-  edges.forEach(([i, j], b) => el("line", {
-    class: "bar", "data-edge": b, x1: p[i][0], y1: p[i][1], x2: p[j][0], y2: p[j][1],
-    stroke: COLOURS.bar, "stroke-width": r.springs ? 3 : 2, "stroke-linecap": "round",
-  }, bars));
-  shown.add(r.springs ? "rod" : "bar");
+  const bars = el("g", { class: "bars" }, svg), appear = appearance(x.length, new Set(state.frame.specified));
+  edges.forEach(([i, j], b) => {
+    const attrs = { class: "bar", "data-edge": b, x1: p[i][0], y1: p[i][1], x2: p[j][0], y2: p[j][1],
+                    stroke: COLOURS.bar, "stroke-width": springs ? 3 : 2, "stroke-linecap": "round" };
+    const delay = Math.max(appear(i) ?? -Infinity, appear(j) ?? -Infinity);  // a bar comes with its newer node
+    if (delay > -Infinity) Object.assign(attrs, { class: "bar bar-new", style: `animation-delay: ${delay.toFixed(3)}s` });
+    el("line", attrs, bars);
+  });
+  shown.add(springs ? "rod" : "bar");
   const pairs = r.chain ? r.chain.pairs : r.module ? [r.module.input_pair, r.module.output_pair] : null;
   if (pairs) {
     const g = el("g", { class: "pairs" }, svg);
     pairs.forEach(([i, j], k) => el("line", { class: "pair", "data-pair": k, x1: p[i][0], y1: p[i][1], x2: p[j][0], y2: p[j][1],
                                                      stroke: CHART.pair, "stroke-width": 1.5, "stroke-dasharray": "4 3" }, g));
     shown.add("pair");
+    if (soliton) {
+      // The driven input pair (held, as the paper draws it): the wall walks away from it.
+      const [i, j] = pairs[0];
+      el("line", { class: "input-pair", x1: p[i][0], y1: p[i][1], x2: p[j][0], y2: p[j][1], stroke: "#000", "stroke-width": 4, "stroke-linecap": "round" }, g);
+      shown.add("input-pair");
+    }
   }
   const atReference = !state.motionPath || Number($("slider").value) === state.motionPath.reference_index;
   if (mode && atReference) {
@@ -445,16 +616,16 @@ function drawFrame(svg, toPage, shown) {
       el("line", { class: "arrow", "data-node": i, x1: p[i][0], y1: p[i][1], x2: tip[0], y2: tip[1],
                    stroke: COLOURS.motions[0], "stroke-width": 2.2, opacity: spec.has(i) ? 1 : 0.8, "marker-end": "url(#head-0)" }, arrows);
     });
-    shown.add("mode");
   }
+  // In the legend all along the motion (the arrows are drawn at its start): no jump while playing.
+  if (mode) shown.add("mode");
   const spec = new Set(state.frame.specified);
   const nodes = el("g", { class: "nodes" }, svg);
-  let round = 0;
   p.forEach((q, i) => {
     const isSpec = spec.has(i);
     const [fill, line] = isSpec ? COLOURS.specified : COLOURS.unspecified;
-    const attrs = { class: "node " + (isSpec ? "specified" : "unspecified"), "data-node": i, cx: q[0], cy: q[1], r: 5.5, fill, stroke: line, "stroke-width": 1 };
-    if (!isSpec && state.fresh) { attrs.class += " node-new"; attrs.style = `animation-delay: ${(0.15 * round++).toFixed(2)}s`; }
+    const attrs = { class: "node " + (isSpec ? "specified" : "unspecified"), "data-node": i, cx: q[0], cy: q[1], r: soliton ? 3.5 : 5.5, fill, stroke: line, "stroke-width": 1 };
+    if (appear(i) !== null) { attrs.class += " node-new"; attrs.style = `animation-delay: ${appear(i).toFixed(3)}s`; }
     el("circle", attrs, nodes);
     shown.add(isSpec ? "specified" : "unspecified");
   });
@@ -465,6 +636,7 @@ function drawFrame(svg, toPage, shown) {
     const k = Number($("slider").value), m = state.motionPath;
     const signed = (v) => `${v >= 0 ? "+" : "−"}${Math.abs(v).toFixed(3)}`;
     $("where").textContent = m.own === "landscape" ? `s ${m.parameter[k].toFixed(3)} · E ${fmt(r.landscape.energy[k], 3)}`
+      : m.own === "soliton" ? (m.wall[k] === null ? "wall off the chain" : `wall at ${m.wall[k].toFixed(2)} of ${r.soliton.springs.pairs.length}`)
       : m.own === "chain" ? `d₀ ${m.parameter[k].toFixed(3)} · d_n ${r.chain.distances[k][r.chain.distances[k].length - 1].toFixed(3)}`
       : `t ${signed(m.parameter[k])}${m.strains ? ` · ε_x ${signed(m.strains[k][0])}` : ""}`;
   }
@@ -490,12 +662,14 @@ function legend(shown) {
   entry("bar", "bar", line(COLOURS.bar));
   entry("rod", "rod", line(COLOURS.bar));
   entry("spring", "spring", (s) => el("path", { d: springPath([1, 6], [21, 6]), fill: "none", stroke: CHART.spring, "stroke-width": 1.2 }, s));
+  entry("wall", "domain wall", (s) => el("circle", { cx: 11, cy: 6, r: 5, fill: CHART.wall, "fill-opacity": 0.3, stroke: CHART.wall, "stroke-width": 1.5 }, s));
+  entry("input-pair", "input pair d₀", line("#000", 4));
   entry("pair", "pair d_k", (s) => el("line", { x1: 1, y1: 6, x2: 21, y2: 6, stroke: CHART.pair, "stroke-width": 2, "stroke-dasharray": "4 3" }, s));
   CONFORMATION_COLOURS.forEach((colour, c) => entry(`conformation-${c}`, `conformation ${c + 1}`,
     (s) => el("circle", { cx: 11, cy: 6, r: 4.5, fill: "none", stroke: colour, "stroke-width": 2 }, s)));
   entry("track", "node paths", line("#c6dbef", 2));
   state.motions.forEach((_, m) => entry(`motion-${m}`, `motion ${m + 1}`, line(COLOURS.motions[m % 4])));
-  entry("mode", "zero mode", line(COLOURS.motions[0]));
+  entry("mode", state.motionPath && !state.motionPath.own ? "zero mode (arrows at t = 0)" : "zero mode", line(COLOURS.motions[0]));
   state.spaces.forEach((_, m) => entry(`space-${m}`, `solution space${state.spaces.length > 1 ? " " + (m + 1) : ""}`, line(COLOURS.spaces[m % 4], 2)));
   entry("crossing", "crossing", (s) => el("circle", { cx: 11, cy: 6, r: 4, fill: "none", stroke: "#000", "stroke-width": 2 }, s));
   entry("path", "trajectory, start → end", (s) => {
@@ -505,15 +679,16 @@ function legend(shown) {
 
 // ----------------------------------------------------------------------------- pointer
 
-function pointerWorld(event) {
-  const svg = $("canvas"), box = svg.getBoundingClientRect();
-  const px = (event.clientX - box.left) * WIDTH / box.width, py = (event.clientY - box.top) * HEIGHT / box.height;
-  return state.map.toWorld([px, py]);
+function pointerPage(event) {
+  const box = $("canvas").getBoundingClientRect();
+  return [(event.clientX - box.left) * WIDTH / box.width, (event.clientY - box.top) * HEIGHT / box.height];
 }
+
+const pointerWorld = (event) => state.map.toWorld(pointerPage(event));
 
 function onPointerDown(event) {
   if ((state.frame && state.frame.dim === 3) || (!state.frame && sketchDim() === 3) || (state.example && state.example.dim === 3)) {
-    state.drag = { rotate: true, x: event.clientX, y: event.clientY };
+    state.drag = { rotate: true, x: event.clientX, y: event.clientY, x0: event.clientX, y0: event.clientY };
     $("canvas").setPointerCapture(event.pointerId);
     return;
   }
@@ -521,6 +696,7 @@ function onPointerDown(event) {
   const w = pointerWorld(event), target = event.target;
   if (state.kind === "draw" && document.querySelector("input[name=place]:checked").value === "unspecified") {
     if (!state.frame) placeUnspecified(w, target.classList.contains("crossing") ? Number(target.dataset.crossing) : null);
+    else say("Design placed this frame's nodes: edit the drawing (or Undo) to place nodes by hand.", true);
     return;
   }
   let i;
@@ -552,6 +728,7 @@ function onPointerMove(event) {
     state.view[1] = Math.max(-89, Math.min(89, state.view[1] + (event.clientY - state.drag.y) * 0.5));
     state.drag.x = event.clientX; state.drag.y = event.clientY;
     draw();
+    state.timings.turn.push(performance.now() - event.timeStamp);
     return;
   }
   const n = state.nodes[state.drag.node], w = pointerWorld(event);
@@ -562,11 +739,22 @@ function onPointerMove(event) {
   state.timings.live.push(performance.now() - event.timeStamp);
 }
 
-function onPointerUp() { state.drag = null; }
+function onPointerUp(event) {
+  const drag = state.drag;
+  state.drag = null;
+  // 3D: a click that did not turn the view places an unspecified node (when so chosen).
+  if (drag && drag.rotate && event.type === "pointerup" && Math.hypot(event.clientX - drag.x0, event.clientY - drag.y0) < CLICK_SLOP
+      && sketching() && sketchDim() === 3 && !state.frame && $("place-3d").checked) placeUnspecified3d(event);
+}
 
 // A drawing changed: the old design no longer belongs to it.
 function edited() {
   if (state.response) clearDesign();
+  else if (state.pending) {  // a design on the way is of the old drawing
+    state.designs++;
+    state.pending = false;
+    say("the drawing changed while it was being designed: press Design again.");
+  }
   state.placed = [];
   updateSpaces();
   describeSpaces();
@@ -587,7 +775,7 @@ function placeUnspecified(w, crossing) {
       }
     }
   }
-  if (!best || Math.hypot(best[0] - w[0], best[1] - w[1]) * state.map.scale > 20) {
+  if (!best || Math.hypot(best[0] - w[0], best[1] - w[1]) * state.map.scale > PICK_RADIUS) {
     say(state.spaces.length > 1 ? "click at a crossing of the solution spaces." : "click on the solution space.", true);
     return;
   }
@@ -596,14 +784,46 @@ function placeUnspecified(w, crossing) {
   checkPlaced().catch((e) => say(e.message, true));
 }
 
-// The frame built by hand (specified nodes, placed nodes, a bar from each placed node to every
-// specified node) analysed by the service: does it leave only the drawn motions?
-async function checkPlaced() {
+// 3D: the node where the ray through the clicked pixel first meets the surface inside its box
+// (exact: SolutionSpace.hit); else (a curve, or beside the surface's outline) the drawn point
+// nearest the click on the page, within PICK_RADIUS, moved onto the space (SolutionSpace.project).
+// Its motion follows from the linear system (x_i − p)·v = (x_i − p)·u_i (SolutionSpace.motionAt).
+function placeUnspecified3d(event) {
+  const space = state.spaces[0];
+  if (!space || !["quadric", "conic"].includes(space.kind)) { say("there is no drawn solution space to place a node on.", true); return; }
+  const [right, up, toward] = viewBasis(state.view), [s0, s1] = pointerWorld(event);
+  const depth = specifiedNodes().reduce((t, n) => t + n.x.reduce((r, v, a) => r + v * toward[a], 0), 0) / specifiedNodes().length;
+  const origin = [0, 1, 2].map((a) => s0 * right[a] + s1 * up[a] + depth * toward[a]);
+  let p = space.kind === "quadric" ? SolutionSpace.hit(space, origin, toward.map((v) => -v)) : null;
+  if (!p) {
+    const [px, py] = pointerPage(event);
+    let best = null, gap = Infinity;
+    for (const q of space.curves.flat()) {
+      const [qx, qy] = state.map.toPage(q), d = Math.hypot(qx - px, qy - py);
+      if (d < gap) { gap = d; best = q; }
+    }
+    if (gap > PICK_RADIUS) { say("click on the solution space.", true); return; }
+    p = SolutionSpace.project(space, best);
+  }
+  state.placed.push({ x: p, u: SolutionSpace.motionAt(space, p) });
+  draw();
+  checkPlaced().catch((e) => say(e.message, true));
+}
+
+// The frame built by hand: the specified nodes, the placed nodes, a bar from each placed node to
+// every specified node.
+function handBuiltFrame() {
   const spec = specifiedNodes(), k = spec.length;
-  const positions = [...spec.map((n) => n.x), ...state.placed.map((n) => n.x)];
-  const edges = state.placed.flatMap((_, j) => spec.map((__, i) => [i, k + j]));
-  const a = await post("/v1/analyze", { frame: { dim: 2, positions, edges, specified: spec.map((_, i) => i) } });
-  say(`built by hand: ${a.nodes} nodes, ${a.edges} bars, ${a.nontrivial_zero_modes} non-rigid zero mode${a.nontrivial_zero_modes === 1 ? "" : "s"}, ${a.self_stresses} self-stress${a.self_stresses === 1 ? "" : "es"} (Design places nodes judiciously instead).`);
+  return { dim: sketchDim(), positions: [...spec.map((n) => n.x), ...state.placed.map((n) => n.x)],
+           edges: state.placed.flatMap((_, j) => spec.map((__, i) => [i, k + j])), specified: spec.map((_, i) => i) };
+}
+
+// The frame built by hand analysed by the service: does it leave only the drawn motions?
+async function checkPlaced() {
+  const placed = state.placed.length, a = await post("/v1/analyze", { frame: handBuiltFrame() });
+  if (state.placed.length !== placed) return;  // another node placed meanwhile: its answer follows
+  say(`built by hand: ${a.nodes} nodes, ${a.edges} bars, ${a.nontrivial_zero_modes} non-rigid zero mode${a.nontrivial_zero_modes === 1 ? "" : "s"}, ${a.self_stresses} self-stress${a.self_stresses === 1 ? "" : "es"} `
+      + (sketchDim() === 3 ? "(Design uses this frame; Clear placed lets it place nodes judiciously)." : "(Design places nodes judiciously instead)."));
 }
 
 // ----------------------------------------------------------------------------- design
@@ -628,6 +848,10 @@ function drawnRequest() {
   if (state.kind === "chain" && chainSource() === "given") {
     const m = state.module;
     return ["/v1/map", { frame: { dim: 2, positions: m.positions, edges: m.edges }, input_pair: m.input_pair, output_pair: m.output_pair }];
+  }
+  if (state.kind === "chain" && $("soliton").checked) {
+    const soliton = { n_modules: Number($("n-modules").value), stiffness: Number($("stiffness").value) };
+    return ["/v1/design/sequential", { features: state.features, soliton }];
   }
   if (state.kind === "chain") {
     const chain = { n_modules: Number($("n-modules").value) }, d0 = $("d0").value.trim();
@@ -654,21 +878,39 @@ function drawnRequest() {
   }
   const spec = state.nodes.map((n, i) => [n, i]).filter(([n]) => n.role === "specified");
   if (state.kind === "space3d") {
-    return ["/v1/design", { dim: 3, positions: spec.map(([n]) => n.x), motions: [spec.map(([, i]) => state.motions[0][i])], options: { seed: 0, ...options } }];
+    return ["/v1/design", { dim: 3, positions: spec.map(([n]) => n.x), motions: [spec.map(([, i]) => state.motions[0][i])], options: { seed: 0, ...state.options, ...options } }];
   }
   if (spec.length < 2) throw new Error("place at least two specified nodes and drag their motions.");
   const motions = state.motions.map((m) => spec.map(([, i]) => m[i])).filter((m) => m.some((u) => u[0] || u[1]));
   if (!motions.length) throw new Error("drag from a node to give it a motion.");
-  return ["/v1/design", { dim: 2, positions: spec.map(([n]) => n.x), motions, options: { seed: 0, ...options } }];
+  return ["/v1/design", { dim: 2, positions: spec.map(([n]) => n.x), motions, options: { seed: 0, ...state.options, ...options } }];
+}
+
+// 3D with nodes placed by hand: that frame is the design, as the service's analysis finds it
+// (it must leave exactly the one target motion: one non-rigid zero mode, no self-stress). The
+// mode is u_S on the specified nodes and each placed node's motion from the linear system.
+async function designedByHand() {
+  const frame = handBuiltFrame(), a = await post("/v1/analyze", { frame });
+  if (a.nontrivial_zero_modes !== 1 || a.self_stresses !== 0) {
+    throw new Error(`the frame built by hand has ${a.nontrivial_zero_modes} non-rigid zero modes and ${a.self_stresses} self-stresses, `
+      + "not the one target motion: place more nodes (five on the surface of four specified nodes, in general position), or Clear placed and let Design place them.");
+  }
+  const { modes, stresses, ...analysis } = a;
+  const motion = state.nodes.map((n, i) => [n, state.motions[0][i]]).filter(([n]) => n.role === "specified").map(([, u]) => u);
+  return { frame, modes: [[...motion, ...state.placed.map((n) => n.u)]],
+           report: { analysis, target_zero_modes: 7, unspecified_nodes: state.placed.length, bars: frame.edges.length, placed_by_hand: true } };
 }
 
 async function design(event) {
   const t0 = event && event.timeStamp ? event.timeStamp : performance.now();
+  const byHand = state.kind === "space3d" && !state.example && state.placed.length > 0;
   let endpoint, request;
-  try { [endpoint, request] = drawnRequest(); } catch (e) { clearDesign(); say(e.message, true); return; }
+  if (!byHand) try { [endpoint, request] = drawnRequest(); } catch (e) { clearDesign(); say(e.message, true); return; }
   clearDesign();
-  state.placed = [];
-  say(`designing (${endpoint}) …`);
+  const seq = state.designs;  // clearDesign() (an edit, another tab, a new design) replaces it
+  const wanted = () => state.designs === seq;
+  if (!byHand) state.placed = [];
+  say(byHand ? "the frame built by hand: asking the service's analysis (/v1/analyze) …" : `designing (${endpoint}) …`);
   // A drawn 2D design answers in milliseconds; the rest may take seconds: a job with progress.
   // (Allostery in a given network has no job endpoint: it is asked directly too.)
   // (So are a module's map and a sequential design unless the service runs it as a job: on a
@@ -676,9 +918,10 @@ async function design(event) {
   const direct = (endpoint === "/v1/design" && request.dim === 2) || endpoint === "/v1/design/allosteric/network"
     || endpoint === "/v1/map" || (endpoint === "/v1/design/sequential" && !state.jobEndpoints.includes(endpoint));
   try {
-    const kind = state.kind;
-    let response = direct ? await post(endpoint, request) : await runJob(endpoint, request, "designing");
-    if (state.kind !== kind) return;  // another tab was chosen meanwhile
+    state.pending = true;
+    let response = byHand ? await designedByHand() : direct ? await post(endpoint, request) : await runJob(endpoint, request, "designing", wanted);
+    if (!wanted()) return;
+    state.pending = false;  // the drawing changed, another tab was chosen or Design pressed again
     // A given module's map is drawn as a designed module's is, without features or chain.
     if (endpoint === "/v1/map") response = { map: response, module: { ...request, frame: { ...request.frame, specified: [] } }, features: [], chain: null };
     const own = ownMotion(response);
@@ -693,12 +936,10 @@ async function design(event) {
     state.fromDrawing = direct && !state.example && !state.network;
     const report = response.report || {};
     state.sites = { source: report.source || [], target: report.target || [] };
-    state.fresh = true;
+    state.appearAt = performance.now();
     draw();
     requestAnimationFrame(() => state.timings.design.push(performance.now() - t0));
-    state.fresh = false;
-    $("refine").disabled = !(state.modes.length === 1 && state.frame.specified.length >= 2);
-    $("certify").disabled = Boolean(own);
+    enableActions();
     if (own) {
       showOwnMotion(own.motion);
       // Rods and springs, and a chain, export as designs do (springs as their own cells).
@@ -709,16 +950,33 @@ async function design(event) {
     report_();
     await Promise.all([traceMotion(), listDownloads()]);
   } catch (e) {
+    if (!wanted()) return;  // a refusal of a replaced design says nothing of the current one
+    state.pending = false;
     clearDesign();
     say(e.message, true);
   }
 }
 
+const REFINE_TITLE = "Move the unspecified nodes so the finite motion follows the arrows (IPOPT)";
+// Refine applies to a design with specified nodes and one motion; Certify to any but a multistable
+// design or a chain (they come with their own checks).
+function enableActions() {
+  const f = state.frame, own = Boolean(state.response && ownMotion(state.response));
+  const fits = f && !own && state.modes.length === 1 && f.specified.length >= 2;
+  $("refine").disabled = !fits || state.running.has("refine");
+  // Why not, on hover: a disabled button that says nothing looks broken.
+  $("refine").title = fits || !f ? REFINE_TITLE
+    : `Refine follows one motion of two or more specified nodes; this design has ${own ? "its own motion" : `${state.modes.length} motions, ${f.specified.length} specified nodes`}.`;
+  $("certify").disabled = !f || own || state.running.has("certify");
+}
+
 function clearDesign() {
   stop();
+  state.designs++;
   Object.assign(state, { response: null, frame: null, modes: [], sites: {}, motionPath: null,
                          refined: null, refinedPath: null, certificate: null, fromDrawing: false, mapCheck: null });
   for (const id of ["slider", "play", "refine", "certify"]) $(id).disabled = true;
+  $("slider").max = $("slider").value = 0;
   $("where").textContent = "";
   $("downloads").replaceChildren();
   $("compare").hidden = true;
@@ -733,6 +991,16 @@ function ownMotion(response) {
     const land = response.landscape;
     return { frame: response.frame, motion: { own: "landscape", path: land.positions, parameter: land.arclength,
                                                 reference_index: land.conformation_samples[0] } };
+  }
+  if (response.soliton) {
+    // The drive from the stable end towards the unstable one: Play walks the wall out along the chain.
+    // It starts where the wall has entered the chain.
+    const sol = response.soliton, c = response.chain, order = sol.drive.map((_, j) => j).reverse();
+    const pick = (a) => order.map((j) => a[j]), wall = pick(sol.wall);
+    return { frame: c.frame, motion: { own: "soliton", path: pick(sol.rows).map((row) => c.path[row]), parameter: pick(sol.drive),
+                                       rows: pick(sol.rows), wall, point: pick(sol.wall_point), energy: pick(sol.energy),
+                                       offset: pick(sol.drive).map((d) => Math.abs(d - sol.unstable.d)),
+                                       reference_index: Math.max(0, wall.findIndex((w) => w !== null)) } };
   }
   if (response.map) {
     const c = response.chain;
@@ -750,7 +1018,7 @@ function showOwnMotion(motion) {
     slider.value = motion.reference_index;
   }
   slider.disabled = $("play").disabled = !motion;
-  const f = state.frame, springs = state.response.springs;
+  const f = state.frame, springs = state.response.springs || (state.response.soliton && state.response.soliton.springs);
   const mapped = state.response.features && !state.response.features.length;
   say(`${mapped ? "mapped" : "designed"}: ${f.positions.length} nodes, ${f.edges.length} ${springs ? `rods, ${springs.pairs.length} springs` : "bars"}`
       + (motion ? `; its motion in ${motion.path.length} samples: press Play or drag the slider.` : "."));
@@ -774,8 +1042,11 @@ async function checkMap(response) {
 
 async function traceMotion() {
   if (!state.frame) return;
-  const body = { frame: state.frame, amplitude: Number($("amplitude").value), on_singularity: "report" };
+  const a = Number($("amplitude").value);
+  const body = { frame: state.frame, amplitude: a, on_singularity: "report" };
   if (state.modes.length) body.mode = state.modes[state.mode];
+  // The service's ε along the path for the arrows' target x_S + a·(r_S/ρ_u)·u_S (as /v1/refine).
+  if (fidelityApplies()) body.epsilon_curve = { amplitude: a, motion: specifiedRows(state.modes[0]) };
   if (state.response.report && state.response.report.boundary) body.boundary = state.response.report.boundary;
   const frame = state.frame;
   try {
@@ -800,15 +1071,17 @@ async function traceMotion() {
   else if (state.motionPath && fidelityApplies()) compare();
 }
 
-// ε(a) is defined for a 2D design with specified nodes and one motion (as POST /v1/refine).
-const fidelityApplies = () => state.frame.dim === 2 && state.frame.specified.length >= 2 && state.modes.length === 1;
+// ε(a) is defined for a design with specified nodes and one motion (as POST /v1/refine).
+const fidelityApplies = () => state.frame.specified.length >= 2 && state.modes.length === 1;
 
-// One sentence when the finite path leaves the arrows (ε(a) at the amplitude above DEPARTS).
+// One sentence when the finite path leaves the arrows: the service's ε at the amplitude
+// (POST /v1/motion's epsilon_curve, the last of its amplitudes) above DEPARTS.
 function departure() {
-  if (!fidelityApplies()) return "";
-  const spec = state.frame.specified, a = Number($("amplitude").value);
-  const eps = epsilonCurve(state.motionPath.path, spec, spec.map((i) => state.frame.positions[i]), specifiedRows(state.modes[0]), [a])[0];
-  return eps > DEPARTS ? ` The finite path leaves the arrows (ε = ${fmt(eps, 2)} at a = ${a.toFixed(2)}: the design is exact only to first order); Refine moves the unspecified nodes so that it follows them.` : "";
+  const curve = state.motionPath.epsilon_curve;
+  if (!curve) return "";
+  const last = curve.epsilon.length - 1, eps = curve.epsilon[last], a = curve.amplitudes[last];
+  const bound = curve.at_end[last] ? "≥" : "=";  // ≥: the path ends before its closest point
+  return eps > DEPARTS ? ` The finite path leaves the arrows (ε ${bound} ${fmt(eps, 2)} at a = ${a.toFixed(2)}: the design is exact only to first order); Refine moves the unspecified nodes so that it follows them.` : "";
 }
 
 function stop() {
@@ -838,15 +1111,17 @@ const specifiedRows = (mode) => state.frame.specified.map((i) => mode[i]);
 // A job on the current design with its button disabled meanwhile; ``use`` takes the result
 // unless the design changed while it ran.
 async function designJob(button, label, endpoint, request, use) {
-  const frame = state.frame;
+  const frame = state.frame, current = () => state.frame === frame;
   $(button).disabled = true;
+  state.running.add(button);
   try {
-    const result = await runJob(endpoint, request, label);
-    if (state.frame === frame) await use(result);
+    const result = await runJob(endpoint, request, label, current);
+    if (current()) await use(result);
   } catch (e) {
-    say(`${label}: ${e.message}`, true);
+    if (current()) say(`${label}: ${e.message}`, true);
   } finally {
-    $(button).disabled = !state.frame;
+    state.running.delete(button);
+    enableActions();
     report_();
   }
 }
@@ -883,41 +1158,10 @@ async function certify() {
   const request = { frame: { dim: f.dim, positions: f.positions, edges: f.edges }, modes: state.modes };
   await designJob("certify", "certifying", "/v1/certify", request, (result) => {
     state.certificate = result;
-    const p = result.prestress;
-    say(`certified: ${p.prestress_stable ? "prestress stable" : "not prestress stable"} (${p.decided_by}).`);
-  });
-}
-
-const SUBSTEPS = 8;
-
-// ε(a) of a traced path for the target x_S + a·(r_S/ρ_u)·u_S (as POST /v1/refine): the closest
-// point of the path after the best rotation and translation (2D Kabsch in closed form), over ‖Δ_S‖.
-function epsilonCurve(path, spec, x, u, amplitudes) {
-  const k = spec.length;
-  const centred = (pts) => { const c = [0, 1].map((a) => pts.reduce((s, p) => s + p[a], 0) / k); return pts.map((p) => [p[0] - c[0], p[1] - c[1]]); };
-  const rS = Math.sqrt(centred(x).reduce((s, p) => s + p[0] ** 2 + p[1] ** 2, 0) / k);
-  const rhoU = Math.sqrt(u.reduce((s, p) => s + p[0] ** 2 + p[1] ** 2, 0) / k);
-  // Between traced samples the path is taken straight (SUBSTEPS per step): at small a the
-  // target lies between the first samples, and ε is then a ratio of two small lengths.
-  const samples = [];
-  path.forEach((X, j) => {
-    const P = spec.map((i) => X[i]), next = j + 1 < path.length ? spec.map((i) => path[j + 1][i]) : null;
-    for (let s = 0; s < (next ? SUBSTEPS : 1); s++) {
-      const f = s / SUBSTEPS;
-      samples.push(centred(next ? P.map((p, i) => [p[0] + f * (next[i][0] - p[0]), p[1] + f * (next[i][1] - p[1])]) : P));
-    }
-  });
-  return amplitudes.map((a) => {
-    const delta = u.map((p) => [a * rS / rhoU * p[0], a * rS / rhoU * p[1]]);
-    const q = centred(x.map((p, i) => [p[0] + delta[i][0], p[1] + delta[i][1]]));
-    const qq = q.reduce((s, p) => s + p[0] ** 2 + p[1] ** 2, 0);
-    let best = Infinity;
-    for (const P of samples) {
-      let pp = 0, sd = 0, sc = 0;
-      P.forEach((p, i) => { pp += p[0] ** 2 + p[1] ** 2; sd += p[0] * q[i][0] + p[1] * q[i][1]; sc += p[0] * q[i][1] - p[1] * q[i][0]; });
-      best = Math.min(best, Math.sqrt(Math.max(pp + qq - 2 * Math.hypot(sd, sc), 0)));
-    }
-    return best / Math.sqrt(delta.reduce((s, p) => s + p[0] ** 2 + p[1] ** 2, 0));
+    const p = result.prestress, g = result.rigidity_margin || result.margin;
+    const stable = p.prestress_stable ? `prestress stable (${p.decided_by})` : p.decided_by === "no_self_stress"
+      ? "no self-stress, so nothing stiffens the designed motion: it stays free, as designed" : `not prestress stable (${p.decided_by})`;
+    say(`certified: ${stable}${g ? `; ${g.undesigned_zero_modes} undesigned zero modes, rigidity margin ${fmt(g.uniform)}` : ""}.`);
   });
 }
 
@@ -949,25 +1193,27 @@ function compare() {
   miniFrame($("path-refined"), state.refined && state.refined.frame, state.refinedPath);
   const chart = $("epsilon");
   chart.replaceChildren();
-  if (!state.motionPath || !fidelityApplies()) return;
-  const spec = state.frame.specified, x = spec.map((i) => state.frame.positions[i]), u = specifiedRows(state.modes[0]);
-  const top = Number($("amplitude").value), amplitudes = Array.from({ length: 20 }, (_, i) => top * (i + 1) / 20);
-  const curves = [[state.motionPath, COLOURS.spaces[0], "linear"]];
-  if (state.refinedPath) curves.push([state.refinedPath, COLOURS.spaces[1], "refined"]);
-  const values = curves.map(([path]) => epsilonCurve(path.path, spec, x, u, amplitudes));
+  // The service's ε(a), measured on the constraint manifold: POST /v1/refine's curves before and
+  // after, or before a refinement POST /v1/motion's along the linear design's path.
+  const refined = state.refined && state.refined.epsilon_curve, linear = state.motionPath && state.motionPath.epsilon_curve;
+  const source = refined || linear;
+  if (!source) return;
+  const amplitudes = source.amplitudes, top = amplitudes[amplitudes.length - 1];
+  const curves = refined ? [[COLOURS.spaces[0], "linear"], [COLOURS.spaces[1], "refined"]] : [[COLOURS.spaces[0], "linear"]];
+  const values = refined ? [refined.before, refined.after] : [linear.epsilon];
   const ymax = Math.max(1e-3, ...values.flat().filter(Number.isFinite)) * 1.1;
   const X = (a) => 40 + 245 * a / top, Y = (e) => 215 - 170 * e / ymax;  // labels above y = 40
   el("line", { x1: 40, y1: 215, x2: 290, y2: 215, stroke: "#888" }, chart);
   el("line", { x1: 40, y1: 45, x2: 40, y2: 215, stroke: "#888" }, chart);
-  const label = (x, y, text, anchor = "middle") => { el("text", { x, y, "font-size": 11, "text-anchor": anchor, fill: "#444" }, chart).textContent = text; };
+  const label = (x, y, text, anchor = "middle", attrs = {}) => { el("text", { x, y, "font-size": 11, "text-anchor": anchor, fill: "#444", ...attrs }, chart).textContent = text; };
   label(165, 236, "amplitude a");
   label(36, 49, fmt(ymax, 2), "end");
   label(36, 218, "0", "end");
   label(290, 228, fmt(top, 2), "end");
-  curves.forEach(([, colour, name], c) => {
+  curves.forEach(([colour, name], c) => {
     const pts = amplitudes.map((a, i) => `${X(a).toFixed(1)},${Y(values[c][i]).toFixed(1)}`).join(" ");
     el("polyline", { class: `epsilon ${name}`, points: pts, fill: "none", stroke: colour, "stroke-width": 2 }, chart);
-    label(285, 14 + 14 * c, `${name}: ε(${fmt(top, 2)}) = ${fmt(values[c][values[c].length - 1])}`, "end");
+    label(285, 14 + 14 * c, `${name}: ε(${fmt(top, 2)}) = ${fmt(values[c][values[c].length - 1])}`, "end", { class: `epsilon-label ${name}` });
   });
 }
 
@@ -1026,7 +1272,9 @@ function reportRows() {
   if (c) {
     rows.push(["Certificate"]);
     const p = c.prestress;
-    add("prestress stable", p.prestress_stable ? "yes" : "no", "", `Decided by ${p.decided_by}: a self-stress makes every undesigned flex cost energy.`);
+    add("prestress stable", p.prestress_stable ? "yes" : "no", "", p.decided_by === "no_self_stress"
+      ? "Decided by no_self_stress: without a self-stress nothing stiffens the frame's flexes — expected for a mechanism, whose designed motion must stay free; the rigidity margin is what resists every other motion."
+      : `Decided by ${p.decided_by}: a self-stress makes every undesigned flex cost energy.`);
     if (p.decided_by === "sdp") add("prestress margin", `[${fmt(p.margin)}, ${fmt(p.margin_upper_bound)}]`, "stiffness", "Certified lower bound and upper bound of the SDP's margin.");
     const g = c.rigidity_margin || c.margin;
     if (g) {
@@ -1081,6 +1329,18 @@ function beyondOneMotion(r, rows, add) {
       add("iterate deviation", c.iterate_deviation, "relative", "max |d_k − f^k(d_0)| / d_k: round-off amplified by Π|f′| (reported, not promised).");
       add("motion ends", c.ends.join(", "), "", "Why the traced motion ended each way: map_range (a copy reached its fold), singular_point or horizon.");
     }
+    const sol = r.soliton;
+    if (sol) {
+      rows.push(["Soliton"]);
+      add("springs", sol.springs.pairs.length, "", "One spring per copy (zig-zags), from an anchor held by a dyad to a node of the copy: E = Σ k (ℓ − L)²/2.");
+      add("wall travel", sol.travel, "copies", `How far the wall (switched fraction ½) moves along the drive, monotonically; at least ${fmt(sol.required_travel)} promised.`);
+      add("wall slope", `${fmt(sol.wall_slope, 3)} (predicted ${fmt(sol.predicted_wall_slope, 3)})`, "", "dw / d ln|d₀ − d_u| in the bulk, against −1/ln f′(d_u) linearised at d_u.");
+      add("barrier", sol.barrier, "k·L²", "The largest E along the drive: the wall's energy.");
+      for (const [label, u] of [["d_u", sol.unstable], ["d_s", sol.stable]]) {
+        add(`uniform at ${label}`, `E ${fmt(u.energy, 2)}, λ_min ${fmt(u.hessian_min_eigenvalue, 3)}`, "",
+            "Every copy at the fixed point: E (0, every spring at rest) and the smallest eigenvalue of the stiff-rod Hessian, rigid motions aside (> 0: a strict minimum).");
+      }
+    }
     if (state.mapCheck) add("POST /v1/map check", state.mapCheck.deviation, "relative", "f(d_k) of the designed module asked of POST /v1/map against the chain's d_{k+1}, largest relative difference.");
   }
 }
@@ -1102,7 +1362,8 @@ function report_() {
   }
   const raw = { design: state.response, motion: state.motionPath && { ...state.motionPath, path: `(${state.motionPath.path.length} configurations)` },
                 refinement: state.refined, certificate: state.certificate };
-  $("raw").textContent = state.response ? JSON.stringify(raw, null, 1) : "";
+  // One line per vector (a position, a motion's row), not one per number.
+  $("raw").textContent = state.response ? JSON.stringify(raw, null, 1).replace(/\[[-\d.e+,\s]*\]/g, (a) => a.replace(/\s+/g, "")) : "";
 }
 
 // ----------------------------------------------------------------------------- downloads
@@ -1112,21 +1373,25 @@ function designName() {
 }
 
 async function listDownloads() {
-  const box = $("downloads");
+  const box = $("downloads"), response = state.response;
   box.replaceChildren();
   if (!state.formats) state.formats = await (await api("GET", "/v1/export/formats")).json();
+  if (state.response !== response) return;  // cleared or replaced meanwhile: no buttons for it
   for (const f of state.formats.filter((f) => f.available)) {
     const button = el("button", { type: "button", "data-format": f.name, "data-testid": `download-${f.name}`, title: f.description }, box, true);
-    button.textContent = FORMAT_LABELS[f.name] || `${f.description.split(/[.:;(]/)[0]}`;
+    button.textContent = formatLabel(f);
     button.addEventListener("click", () => download(f));
   }
 }
+
+// The format's human name: ours, else the service's description up to its first stop.
+const formatLabel = (f) => FORMAT_LABELS[f.name] || f.description.split(/[.:;(]/)[0].trim();
 
 async function download(format) {
   if (!state.response) return;
   const body = { format: format.name, document: state.response, motion: { mode: 0 } };
   if (state.motionPath) { body.path = state.motionPath.path; body.parameter = state.motionPath.parameter; }
-  say(`exporting ${FORMAT_LABELS[format.name] || format.name} …`);
+  say(`exporting ${formatLabel(format)} …`);
   try {
     const blob = await (await api("POST", "/v1/export", body)).blob();
     const link = document.createElement("a");
@@ -1163,6 +1428,23 @@ function setKind(kind) {
     state.module = JSON.parse(JSON.stringify(GIVEN_MODULE));
     renderModule();
   }
+}
+
+// A drawing tab left keeps its drawing: coming back (by its tab) finds it as it was, undesigned.
+const SKETCHED = ["draw", "allostery"];
+function switchTab(kind) {
+  if (SKETCHED.includes(state.kind)) {
+    state.sketches[state.kind] = { nodes: state.nodes, motions: state.motions, network: state.network, options: state.options, name: $("name").value };
+  }
+  $("example").value = "";
+  $("example-text").textContent = "";
+  setKind(kind);
+  const kept = state.sketches[kind];
+  if (!SKETCHED.includes(kind) || !kept || !(kept.nodes.length || kept.network)) return;
+  Object.assign(state, { nodes: kept.nodes, motions: kept.motions, network: kept.network, options: kept.options });
+  kept.motions.slice(1).forEach((_, m) => { el("option", { value: m + 1 }, $("motion-index"), true).textContent = String(m + 2); });
+  $("name").value = kept.name;
+  edited();
 }
 
 // The given module of the Chain tab: the two-triangle module of docs/module_maps.md.
@@ -1255,12 +1537,22 @@ function pickChainExample(name) {
   $("chain-example").value = name;
   $("chain-example-text").textContent = ex.description;
   state.features = JSON.parse(JSON.stringify(ex.value.features));
-  const chain = ex.value.chain || {};
+  const chain = ex.value.chain || ex.value.soliton || {};
   $("n-modules").value = String(chain.n_modules || 16);
   $("d0").value = chain.d0 === undefined ? "" : String(chain.d0);
+  $("soliton").checked = Boolean(ex.value.soliton);
+  $("stiffness").value = String(chain.stiffness || 1);
+  solitonForm();
   $("name").value = `${name}_chain`;
   renderFeatures();
   clearDesign();
+}
+
+// A soliton has springs (their stiffness) and no d₀ (its drive is the whole way between the fixed points).
+function solitonForm() {
+  const soliton = $("soliton").checked;
+  for (const e of document.querySelectorAll("[data-chain-only]")) e.hidden = soliton;
+  for (const e of document.querySelectorAll("[data-soliton-only]")) e.hidden = !soliton;
 }
 
 // Each feature kind's fields: [path into the feature, label, default].
@@ -1320,7 +1612,13 @@ function renderTable() {
     const tr = el("tr", {}, body, true);
     for (const [vector, a] of [0, 1, 2].map((a) => [n.x, a]).concat([0, 1, 2].map((a) => [state.motions[0][i], a]))) {
       const input = el("input", { type: "number", step: "0.1", value: vector[a], "aria-label": `node ${i + 1}` }, el("td", {}, tr, true), true);
-      input.addEventListener("input", () => { if (Number.isFinite(input.valueAsNumber)) { vector[a] = input.valueAsNumber; edited(); } });
+      input.addEventListener("input", (event) => {
+        if (!Number.isFinite(input.valueAsNumber)) return;
+        vector[a] = input.valueAsNumber;
+        edited();
+        // From the edit to the space recomputed and redrawn (queueing included).
+        state.timings.table.push(performance.now() - event.timeStamp);
+      });
     }
     const remove = el("button", { type: "button", title: "remove this node" }, el("td", {}, tr, true), true);
     remove.textContent = "×";
@@ -1329,7 +1627,7 @@ function renderTable() {
 }
 
 function clearSketch() {
-  Object.assign(state, { network: null, nodes: [], motions: [[]], motion: 0, placed: [] });
+  Object.assign(state, { network: null, nodes: [], motions: [[]], motion: 0, placed: [], options: {} });
   const select = $("motion-index");
   select.replaceChildren();
   el("option", { value: 0 }, select, true).textContent = "1";
@@ -1355,14 +1653,26 @@ function triangulatedSheet([nx, ny], h) {
   return { dim: 2, positions, edges };
 }
 
-function useNetwork(frame) {
+// A network is checked whole before it replaces the drawing: a bad file leaves the page as it was.
+function useNetwork(frame, name) {
   if (!frame || frame.dim !== 2 || !Array.isArray(frame.positions) || !Array.isArray(frame.edges)) {
     throw new Error("a network is a 2D frame: {\"dim\": 2, \"positions\": [...], \"edges\": [...]}.");
   }
+  const n = frame.positions.length;
+  const bad = frame.positions.findIndex((p) => !Array.isArray(p) || p.length !== 2 || !p.every(Number.isFinite));
+  if (bad >= 0) throw new Error(`position ${bad} is not two finite numbers [x, y].`);
+  const wrong = frame.edges.findIndex((e) => !Array.isArray(e) || e.length !== 2 || e[0] === e[1]
+                                            || !e.every((i) => Number.isInteger(i) && i >= 0 && i < n));
+  if (wrong >= 0) throw new Error(`edge ${wrong} is not two different node indices from 0 to ${n - 1}.`);
   clearSketch();
+  // No longer the example chosen before: its name and description go, the network's name comes.
+  $("example").value = "";
+  $("example-text").textContent = "";
+  $("name").value = name;
   state.network = { dim: 2, positions: frame.positions, edges: frame.edges };
   $("hint").textContent = "Click nodes of the network to make them source or target sites (choose below); drag from a site to set its motion.";
   edited();
+  say(`network: ${n} nodes, ${frame.edges.length} bars; click its nodes to make them sites.`);
 }
 
 function addMotion() {
@@ -1416,6 +1726,8 @@ async function pickExample() {
   } else {
     const request = await (await api("GET", `/v1/examples/${encodeURIComponent(name)}/request`)).json();
     setKind("draw");
+    // The example's options (e.g. n_unspecified of Fig. 3c) go with its drawing until it is cleared.
+    state.options = { ...request.options };
     $("example-text").textContent = state.examples[name];
     if (request.dim === 2) {
       state.motions = request.motions.map((m) => m.slice());
@@ -1424,6 +1736,7 @@ async function pickExample() {
       request.motions.slice(1).forEach((_, m) => { el("option", { value: m + 1 }, select, true).textContent = String(m + 2); });
     } else if (request.motions.length === 1) {
       setKind("space3d");
+      state.options = { ...request.options };
       $("example-text").textContent = state.examples[name];
       fillTable(request.positions, request.motions[0]);
     } else {
@@ -1439,7 +1752,7 @@ async function pickExample() {
 // ----------------------------------------------------------------------------- wiring
 
 let retrace = null;
-for (const b of document.querySelectorAll(".tabs button")) b.addEventListener("click", () => { $("example").value = ""; $("example-text").textContent = ""; setKind(b.dataset.kind); });
+for (const b of document.querySelectorAll(".tabs button")) b.addEventListener("click", () => switchTab(b.dataset.kind));
 $("canvas").addEventListener("pointerdown", onPointerDown);
 $("canvas").addEventListener("pointermove", onPointerMove);
 $("canvas").addEventListener("pointerup", onPointerUp);
@@ -1453,18 +1766,19 @@ $("play").addEventListener("click", play);
 $("undo").addEventListener("click", undo);
 $("clear").addEventListener("click", clearSketch);
 $("add-motion").addEventListener("click", addMotion);
-$("network-sheet").addEventListener("click", () => useNetwork(triangulatedSheet(NETWORK, NETWORK_SPACING)));
+$("network-sheet").addEventListener("click", () => useNetwork(triangulatedSheet(NETWORK, NETWORK_SPACING), "allosteric_sheet"));
 $("network-file").addEventListener("change", async () => {
   const file = $("network-file").files[0];
   if (!file) return;
   try {
     const doc = JSON.parse(await file.text());
-    useNetwork(doc.frame || doc);
+    useNetwork(doc.frame || doc, `${file.name.replace(/\.json$/i, "")}_sites`);
   } catch (e) {
     say(`${file.name}: ${e.message}`, true);
   }
   $("network-file").value = "";
 });
+$("clear-placed").addEventListener("click", () => { state.placed = []; clearDesign(); describeSpaces(); });
 $("add-row").addEventListener("click", () => {
   const last = state.nodes.length ? state.nodes[state.nodes.length - 1].x : [0, 0, 0];
   state.nodes.push({ x: [last[0] + 1, last[1], last[2]], role: "specified" });
@@ -1488,6 +1802,7 @@ for (const radio of document.querySelectorAll("input[name=chain-source]")) {
     clearDesign();
   });
 }
+$("soliton").addEventListener("change", () => { solitonForm(); clearDesign(); });
 $("add-feature").addEventListener("click", () => {
   if (state.features.length >= 4) { say("at most four features, met together by one module.", true); return; }
   state.features.push({ kind: "fixed_point", d: 1.5, slope: 0.5 });
@@ -1499,6 +1814,10 @@ $("amplitude").addEventListener("input", () => {
   $("amplitude-text").textContent = Number($("amplitude").value).toFixed(2);
   clearTimeout(retrace);
   retrace = setTimeout(() => { stop(); traceMotion(); }, 250);
+});
+// A key given after the examples were refused (401 at start-up) lists them then.
+$("apikey").addEventListener("change", () => {
+  if (!state.examples) loadExamples().then(() => say("examples listed."), (e) => say(e.message, true));
 });
 setKind("draw");
 loadExamples().catch((e) => say(e.message, true));

@@ -7,7 +7,7 @@
 "use strict";
 
 const CHART = { spring: "#b15928", pair: "#e7298a", energy: "#333333", minimum: "#1a9850", barrier: "#d73027",
-                cursor: "#1283d4", diagonal: "#bbbbbb", map: "#333333", cobweb: "#e7298a" };
+                cursor: "#1283d4", diagonal: "#bbbbbb", map: "#333333", cobweb: "#e7298a", wall: "#6a3d9a" };
 const CONFORMATION_COLOURS = ["#1b9e77", "#7570b3", "#e6ab02"];
 
 // A spring between two points of the page: a zig-zag of TEETH teeth, AMPLITUDE px across,
@@ -42,18 +42,28 @@ function chartAxes(svg, box, [xlo, xhi], [ylo, yhi], xlabel, ylabel, xends = [fm
   return { X, Y, text };
 }
 
+// An energy chart: E (e, one per sample) against x (one per sample), and the cursor at sample k
+// of the animation; returns the chart's maps for what is drawn over it.
+function energyCurve(svg, x, e, k, xlabel, ylabel, xends) {
+  svg.replaceChildren();
+  const yhi = 1.12 * (Math.max(...e) || 1);
+  const axes = chartAxes(svg, { left: 56, right: 785, top: 12, bottom: 150 }, [x[0], x[x.length - 1]], [0, yhi], xlabel, ylabel, xends);
+  const { X, Y } = axes;
+  el("polyline", { class: "energy", points: x.map((v, i) => `${X(v).toFixed(1)},${Y(e[i]).toFixed(1)}`).join(" "),
+                   fill: "none", stroke: CHART.energy, "stroke-width": 2 }, svg);
+  el("line", { class: "cursor", "data-testid": "landscape-cursor", "data-sample": k, x1: X(x[k]), y1: 12, x2: X(x[k]), y2: 150,
+               stroke: CHART.cursor, "stroke-width": 1.5 }, svg);
+  el("circle", { class: "cursor-dot", cx: X(x[k]), cy: Y(e[k]), r: 4, fill: CHART.cursor }, svg);
+  return axes;
+}
+
 // The energy landscape E(s) under the drawing: the curve, each minimum (a green dot per body
 // minimum), each barrier (the highest sample between neighbouring minima, a red triangle with
 // its height above the higher of the two), and the cursor at sample k of the animation.
 function drawLandscape(svg, body, k) {
-  svg.replaceChildren();
   // Drawn above the lowest sample: the landscape's shape is in differences far smaller than E.
   const land = body.landscape, s = land.arclength, low = Math.min(...land.energy), e = land.energy.map((v) => v - low);
-  const yhi = 1.12 * (Math.max(...e) || 1);
-  const { X, Y, text } = chartAxes(svg, { left: 56, right: 785, top: 12, bottom: 150 }, [s[0], s[s.length - 1]], [0, yhi],
-                                  "arc length s along the motion", "E − E_min");
-  el("polyline", { class: "energy", points: s.map((v, i) => `${X(v).toFixed(1)},${Y(e[i]).toFixed(1)}`).join(" "),
-                   fill: "none", stroke: CHART.energy, "stroke-width": 2 }, svg);
+  const { X, Y, text } = energyCurve(svg, s, e, k, "arc length s along the motion", "E − E_min");
   const at = land.conformation_samples;
   for (let c = 0; c + 1 < at.length; c++) {
     let top = at[c];
@@ -69,10 +79,16 @@ function drawLandscape(svg, body, k) {
     el("circle", { class: "minimum", "data-index": m.index, cx: x, cy: y, r: 6, fill: CONFORMATION_COLOURS[c % 3], stroke: "#fff", "stroke-width": 1.5 }, svg);
     text(x, y + 20, `${m.index + 1}`, "middle", { "font-weight": "bold", fill: CONFORMATION_COLOURS[c % 3] });
   });
-  const x = X(s[k]);
-  el("line", { class: "cursor", "data-testid": "landscape-cursor", "data-sample": k, x1: x, y1: 12, x2: x, y2: 150,
-               stroke: CHART.cursor, "stroke-width": 1.5 }, svg);
-  el("circle", { class: "cursor-dot", cx: x, cy: Y(e[k]), r: 4, fill: CHART.cursor }, svg);
+}
+
+// A soliton's energy along its drive (the animation's samples, body.soliton.energy) against
+// |d_0 − d_u| on a log axis, from the stable end (left) to the unstable one; the uniform states'
+// E = 0 as a dashed line (both are minima), the cursor at sample k.
+function drawDriveEnergy(svg, motion, k) {
+  const x = motion.offset.map(Math.log10), e = motion.energy;
+  const ends = [x[0], x[x.length - 1]].map((v) => fmt(10 ** v, 2));
+  const { X, Y } = energyCurve(svg, x, e, k, "drive |d₀ − d_u| (log scale), the input driven towards d_u →", "E (k·L²)", ends);
+  el("line", { class: "uniform-level", x1: X(x[0]), y1: Y(0), x2: X(x[x.length - 1]), y2: Y(0), stroke: CHART.minimum, "stroke-dasharray": "4 3" }, svg);
 }
 
 // The module's map f (samples of the body's map), the diagonal, fixed points (filled: stable),
@@ -103,8 +119,10 @@ function drawMapChart(svg, map, d) {
   }
 }
 
-// d_k along the chain at the animation's sample (bars), with the fixed points as lines across.
-function drawProfile(svg, map, d) {
+// d_k along the chain at the animation's sample (bars), with the fixed points as lines across;
+// for a soliton ({wall, d_u, d_s}), the wall (its fractional index w, a vertical line; none when
+// null) and the level where the switched fraction is ½ (midway between d_u's and d_s's, dotted).
+function drawProfile(svg, map, d, soliton) {
   svg.replaceChildren();
   const lo = Math.min(map.lower.d_in, ...d), hi = Math.max(map.upper.d_in, ...d);
   const { X, Y } = chartAxes(svg, { left: 48, right: 290, top: 10, bottom: 252 }, [-0.5, d.length - 0.5], [Math.min(0, lo), hi],
@@ -114,6 +132,12 @@ function drawProfile(svg, map, d) {
   }
   const w = Math.max(1, 0.7 * (X(1) - X(0)));
   d.forEach((v, k) => el("rect", { class: "distance", x: X(k) - w / 2, y: Y(v), width: w, height: Y(Math.min(0, lo)) - Y(v), fill: CHART.pair, opacity: 0.75 }, svg));
+  if (!soliton) return;
+  const half = (Y(soliton.d_u) + Y(soliton.d_s)) / 2, wall = soliton.wall;
+  el("line", { class: "half-level", x1: X(-0.5), y1: half, x2: X(d.length - 0.5), y2: half, stroke: CHART.wall, "stroke-dasharray": "1 3" }, svg);
+  if (wall === null) return;
+  el("line", { class: "wall", "data-testid": "profile-wall", "data-wall": wall, x1: X(wall), y1: 10, x2: X(wall), y2: 252, stroke: CHART.wall, "stroke-width": 2 }, svg);
+  el("text", { x: X(wall) + 4, y: 22, "font-size": 11, fill: CHART.wall }, svg).textContent = `wall ${wall.toFixed(2)}`;
 }
 
 function titled(text) {

@@ -58,8 +58,9 @@ class ExportRequest(RequestModel):
         description=(
             "A response of /v1/design, /v1/design/auxetic, /v1/design/allosteric, /v1/design/multistable "
             "(its springs exported as springs, its conformations as configurations), /v1/design/sequential "
-            "(the chain, or the module without one) or /v1/refine (or a request of the first four, designed "
-            "first), or a /v1/motion response together with `frame`."
+            "(the chain, or the module without one; the motion formats play chain.path), /v1/map (the module, "
+            "its pairs as source and target; map_csv, map_svg and map_png write its map) or /v1/refine (or a "
+            "request of the first four or of /v1/map, designed first), or a /v1/motion response together with `frame`."
         ),
     )
     frame: FrameModel | None = Field(default=None, description="The frame, when no document gives it (or to go with a /v1/motion response).")

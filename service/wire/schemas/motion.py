@@ -16,12 +16,60 @@ from zeromode.service.wire.schemas.common import (
 )
 from zeromode.service.wire.schemas.limits import AtMost, limit_text
 from zeromode.solver.analysis.rigidity import DENSE_MAX_DOF
+from zeromode.solver.motion.finite_motion import CURVE_SAMPLES
 from zeromode.solver.tolerances import IPOPT_TOL
 
 FIDELITY = (
     "Finite-motion fidelity ε(a) = min over path points X(τ) and proper rigid motions R of "
     "‖R·X_S(τ) − (x_S + Δ_S)‖ / ‖Δ_S‖ (Kabsch alignment), Δ_S the target displacement."
 )
+
+
+CURVE = (
+    f"ε(b) at m = {CURVE_SAMPLES} amplitudes b_j = (j/m)·a, j = 1 … m, for the targets x_S + (j/m)·Δ_S on the ray "
+    "to the target: the same minimum over the same traced path as ε itself (polished on the "
+    "constraint manifold, not between straight chords), so the last value is ε(a)."
+)
+
+
+class EpsilonCurveOption(RequestModel):
+    amplitude: float = Field(
+        gt=0,
+        le=10,
+        description=(
+            "a: the linear target of the specified nodes x_S + Δ_S, Δ_S = a·(r_S/ρ_u)·u_S as /v1/refine's "
+            "`motion` and `amplitude` (r_S the RMS radius of x_S, ρ_u the RMS of u_S)."
+        ),
+    )
+    motion: Points | None = Field(
+        default=None,
+        description=(
+            "u_S (k×d, rows in the order of frame.specified); default: those rows of `mode`, or of the "
+            "frame's single nontrivial zero mode that the motion follows."
+        ),
+    )
+
+
+class EpsilonCurveModel(BaseModel):
+    amplitudes: list[float] = Field(description=f"b_1 < … < b_{CURVE_SAMPLES} = a.")
+    epsilon: list[float] = Field(description="ε(b_j) along `path`. " + CURVE)
+    parameter: list[float] = Field(description="The path parameter where each minimum is attained.")
+    at_end: list[bool] = Field(
+        description="The minimum sits at an end of `path` (a longer path might come closer: raise `amplitude`)."
+    )
+
+
+class RefineEpsilonCurve(BaseModel):
+    amplitudes: list[float] = Field(description=f"b_1 < … < b_{CURVE_SAMPLES} = a.")
+    before: list[float] = Field(
+        description="ε(b_j) of the input frame, on the path that measured `epsilon_before` (its last value). " + CURVE
+    )
+    after: list[float] = Field(
+        description=(
+            "ε(b_j) of the refined frame, on the path that measured `epsilon_after` (its last value); "
+            "`before` again when the input frame is kept."
+        )
+    )
 
 
 class MotionTargetModel(RequestModel):
@@ -114,6 +162,15 @@ class MotionRequest(RequestModel):
         ),
     )
 
+    epsilon_curve: EpsilonCurveOption | None = Field(
+        default=None,
+        description=(
+            "Also answer the finite-motion fidelity along the path for the specified nodes' linear "
+            "target (`epsilon_curve` in the response; 422 `too_few_specified` below 2 specified nodes). "
+            + FIDELITY
+        ),
+    )
+
     @model_validator(mode="after")
     def amplitude_or_target(self):
         if self.target is not None and "amplitude" in self.model_fields_set:
@@ -199,6 +256,9 @@ class MotionResponse(BaseModel):
     )
     poisson_ratio: list[float | None] | None = Field(
         default=None, description="With `boundary`: secant ν = −ε_y/ε_x of each configuration (null at ε_x = 0)."
+    )
+    epsilon_curve: EpsilonCurveModel | None = Field(
+        default=None, description="With the request's `epsilon_curve`: ε along `path` for its linear target."
     )
 
 
@@ -299,6 +359,10 @@ class RefineResponse(BaseModel):
     )
     status: Literal["ok", "refinement_failed"]
     message: str
+    epsilon_curve: RefineEpsilonCurve | None = Field(
+        default=None,
+        description="ε(b) for b in (0, a] before and after; null when no path is traced (a rigid target).",
+    )
 
 
 class MotionErrorDetail(ErrorDetail):

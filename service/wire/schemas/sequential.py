@@ -59,6 +59,7 @@ class MapBody(BaseModel):
 
 
 class MapResponse(MapBody):
+    frame: ResultFrame = Field(description="The module's frame as given: the answer draws and exports the module beside its map.")
     timings_ms: dict[str, float]
 
 
@@ -170,6 +171,10 @@ class SolitonBody(BaseModel):
     rows: list[int] = Field(description="Each drive sample's row in chain.distances and chain.path.")
     wall: list[float | None] = Field(
         description="The domain wall: the fractional index k where (d_k − d_u)/(d_s − d_u) crosses ½ (null: the chain is on one side)."
+    )
+    wall_point: list[list[float] | None] = Field(
+        description="The wall on the chain at each drive sample, [x, y] in chain.path[rows[i]]: the pairs' midpoints "
+                    "interpolated at the fractional index w (pair k's and pair k + 1's by w − k; null with the wall)."
     )
     energy: list[float] = Field(description="E of the springs at each drive sample.")
     travel: float = Field(description="How many modules the wall moves over the drive.")
