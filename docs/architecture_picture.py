@@ -4,7 +4,8 @@
     .venv/bin/python docs/architecture_picture.py
 
 Boxes are the packages (clients, service, viz/export, solver and its stages in the paper's order),
-grey arrows the direction of imports (a box imports only what its arrows point to), the numbered
+grey arrows the direction of imports (a box imports only what its arrows reach, directly or
+through the boxes they point to), the numbered
 orange arrows the path of one design request: request → route → operation → pipeline → stages →
 body.
 """
@@ -29,8 +30,8 @@ FILL = {"client": "#e7f0fb", "service": "#eef6ea", "side": "#f6f0fa", "solver": 
 STAGES = [
     ("analysis", "the frame and C u = 0:\ncompatibility matrix,\nzero modes, rank,\neigenpairs  Eqs. 1–3"),
     ("motion", "finite motion, refinement,\ntargets, boundary strain\nbeyond the linear mode"),
-    ("construction", "solution space, quadric,\njudicious placement,\nseveral motions\nEqs. 4–7, Figs. 2–4"),
-    ("applications", "auxetic sheets and chains,\nfinite strain, allostery\nFig. 5"),
+    ("construction", "solution space, quadric,\njudicious placement,\nseveral motions\nEqs. 4–8, Figs. 2–4"),
+    ("applications", "auxetic sheets and chains,\nfinite strain, allostery\nFig. 5; beside it:\nmultistable/, sequential/"),
     ("certificates", "prestress SDPs,\nstiffness margin,\nfabrication tolerance"),
 ]
 
@@ -97,6 +98,8 @@ def draw() -> plt.Figure:
     arrow(ax, (6.2, 7.55), (5.2, 7.17))       # library door → operations
     arrow(ax, (8.6, 7.55), (6.6, 7.17))       # jobs → operations
     arrow(ax, (7.0, 6.6), (7.3, 6.6))         # operations → wire
+    arrow(ax, (11.0, 6.6), (11.6, 6.6))       # wire → viz (and export: responses, examples)
+    arrow(ax, (6.8, 6.05), (11.6, 6.2), rad=0.12)  # operations → viz, export (plotting, exporting)
     arrow(ax, (9.2, 6.05), (9.2, 5.52))       # wire → solver
     arrow(ax, (1.0, 6.05), (1.0, 5.52))       # operations → solver
     arrow(ax, (13.1, 7.55), (13.1, 7.17))     # export → viz
@@ -107,7 +110,7 @@ def draw() -> plt.Figure:
 
     # Legend.
     arrow(ax, (11.6, 9.6), (12.2, 9.6))
-    ax.text(12.35, 9.6, "imports (only down and left;\ntests/test_architecture.py)", fontsize=8.6, va="center", color=INK)
+    ax.text(12.35, 9.6, "imports (a box imports only what\nits arrows reach; tests/test_architecture.py)", fontsize=8.6, va="center", color=INK)
     arrow(ax, (11.6, 9.0), (12.2, 9.0), color=PATH, lw=2.6)
     ax.text(12.35, 9.0, "one design request's path", fontsize=8.6, va="center", color=INK)
 

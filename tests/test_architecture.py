@@ -125,7 +125,7 @@ LAYERS: list[dict[str, tuple[str, ...]]] = [
     {"viz": ("zeromode.viz",)},                     # pictures of arrays
     {"export": ("zeromode.export",)},               # files of a Takeaway (animations via viz)
     {"wire": ("zeromode.service.wire",)},           # settings, schemas, error bodies, results → bodies
-    {"library": ("zeromode.operations", "zeromode._library", "zeromode._results", "zeromode.examples")},
+    {"library": ("zeromode.operations", "zeromode._library", "zeromode.examples")},
     {"jobs": ("zeromode.service.jobs",)},           # the job engine: records, Dask tasks, sweeps
     {"rest": ("zeromode.service.rest",),            # the doors: REST, and `import zeromode`
      "facade": ("zeromode.__init__",)},
@@ -222,6 +222,11 @@ def test_the_graph_is_read(tmp_path):
     # could not fail): every tree is there, known edges are seen, relative imports resolved.
     assert {m.split(".")[1] for m in MODULES if m.count(".")} >= {"solver", "viz", "export", "service", "operations"}
     assert "zeromode.solver.frame" in GRAPH["zeromode.service.wire.convert"]
+    # Every LAYERS prefix names modules that exist: a stale prefix (a module renamed or removed)
+    # would leave its layer's place in the picture unchecked.
+    prefixes = [p for layers in LAYERS for names in layers.values() for p in names]
+    stale = [p for p in prefixes if not any(m == p or m.startswith(p + ".") for m in MODULES)]
+    assert not stale, f"LAYERS names no module for {stale}"
     assert "zeromode.service.wire.settings" in GRAPH["zeromode.service.rest.app"]
     source = tmp_path / "engine.py"
     source.write_text("def f():\n    from .sweeps import run_sweep\n    from ..wire import settings\n")

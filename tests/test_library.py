@@ -17,7 +17,7 @@ import meshio
 import numpy as np
 import pytest
 from oracles.designs import check_design, check_frame_modes
-from oracles.motion import relative_bar_error
+from oracles.motion import relative_bar_error, rigid_distance
 from oracles.rigidity import (
     compatibility_matrix,
     driven_response,
@@ -202,6 +202,8 @@ def test_two_configuration_keeps_every_bar():
     assert np.allclose(y[: len(SQUARE)], final)
     lengths = lambda p: np.linalg.norm(p[edges[:, 0]] - p[edges[:, 1]], axis=1)
     assert np.allclose(lengths(x), lengths(y), rtol=1e-9)
+    # It draws both configurations, every bar in each.
+    assert svg_bars(t) == 2 * len(edges)
 
 
 def test_continuations_motion_refine_certify(square_design, square_refined):
@@ -219,6 +221,20 @@ def test_continuations_motion_refine_certify(square_design, square_refined):
     assert c.to_dict()["self_stress"]["count"] == reference_counts(d.frame.positions, d.frame.edges)["self_stresses"] == 0
     # Each draws its frame: the motion beside its two ends (three panels).
     assert (svg_bars(m), svg_bars(square_refined), svg_bars(c)) == (3 * 8, 8, 8)
+
+
+def test_refined_frame_carries_the_specified_nodes_to_the_target(square_design, square_refined):
+    # ε(a) from its definition (oracles.motion.rigid_distance): the refined frame's finite motion,
+    # stopped where the diagonal 0–2 has grown by a = 0.1 (a motion target), carries x_S to
+    # x_S + a·u_S up to a rigid motion, every bar kept; the unrefined design cannot get there.
+    x_s = np.array(SQUARE)
+    target = x_s + 0.1 * x_s
+    diagonal = {"kind": "distance", "nodes": [0, 2], "value": float(np.linalg.norm(target[0] - target[2]))}
+    for result, reached in ((square_refined, True), (square_design, False)):
+        path = np.array(result.motion(target=diagonal).to_dict()["path"])
+        assert relative_bar_error(path, result.frame.edges, result.frame.positions) <= 1e-9
+        epsilon = rigid_distance(path[-1][: len(x_s)], target) / np.linalg.norm(0.1 * x_s)
+        assert bool(epsilon < 1e-6) == reached, epsilon
 
 
 def test_motion_and_certify_of_a_given_frame():
@@ -302,10 +318,33 @@ def test_repr_svg_draws_every_bar(square_design):
 
 
 def test_plot_is_a_matplotlib_figure(square_design):
+    from matplotlib.collections import LineCollection
     from matplotlib.figure import Figure
 
     figure = square_design.plot()
-    assert isinstance(figure, Figure) and figure.axes and figure.axes[0].collections + figure.axes[0].lines
+    assert isinstance(figure, Figure) and figure.axes
+    # The bars are drawn where the frame has them: one grey segment per bar, in the frame's bar
+    # order, each as long as its bar times one drawing scale (a picture of the frame, not any picture).
+    frame = square_design.frame
+    (bars,) = [c for c in figure.axes[0].collections
+               if isinstance(c, LineCollection) and len(c.get_segments()) == frame.n_edges]
+    drawn = np.array(bars.get_segments())
+    drawn_lengths = np.linalg.norm(drawn[:, 1] - drawn[:, 0], axis=1)
+    lengths = np.linalg.norm(frame.positions[frame.edges[:, 0]] - frame.positions[frame.edges[:, 1]], axis=1)
+    assert np.ptp(drawn_lengths / lengths) <= 1e-9 * np.mean(drawn_lengths / lengths)
+
+
+def test_plot_shows_itself_in_jupyter():
+    # A researcher's cell ending in ``d.plot()`` (no %matplotlib, no pyplot) must show the picture,
+    # not ``<Figure size … with 1 Axes>``: a real kernel runs it (nbclient, as the guide's build).
+    import nbformat  # the docs extra, which CI's command installs with the test extra
+    from nbclient import NotebookClient
+
+    notebook = nbformat.v4.new_notebook()
+    notebook.cells = [nbformat.v4.new_code_cell(f"import zeromode as zm\nzm.design({SQUARE}, {SQUARE}).plot()")]
+    NotebookClient(notebook, timeout=120, kernel_name="python3").execute()
+    (output,) = notebook.cells[0].outputs
+    assert output.output_type == "execute_result" and "image/png" in output.data
 
 
 def test_sequential_results_plot_their_map():
@@ -340,7 +379,16 @@ def test_export_picture_and_unknown_suffix(square_design, tmp_path):
 
 def test_animate_plays_the_motion(square_design):
     root = ET.fromstring(square_design.animate(animation={"frames": 6}))
-    assert root.tag == SVG + "svg" and any(True for _ in root.iter(SVG + "animate"))
+    assert root.tag == SVG + "svg"
+    # Every bar is animated and keeps its drawn length in every frame (the finite motion keeps
+    # every bar; the coordinates are written to 0.1 px), while the frame moves (ends travel).
+    bars = [{a.get("attributeName"): np.array(a.get("values").split(";"), dtype=float) for a in line.iter(SVG + "animate")}
+            for line in root.iter(SVG + "line") if "bar" in line.get("class", "").split()]
+    assert len(bars) == square_design.frame.n_edges
+    for bar in bars:
+        length = np.hypot(bar["x2"] - bar["x1"], bar["y2"] - bar["y1"])
+        assert len(length) > 2 and np.ptp(length) <= 0.3
+    assert max(np.ptp(bar["x1"]) + np.ptp(bar["y1"]) for bar in bars) > 10.0
 
 
 def test_to_networkx_has_the_bars_and_their_lengths(square_design):

@@ -57,3 +57,16 @@ def test_each_path_is_found_with_its_docstring(zeromode_package, path):
         assert imported.__name__ == target.path
     else:  # where Python defines it is where griffe read it
         assert f"{imported.__module__}.{imported.__qualname__}" == target.path, path
+
+
+def test_every_public_name_is_on_the_page():
+    # Each name of zeromode.__all__ is rendered: a function as a member of the page's
+    # ``::: zeromode`` block, a class or module by a ``::: zeromode.<name>`` of its own.
+    import zeromode
+
+    text = PAGE.read_text(encoding="utf-8")
+    block = re.search(r"^::: zeromode\n((?:    .*\n)+)", text, flags=re.MULTILINE)
+    assert block is not None
+    members = set(re.findall(r"^\s+- (\w+)$", block.group(1), flags=re.MULTILINE))
+    own = {p.removeprefix("zeromode.") for p in PATHS if p.count(".") == 1}
+    assert set(zeromode.__all__) - members - own == set()

@@ -23,6 +23,7 @@ u_S = x_S.
 from __future__ import annotations
 
 import copy
+import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -135,7 +136,7 @@ class Result:
         scene = layout(self.picture(solution_space))
         figure, axes = scene_figure(scene, scale)
         draw_shapes(axes, scene.shapes)
-        return figure
+        return _shown_in_jupyter(figure)
 
     # --- taking it away ---------------------------------------------------------------------
 
@@ -224,7 +225,24 @@ class AnalysisResult(Result):
 
 
 class DesignResult(Result):
-    """``zm.design``, ``zm.auxetic``, ``zm.allosteric``, ``zm.two_configuration``: a designed frame."""
+    """``zm.design``, ``zm.auxetic``, ``zm.allosteric``: a designed frame (and, as
+    TwoConfigurationResult, ``zm.two_configuration``)."""
+
+
+class TwoConfigurationResult(DesignResult):
+    """``zm.two_configuration``: one frame that sits at both configurations (solution:
+    TwoConfigurationDesign); it draws itself at x_S and at y_S side by side."""
+
+    def picture(self, solution_space: bool = True) -> Picture:
+        """The frame at ``initial`` and at ``final`` (``final_positions``), every bar the same
+        length in both (a /v1/plot body)."""
+        from zeromode.operations.plotting import picture_for_document
+
+        return picture_for_document(
+            {"frame": self.body["frame"], "configurations": [self.body["final_positions"]],
+             "labels": ["initial", "final"]},
+            solution_space=False,
+        )
 
 
 class MotionResult(Result):
@@ -287,7 +305,27 @@ class MultistableResult(Result):
         Figure)."""
         from zeromode.viz.landscape import landscape_figure
 
-        return landscape_figure(self.body, width, height)
+        return _shown_in_jupyter(landscape_figure(self.body, width, height))
+
+
+def _shown_in_jupyter(figure: Figure) -> Figure:
+    """The figure, shown as a PNG when it ends a Jupyter cell. ``plot()`` figures are plain
+    matplotlib Figures (no pyplot state, nothing left open in a script), and IPython draws a Figure
+    only once its PNG formatter is registered, which ``%matplotlib inline`` or a pyplot figure does;
+    without either, ``d.plot()`` showed ``<Figure size … with 1 Axes>``. Under IPython, the
+    formatter is registered here where none is (IPython's own, drawing the page as laid out)."""
+    ipython = sys.modules.get("IPython")
+    shell = ipython.get_ipython() if ipython is not None else None
+    if shell is not None:
+        from IPython.core.pylabtools import print_figure
+        from matplotlib.figure import Figure
+
+        png = shell.display_formatter.formatters["image/png"]
+        try:
+            png.lookup_by_type(Figure)
+        except KeyError:
+            png.for_type(Figure, lambda fig: print_figure(fig, "png", bbox_inches=None))
+    return figure
 
 
 def _plot_modes() -> int:
@@ -307,7 +345,7 @@ class MapResult(Result):
         fixed points (filled: stable) and folds (viz.sequential.map_figure)."""
         from zeromode.viz.sequential import map_figure
 
-        return map_figure(self.body, self.frame, scale)
+        return _shown_in_jupyter(map_figure(self.body, self.frame, scale))
 
     def export(self, path: str | Path, format: str | None = None, **options: Any) -> Path:
         """As Result.export, but ``.svg``, ``.png`` and ``.pdf`` without ``format`` are the chart
@@ -340,7 +378,7 @@ class SequentialResult(Result):
         against the drive."""
         from zeromode.viz.sequential import sequential_figure, soliton_figure
 
-        return (soliton_figure if self.body.get("soliton") else sequential_figure)(self.body, scale)
+        return _shown_in_jupyter((soliton_figure if self.body.get("soliton") else sequential_figure)(self.body, scale))
 
 
 # ----------------------------------------------------------------------------- helpers
@@ -551,7 +589,8 @@ def allosteric(source: Any, target: Any, *, frame: Frame | Result | Mapping | No
     }, DesignResult)
 
 
-def two_configuration(initial: Points, final: Points, *, dim: int | None = None, seed: int = 0) -> DesignResult:
+def two_configuration(initial: Points, final: Points, *, dim: int | None = None,
+                      seed: int = 0) -> TwoConfigurationResult:
     """A frame whose specified nodes can sit at ``initial`` and at ``final`` with every bar
     keeping its length (POST /v1/design/two-configuration).
 
@@ -570,8 +609,9 @@ def two_configuration(initial: Points, final: Points, *, dim: int | None = None,
 
     Returns
     -------
-    DesignResult
-        ``solution`` is the solver's TwoConfigurationDesign.
+    TwoConfigurationResult
+        ``solution`` is the solver's TwoConfigurationDesign; it draws the frame at both
+        configurations.
 
     Examples
     --------
@@ -583,7 +623,7 @@ def two_configuration(initial: Points, final: Points, *, dim: int | None = None,
     """
     return _run("/v1/design/two-configuration", {
         "dim": _dim(initial, dim), "initial": initial, "final": final, "options": {"seed": seed},
-    }, DesignResult)
+    }, TwoConfigurationResult)
 
 
 def multistable(conformations: Sequence[Points], *, barrier: float | None = None, max_stiffness: float = 1.0,

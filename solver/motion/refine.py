@@ -23,7 +23,7 @@ Nonlinear program (normalised coordinates: frame centred and divided by its RMS 
                one nearest the design.
     option     stay_on_solution_space: also keep u_S an exact zero mode at the reference, i.e.
                C(X_0)·(u_S, u_U) = 0 with u_U (N_U × d) extra unknowns — every x_U stays on
-               the solution space of the paper's quadric (Eq. 5) for u_S.
+               the solution space of the paper's quadric (Eq. 6) for u_S.
 casadi builds the problem symbolically, so IPOPT gets the exact gradient, Jacobian and Hessian
 of the Lagrangian.  IPOPT starts from the linear motion X_j = X_0 + (j/K)·α·u (u the frame's
 nontrivial mode, α fitted to Δ_S).

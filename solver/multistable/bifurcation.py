@@ -2,7 +2,7 @@
 conformation (beyond the seed paper; its published version, Nature Physics 15, 714 (2019),
 shows networks whose motion passes through a bifurcation).
 
-Second-order condition.  At a configuration x, C is the compatibility matrix of Eq. 1 (row e
+Second-order condition.  At a configuration x, C is the compatibility matrix of Eq. 3 (row e
 holds x_i − x_j at node i and x_j − x_i at node j).  A smooth motion x(t) = x + t u + t² w/2 + …
 keeps every bar length iff, order by order in t,
 

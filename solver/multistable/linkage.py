@@ -15,7 +15,7 @@ With the unknowns z = (p^a, p^b, p^c, s_ab, s_ac) ∈ R^{3d+2} these are, per an
     s_ab − 2 x_i^a·p^a + 2 x_i^b·p^b = ‖x_i^b‖² − ‖x_i^a‖²,
     s_ac − 2 x_i^a·p^a + 2 x_i^c·p^c = ‖x_i^c‖² − ‖x_i^a‖²,
 
-and two quadrics common to every anchor (the analogue of Eq. 5)
+and two quadrics common to every anchor (the analogue of Eq. 6)
 
     s_ab = ‖p^a‖² − ‖p^b‖²,   s_ac = ‖p^a‖² − ‖p^c‖².
 

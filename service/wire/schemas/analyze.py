@@ -7,11 +7,12 @@ from typing import Literal
 from pydantic import Field
 
 from zeromode.service.wire.schemas.common import AnalysisCounts, FrameModel, Points, RequestModel
+from zeromode.solver.tolerances import RANK_RTOL
 
 
 class AnalyzeOptions(RequestModel):
     rtol: float = Field(
-        default=1e-9, gt=0, lt=1, description="Relative threshold: σ ≤ rtol·σ_max counts as zero."
+        default=RANK_RTOL, gt=0, lt=1, description="Relative threshold: σ ≤ rtol·σ_max counts as zero."
     )
     method: Literal["auto", "dense", "sparse"] = Field(
         default="auto", description="Full SVD, sparse shift-invert subspace iteration, or by size."

@@ -16,6 +16,7 @@ from zeromode.service.wire.schemas.common import (
 )
 from zeromode.service.wire.schemas.limits import AtMost, Limited, limit_text
 from zeromode.service.wire.schemas.tolerance import ToleranceOptions, ToleranceReportModel
+from zeromode.solver.tolerances import IPOPT_TOL
 
 
 class SolutionSpaceRequest(RequestModel):
@@ -52,7 +53,7 @@ class DesignRefineOptions(RequestModel):
         default=0.1, gt=0, le=1, description="Target displacement a·u_S, a relative to the specified nodes' RMS size."
     )
     K: int = Field(default=8, ge=1, le=64, description="Intermediate configurations in the NLP.")
-    tol: float = Field(default=1e-8, gt=0, lt=1, description="IPOPT tolerance.")
+    tol: float = Field(default=IPOPT_TOL, gt=0, lt=1, description="IPOPT tolerance.")
     max_time_s: float = Field(default=5.0, gt=0, le=60, description="IPOPT CPU time limit per solve.")
 
 

@@ -17,6 +17,7 @@ from zeromode.service.wire.schemas.common import (
 from zeromode.service.wire.schemas.limits import AtMost, limit_text
 from zeromode.solver.analysis.rigidity import DENSE_MAX_DOF
 from zeromode.solver.motion.finite_motion import CURVE_SAMPLES
+from zeromode.solver.tolerances import IPOPT_TOL
 
 FIDELITY = (
     "Finite-motion fidelity ε(a) = min over path points X(τ) and proper rigid motions R of "
@@ -271,7 +272,7 @@ class RefineOptions(RequestModel):
             "they straddle two branches of the configuration space."
         ),
     )
-    tol: float = Field(default=1e-8, gt=0, lt=1, description="IPOPT tol.")
+    tol: float = Field(default=IPOPT_TOL, gt=0, lt=1, description="IPOPT tol.")
     max_iter: int = Field(default=500, ge=1, le=10000, description="IPOPT max_iter.")
     max_time_s: Annotated[float, AtMost("time_budget_s")] = Field(
         default=5.0,
