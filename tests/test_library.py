@@ -9,9 +9,11 @@ from __future__ import annotations
 import doctest
 import importlib
 import json
+import re
 import subprocess
 import sys
 import xml.etree.ElementTree as ET
+from html.parser import HTMLParser
 
 import meshio
 import numpy as np
@@ -77,7 +79,7 @@ def test_exported_members():
     # Like httpx's tests/test_exported_members.py: the public surface is this list, each name real.
     assert zm.__all__ == [
         "Frame", "Result", "allosteric", "analyze", "auxetic", "certify", "design", "examples", "module_map", "motion",
-        "multistable", "refine", "sequential", "sweep", "two_configuration",
+        "multistable", "refine", "sequential", "solution_space", "sweep", "two_configuration",
     ]
     for name in zm.__all__:
         assert getattr(zm, name) is not None
@@ -262,6 +264,173 @@ def test_examples_are_the_services(client):
         assert zm.examples.request(name) == client.get(f"/v1/examples/{name}/request").json()
 
 
+# Three cases of the paper's Fig. 2 (seeded): a conic (k = 3 in 2D), points (k = 4 in 2D), a
+# quadric surface (k = 4 in 3D).
+_FIG2 = np.random.default_rng(5)
+CONIC_X, CONIC_U = _FIG2.uniform(-1, 1, (3, 2)), _FIG2.uniform(-1, 1, (3, 2))
+POINTS_X, POINTS_U = np.vstack([CONIC_X, [[-0.6, 0.9]]]), np.vstack([CONIC_U, [[0.5, -0.2]]])
+QUADRIC_X, QUADRIC_U = _FIG2.uniform(-1, 1, (4, 3)), _FIG2.uniform(-1, 1, (4, 3))
+# Relative residual of a consistent linear system / a bar constraint met: round-off.
+CONSTRAINT_RTOL = 1e-9
+# The same for points computed here from the body's W̃ and Q (rounded to JSON's 17 digits,
+# α up to 3, the roots of a quadratic): a point off the conic misses by O(1).
+CONIC_RTOL = 1e-7
+
+
+def a_tilde(x_s, u_s):
+    """Ã and b of Eqs. 4–5 from the definition: (x_Si − x_U)·(u_Si − u_U) = 0 is, in
+    ṽ = (x_U, u_U, c = x_U·u_U), the row [−u_Si, −x_Si, 1] ṽ = −x_Si·u_Si."""
+    return np.column_stack([-u_s, -x_s, np.ones(len(x_s))]), -(x_s * u_s).sum(axis=1)
+
+
+def motion_residual(x_s, u_s, x_u):
+    """For a position x_U: the least-squares residual of the k equations in u_U,
+    (x_Si − x_U)·u_U = (x_Si − x_U)·u_Si, relative to the right side: zero exactly when some u_U
+    keeps every bar (the system is consistent)."""
+    r = x_s - x_u
+    rhs = (r * u_s).sum(axis=1)
+    u_u, *_ = np.linalg.lstsq(r, rhs, rcond=None)
+    return np.linalg.norm(r @ u_u - rhs) / (np.linalg.norm(r) * np.linalg.norm(u_s))
+
+
+@pytest.mark.parametrize(
+    ("x_s", "u_s", "kind"),
+    [(CONIC_X, CONIC_U, "conic"), (POINTS_X, POINTS_U, "points"), (QUADRIC_X, QUADRIC_U, "quadric_surface"),
+     (np.array(SQUARE), np.array(SQUARE), "conic")],
+    ids=["conic", "points", "quadric", "square"],
+)
+def test_solution_space_is_the_papers_fig_2(x_s, u_s, kind):
+    s = zm.solution_space(x_s, u_s, samples=20)
+    a, b = a_tilde(x_s, u_s)
+    m = a.shape[1] - np.linalg.matrix_rank(a)
+    assert (s.kind, s.nullity, s.to_dict()["nullity"]) == (kind, m, m)
+    # Every sample: its position admits a motion keeping all k bars (the lstsq oracle), and the
+    # returned motion is one.
+    assert len(s.sample_positions) >= 1
+    for x_u, u_u in zip(s.sample_positions, s.sample_motions):
+        assert motion_residual(x_s, u_s, x_u) < CONSTRAINT_RTOL
+        bars = ((x_s - x_u) * (u_s - u_u)).sum(axis=1)
+        sizes = np.linalg.norm(x_s - x_u, axis=1) * np.linalg.norm(u_s - u_u, axis=1)
+        assert np.abs(bars).max() <= CONSTRAINT_RTOL * sizes.max()
+    # The body's W̃ and Q: points α̃ = (α_1, α_2, 1) on α̃ᵀQα̃ = 0 give ṽ = W̃ α̃ with c = x_U·u_U
+    # whose positions admit a motion keeping every bar (a conic: α_1 on a grid, α_2 from the
+    # quadratic q11 α_2² + 2 (q01 α_1 + q12) α_2 + (q00 α_1² + 2 q02 α_1 + q22) = 0).
+    if m == 2:
+        w, q = np.array(s.to_dict()["basis"]), np.array(s.to_dict()["quadric"])
+        assert w.shape == (a.shape[1], 3) and np.allclose(a @ w[:, 2], b) and np.allclose(a @ w[:, :2], 0)
+        d, found = x_s.shape[1], 0
+        for a1 in np.linspace(-3, 3, 41):
+            qa, qb, qc = q[1, 1], 2 * (q[0, 1] * a1 + q[1, 2]), q[0, 0] * a1**2 + 2 * q[0, 2] * a1 + q[2, 2]
+            disc = qb**2 - 4 * qa * qc
+            if disc < 0:
+                continue
+            for a2 in ((-qb + np.sqrt(disc)) / (2 * qa), (-qb - np.sqrt(disc)) / (2 * qa)):
+                v = w @ np.array([a1, a2, 1.0])
+                x_u, u_u = v[:d], v[d : 2 * d]
+                assert v[2 * d] == pytest.approx(x_u @ u_u, rel=CONIC_RTOL, abs=CONIC_RTOL)
+                assert motion_residual(x_s, u_s, x_u) < CONIC_RTOL
+                found += 1
+        assert found >= 10
+
+
+def svg_classes(svg: str) -> dict[str, int]:
+    """How many SVG elements carry each class word (the SVG must parse)."""
+    root = ET.fromstring(svg)
+    assert root.tag == SVG + "svg"
+    counts: dict[str, int] = {}
+    for e in root.iter():
+        for word in e.get("class", "").split():
+            counts[word] = counts.get(word, 0) + 1
+    return counts
+
+
+@pytest.mark.parametrize(
+    ("x_s", "u_s", "drawn"),
+    [(CONIC_X, CONIC_U, SVG + "polyline"), (POINTS_X, POINTS_U, SVG + "circle"),
+     (QUADRIC_X, QUADRIC_U, SVG + "polyline")],
+    ids=["conic", "points", "quadric"],
+)
+def test_solution_space_draws_fig_2(x_s, u_s, drawn, tmp_path):
+    s = zm.solution_space(x_s, u_s)
+    svg = s._repr_svg_()
+    counts = svg_classes(svg)
+    # The k specified nodes, each with its motion as a hollow arrow, and the space drawn.
+    assert counts.get("specified", 0) >= len(x_s) and counts.get("target", 0) >= len(x_s)
+    assert counts.get("bar", 0) == 0
+    # Isolated solutions are the whole space: each is drawn as a node where U may sit.
+    assert counts.get("unspecified", 0) == (len(s.sample_positions) if s.kind == "points" else 0)
+    space = [e for e in ET.fromstring(svg).iter(drawn) if "solution" in e.get("class", "").split()]
+    assert len(space) >= (1 if drawn == SVG + "polyline" else 2)
+    figure = s.plot()
+    assert figure.axes
+    assert s.export(tmp_path / "fig2.png").stat().st_size > 0
+
+
+class _Html(HTMLParser):
+    """The tags and the table cells of an HTML fragment."""
+
+    def __init__(self):
+        super().__init__()
+        self.tags, self.rows, self._cell = [], [], None
+
+    def handle_starttag(self, tag, attrs):
+        self.tags.append(tag)
+        if tag == "tr":
+            self.rows.append([])
+        elif tag == "td":
+            self._cell = ""
+
+    def handle_endtag(self, tag):
+        if tag == "td":
+            self.rows[-1].append(self._cell)
+            self._cell = None
+
+    def handle_data(self, data):
+        if self._cell is not None:
+            self._cell += data
+
+
+def body_at(body, path: str):
+    for key in path.split("."):
+        body = body[key]
+    return body
+
+
+@pytest.mark.parametrize("call", [
+    lambda: zm.solution_space(CONIC_X, CONIC_U),
+    lambda: zm.design(SQUARE, SQUARE),
+    lambda: zm.analyze({"dim": 2, "positions": SQUARE, "edges": SQUARE_EDGES}),
+], ids=["solution_space", "design", "analyze"])
+def test_repr_html_is_the_picture_beside_the_figures(call):
+    r = call()
+    html = r._repr_html_()
+    parser = _Html()
+    parser.feed(html)
+    parser.close()
+    # The picture of _repr_svg_, inline, its ids numbered per block (two blocks share none).
+    inline = html[html.index("<svg") : html.index("</svg>") + len("</svg>")]
+    assert "svg" in parser.tags and svg_classes(inline) == svg_classes(r._repr_svg_())
+    ids = re.findall(r' id="([^"]+)"', html)
+    assert ids and not set(ids) & set(re.findall(r' id="([^"]+)"', r._repr_html_()))
+    assert "<link" not in html and "<script" not in html
+    figures = {row[0]: row[1:] for row in parser.rows if row}
+    body = r.to_dict()
+    scalars = {name for name, *_ in r.figures() if not isinstance(body_at(body, name), list)}
+    assert len(scalars) >= 3
+    for name, (shown, unit, meaning) in figures.items():
+        value = body_at(body, name)
+        if isinstance(value, list):
+            assert (int(shown), unit) == (len(value), "count")
+        elif isinstance(value, (bool, str)):
+            assert shown == str(value)
+        else:
+            assert float(shown) == pytest.approx(value, rel=1e-5)
+            assert unit == ("ms" if "timings_ms" in name else "")
+    for name, value in {"SolutionSpaceResult": {"nullity": 2, "kind": "conic"}, "DesignResult": {"report.bars": 8},
+                        "AnalysisResult": {"rank": 4, "nontrivial_zero_modes": 1}}.get(type(r).__name__, {}).items():
+        assert figures[name][0] == str(value)
+
+
 # --- to_dict() is the REST body ---------------------------------------------------------------
 
 
@@ -271,6 +440,10 @@ TWO_TRIANGLES = {"dim": 2, "positions": [[-1, 0], [1, 0], [-0.8, 1], [0.8, 1], [
 CASES = [
     ("/v1/analyze", {"frame": {"dim": 2, "positions": SQUARE, "edges": SQUARE_EDGES}},
      lambda: zm.analyze({"dim": 2, "positions": SQUARE, "edges": SQUARE_EDGES})),
+    ("/v1/solution-space", {"dim": 2, "positions": CONIC_X.tolist(), "motions": CONIC_U.tolist(), "samples": 12, "seed": 3},
+     lambda: zm.solution_space(CONIC_X, CONIC_U, samples=12, seed=3)),
+    ("/v1/solution-space", {"dim": 3, "positions": QUADRIC_X.tolist(), "motions": QUADRIC_U.tolist()},
+     lambda: zm.solution_space(QUADRIC_X, QUADRIC_U)),
     ("/v1/design", {"dim": 2, "positions": SQUARE, "motions": [SQUARE], "options": {"n_unspecified": 4, "certify": True}},
      lambda: zm.design(SQUARE, SQUARE, n_unspecified=4, certify=True)),
     ("/v1/design/auxetic", {"dim": 2, "cells": [2, 2], "poisson_ratio": -0.5}, lambda: zm.auxetic(-0.5, (2, 2))),

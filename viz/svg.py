@@ -20,12 +20,14 @@ from zeromode.viz.scene import Circle, Group, Line, Polygon, Polyline, Scene, Te
 from zeromode.viz.style import FONT_SVG, WHITE
 
 
-def picture_svg(picture: Picture) -> str:
-    """The picture laid out and written as an SVG document."""
-    return scene_svg(layout(picture))
+def picture_svg(picture: Picture, ids: str = "") -> str:
+    """The picture laid out and written as an SVG document (``ids``: as scene_svg's)."""
+    return scene_svg(layout(picture), ids)
 
 
-def scene_svg(scene: Scene) -> str:
+def scene_svg(scene: Scene, ids: str = "") -> str:
+    """The scene as an SVG document. ``ids`` prefixes every element id (panels, clip paths): an
+    HTML page holding several pictures inline needs each clip-path id once in the page."""
     w, h = _f(scene.width), _f(scene.height)
     out = [
         (
@@ -36,7 +38,7 @@ def scene_svg(scene: Scene) -> str:
     ]
     clips = count()  # clip-path ids, unique in the document
     for shape in scene.shapes:
-        _write(shape, out, clips)
+        _write(shape, out, clips, ids)
     out.append("</svg>")
     return "\n".join(out)
 
@@ -59,19 +61,19 @@ def _outline(stroke: str | None, width: float) -> str:
     return f' stroke="{stroke}" stroke-width="{_f(width)}"' if stroke else ""
 
 
-def _write(shape, out: list[str], clips) -> None:
+def _write(shape, out: list[str], clips, ids: str = "") -> None:
     if isinstance(shape, Group):
-        attrs = _tags(shape.cls) + (f'id="{shape.id}" ' if shape.id else "")
+        attrs = _tags(shape.cls) + (f'id="{ids}{shape.id}" ' if shape.id else "")
         if shape.offset != (0.0, 0.0):
             attrs += f'transform="translate({_f(shape.offset[0])},{_f(shape.offset[1])})" '
         if shape.clip is not None:
             k = next(clips)
             x, y, w, h = (_f(v) for v in shape.clip)
-            out.append(f'<clipPath id="clip-{k}"><rect x="{x}" y="{y}" width="{w}" height="{h}"/></clipPath>')
-            attrs += f'clip-path="url(#clip-{k})" '
+            out.append(f'<clipPath id="{ids}clip-{k}"><rect x="{x}" y="{y}" width="{w}" height="{h}"/></clipPath>')
+            attrs += f'clip-path="url(#{ids}clip-{k})" '
         out.append(f"<g {attrs.rstrip()}>" if attrs else "<g>")
         for child in shape.shapes:
-            _write(child, out, clips)
+            _write(child, out, clips, ids)
         out.append("</g>")
     elif isinstance(shape, Line):
         (x1, y1), (x2, y2) = shape.ends

@@ -36,6 +36,7 @@ __all__ = [
     "multistable",
     "refine",
     "sequential",
+    "solution_space",
     "sweep",
     "two_configuration",
 ]
@@ -51,7 +52,7 @@ _HOMES: dict[str, tuple[str, str | None]] = {
     **{
         name: ("zeromode._library", name)
         for name in ("allosteric", "analyze", "auxetic", "certify", "design", "module_map", "motion", "multistable",
-                     "refine", "sequential", "two_configuration")
+                     "refine", "sequential", "solution_space", "two_configuration")
     },
 }
 
@@ -69,6 +70,7 @@ if TYPE_CHECKING:  # the names as a type checker sees them, without importing th
         multistable,
         refine,
         sequential,
+        solution_space,
         two_configuration,
     )
     from zeromode.service.jobs.sweeps import sweep

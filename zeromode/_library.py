@@ -26,6 +26,7 @@ import copy
 import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from itertools import count
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -50,6 +51,7 @@ __all__ = [
     "multistable",
     "refine",
     "sequential",
+    "solution_space",
     "two_configuration",
 ]
 
@@ -58,6 +60,9 @@ Points = Sequence[Sequence[float]]
 
 # ----------------------------------------------------------------------------- results
 
+
+# Numbers the inline pictures of _repr_html_ blocks in this process: their SVG ids differ.
+_HTML_PICTURES = count()
 
 # Suffixes that name the picture itself (as ``zeromode plot`` writes it).
 _PICTURE_SUFFIXES = (".svg", ".png", ".pdf")
@@ -127,6 +132,40 @@ class Result:
         from zeromode.viz.svg import picture_svg
 
         return picture_svg(self.picture())
+
+    def _repr_html_(self) -> str:
+        """The picture of ``_repr_svg_`` beside a table of the result's figures (``figures()``),
+        one self-contained block: inline styles, no external CSS or script. The SVG's ids are
+        numbered per block, as a page of several inline pictures needs (viz.svg.scene_svg)."""
+        from html import escape
+
+        from zeromode.viz.svg import picture_svg
+
+        rows = "".join(
+            f"<tr><td><code>{escape(name)}</code></td><td style='text-align:right'>{escape(_shown(value))}</td>"
+            f"<td>{escape(unit)}</td><td>{escape(meaning)}</td></tr>"
+            for name, value, unit, meaning in self.figures()
+        )
+        table = (
+            "<table style='border-collapse:collapse;font-size:12px'><thead><tr><th>figure</th><th>value</th>"
+            f"<th>unit</th><th>meaning</th></tr></thead><tbody>{rows}</tbody></table>"
+        )
+        return (
+            f"<div style='display:flex;flex-wrap:wrap;gap:16px;align-items:flex-start'>"
+            f"<div>{picture_svg(self.picture(), f'zm{next(_HTML_PICTURES)}-')}</div><div>{table}</div></div>"
+        )
+
+    def figures(self) -> list[tuple[str, Any, str, str]]:
+        """The key figures of the REST body as (name, value, unit, meaning) rows: every number,
+        flag and short text, by its dotted path (``report.analysis.rank``), and every list of
+        records by its length (``samples``, unit ``count``; arrays are not figures); the meaning is the response model's description of
+        the field (service.wire.schemas, the one place the contract describes it), the unit
+        ``ms`` or ``s`` for timings and ``count`` for lengths, blank for the paper's
+        dimensionless figures (counts, gaps, residuals, ε, ν)."""
+        from zeromode.operations.endpoints import OPERATIONS
+
+        model = next((op.response_model for op in OPERATIONS.values() if type(self.request) is op.request_model), None)
+        return _figures(self.body, model, ())
 
     def plot(self, scale: float = 1.0, solution_space: bool = True) -> Figure:
         """The picture of ``_repr_svg_`` as a matplotlib Figure (``scale`` pixels per SVG pixel)."""
@@ -222,6 +261,39 @@ class AnalysisResult(Result):
 
     def document(self) -> dict:
         return {"frame": self.request.frame.model_dump(), "modes": self.body["modes"][:_plot_modes()]}
+
+
+class SolutionSpaceResult(Result):
+    """``zm.solution_space``: where one unspecified node joined to every specified node may sit
+    (solution: SolutionSpace; ``kind``, ``nullity``, ``quadric``, … are read from it). It draws
+    itself as the paper's Fig. 2: the specified nodes with their motions and the space (a /v1/plot
+    body with the motion as the requested one and ``solution_space``)."""
+
+    @property
+    def sample_positions(self) -> np.ndarray:
+        """x_U of the returned samples (n, d), each verified against all k bars."""
+        return self._samples("position")
+
+    @property
+    def sample_motions(self) -> np.ndarray:
+        """u_U of the returned samples (n, d), row for row with ``sample_positions``."""
+        return self._samples("motion")
+
+    def _samples(self, which: str) -> np.ndarray:
+        import numpy as np
+
+        rows = [s[which] for s in self.body["samples"]]
+        return np.asarray(rows, dtype=float).reshape(len(rows), self.request.dim)
+
+    def document(self) -> dict:
+        """A /v1/plot body: the specified nodes, the motion as the requested one, the solution
+        space; isolated solutions (``points``, the whole space) also as unspecified nodes, so
+        that the picture's window holds every one of them."""
+        r = self.request
+        found = [s["position"] for s in self.body["samples"]] if self.body["kind"] == "points" else []
+        frame = {"dim": r.dim, "positions": [*r.positions, *found], "edges": [],
+                 "specified": list(range(len(r.positions)))}
+        return {"frame": frame, "targets": [r.motions], "solution_space": True, "seed": r.seed}
 
 
 class DesignResult(Result):
@@ -326,6 +398,46 @@ def _shown_in_jupyter(figure: Figure) -> Figure:
         except KeyError:
             png.for_type(Figure, lambda fig: print_figure(fig, "png", bbox_inches=None))
     return figure
+
+
+# Texts longer than this are sentences (a path's verdict, a message), not figures of a table.
+_FIGURE_TEXT = 40
+
+
+def _figures(value: Mapping, model: Any, path: tuple[str, ...]) -> list[tuple[str, Any, str, str]]:
+    """Result.figures of ``value`` (a body or a part of it) described by ``model`` (a pydantic
+    model class, or None where the contract types the part as a plain dict)."""
+    rows: list[tuple[str, Any, str, str]] = []
+    fields = getattr(model, "model_fields", {})
+    for key, v in value.items():
+        info = fields.get(key)
+        meaning = (info.description or "") if info is not None else ""
+        name = ".".join((*path, key))
+        if isinstance(v, Mapping):
+            rows += _figures(v, _described_model(info.annotation) if info is not None else None, (*path, key))
+        elif isinstance(v, list) and v and all(isinstance(item, Mapping) for item in v):
+            rows.append((name, len(v), "count", meaning))
+        elif isinstance(v, (bool, int, float)) or (isinstance(v, str) and len(v) <= _FIGURE_TEXT):
+            timed = "timings_ms" in path or key.endswith("_ms")
+            rows.append((name, v, "ms" if timed else "s" if key.endswith("_s") else "", meaning))
+    return rows
+
+
+def _described_model(annotation: Any) -> Any:
+    """The pydantic model inside a field's annotation (``Model``, ``Model | None``), else None."""
+    from typing import get_args
+
+    from pydantic import BaseModel
+
+    for t in (annotation, *get_args(annotation)):
+        if isinstance(t, type) and issubclass(t, BaseModel):
+            return t
+    return None
+
+
+def _shown(value: Any) -> str:
+    """A figure as the table shows it: numbers to 6 significant digits."""
+    return f"{value:.6g}" if isinstance(value, float) else str(value)
 
 
 def _plot_modes() -> int:
@@ -451,6 +563,54 @@ def analyze(frame: Frame | Result | Mapping, **options: Any) -> AnalysisResult:
 
 
 # ----------------------------------------------------------------------------- design
+
+
+def solution_space(positions: Points, motions: Points, *, dim: int | None = None, samples: int = 8,
+                   seed: int = 0) -> SolutionSpaceResult:
+    """Where an unspecified node joined by bars to all k specified nodes may sit, with its motion
+    (POST /v1/solution-space; the paper's Fig. 2).
+
+    Each bar keeps its length at first order when (x_Si − x_U)·(u_Si − u_U) = 0 (Eq. 1); with
+    c = x_U·u_U these k equations are linear in ṽ = (x_U, u_U, c): Ã ṽ = b (Eqs. 4–5), solved by
+    ṽ = ṽ* + W α, α ∈ ℝᵐ, m = dim N(Ã). The one nonlinear condition c = x_U·u_U is the quadric
+    α̃ᵀ Q α̃ = 0 in α̃ = (α, 1) (Eq. 6). The space is ``points`` (m ≤ 1), a ``conic`` (m = 2) or a
+    quadric (m ≥ 3). solver.construction.solution_space.
+
+    Parameters
+    ----------
+    positions : (k, d) array_like
+        x_S, the specified nodes.
+    motions : (k, d) array_like
+        u_S, one row per specified node.
+    dim : {2, 3}, optional
+        The dimension (by default the width of ``positions``).
+    samples : int
+        How many real solutions (x_U, u_U) to return, found on seeded random lines in α-space.
+    seed : int
+        Seed of those lines: same request, same samples.
+
+    Returns
+    -------
+    SolutionSpaceResult
+        ``kind``, ``nullity`` (m), ``w_tilde`` (W̃, (2d+1) × (m+1)), ``quadric`` (Q) from the
+        solver's SolutionSpace; ``sample_positions`` and ``sample_motions`` (n, d). Raises
+        DomainError ``no_solution`` when Ã ṽ = b has no solution.
+
+    Examples
+    --------
+    The outward square (Fig. 3b, u_S = x_S): its four rows of Ã are dependent, so m = 2 and the
+    space is a conic, the circle |x_U| = √2 through the nodes.
+
+    >>> import zeromode as zm
+    >>> square = [[1, 1], [-1, 1], [-1, -1], [1, -1]]
+    >>> s = zm.solution_space(square, square, samples=4); (s.kind, s.nullity)
+    ('conic', 2)
+    >>> import numpy as np; bool(np.allclose(np.linalg.norm(s.sample_positions, axis=1), np.sqrt(2)))
+    True
+    """
+    return _run("/v1/solution-space", {
+        "dim": _dim(positions, dim), "positions": positions, "motions": motions, "samples": samples, "seed": seed,
+    }, SolutionSpaceResult)
 
 
 def design(positions: Points, motions: Points | Sequence[Points], *, dim: int | None = None,
