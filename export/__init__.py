@@ -24,12 +24,14 @@ from zeromode.solver.errors import DomainError, InvalidInput
 @dataclass(frozen=True)
 class Format:
     """An export format: its media type, file suffix, whether it shows a finite motion (then
-    the Takeaway needs a path) and what it is for."""
+    the Takeaway needs a path), what it is for, and whether it writes a module's map (only a
+    /v1/map answer has one) rather than a frame."""
 
     media_type: str
     suffix: str
     motion: bool
     description: str
+    map: bool = False
 
 
 FORMATS = {
@@ -44,9 +46,9 @@ FORMATS = {
     "svg_animation": Format("image/svg+xml", ".svg", True, "the finite motion as an animated SVG (SMIL)"),
     "gif": Format("image/gif", ".gif", True, "the finite motion as a GIF (matplotlib, Pillow)"),
     "mp4": Format("video/mp4", ".mp4", True, "the finite motion as an MP4 (matplotlib, ffmpeg; only where ffmpeg is installed)"),
-    "map_csv": Format("text/csv", ".csv", False, "a /v1/map answer's sampled map: d_in, f(d_in) and f′(d_in) at each sample of the usable range"),
-    "map_svg": Format("image/svg+xml", ".svg", False, "a /v1/map answer as a picture (matplotlib): the module, its pairs marked, beside f with the diagonal, usable range, fixed points and folds"),
-    "map_png": Format("image/png", ".png", False, "the map_svg picture as a PNG"),
+    "map_csv": Format("text/csv", ".csv", False, "a /v1/map answer's sampled map: d_in, f(d_in) and f′(d_in) at each sample of the usable range", map=True),
+    "map_svg": Format("image/svg+xml", ".svg", False, "a /v1/map answer as a picture (matplotlib): the module, its pairs marked, beside f with the diagonal, usable range, fixed points and folds", map=True),
+    "map_png": Format("image/png", ".png", False, "the map_svg picture as a PNG", map=True),
 }
 
 

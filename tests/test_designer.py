@@ -12,6 +12,8 @@ are recorded by benchmarks/bench_designer.py, not asserted here (no test races t
 
 from __future__ import annotations
 
+import csv
+import io
 import itertools
 import json
 from pathlib import Path
@@ -184,6 +186,9 @@ def test_draw_design_play_refine_certify_and_download(browser, designer_url, tmp
     assert f"[{x[0][0]:g},{x[0][1]:g}]" in raw.replace(".0,", ",").replace(".0]", "]")
     assert page.get_attribute("[data-testid=progress]", "data-value") == "1"
 
+    # A frame's downloads: no module-map format (only a given module's /v1/map answer has a map).
+    offered = page.eval_on_selector_all("#downloads button", "bs => bs.map(b => b.dataset.format)")
+    assert "vtk" in offered and not [f for f in offered if f.startswith("map_")]
     with page.expect_download() as info:
         page.click("[data-testid=download-vtk]")
     assert info.value.suggested_filename == "outward_2d.vtu"
@@ -929,6 +934,14 @@ def test_a_given_module_mapped(browser, designer_url):  # noqa: F811
     assert ax > 0 and ay < 0 and x_residual < 0.06 and y_residual < 0.06
     assert len(page.query_selector_all("#canvas line.bar")) == 6 and len(page.query_selector_all("#canvas line.pair")) == 2
     assert page.is_hidden("[data-testid=profile]") and page.query_selector("[data-testid=cobweb]") is None
+    # The given module's map downloads as its samples: f at every row is the closed form's.
+    page.wait_for_selector("[data-testid=download-map_csv]", timeout=TIMEOUT_MS)
+    with page.expect_download() as info:
+        page.click("[data-testid=download-map_csv]")
+    assert info.value.suggested_filename.endswith(".csv")
+    rows = list(csv.DictReader(io.StringIO(Path(info.value.path()).read_text())))
+    assert len(rows) == len(d_in) >= 10
+    assert max(abs(exact.f(float(r["d_in"])) - float(r["d_out"])) / float(r["d_out"]) for r in rows) < 1e-8
     # The multistable example in the list of examples opens its own tab, its form filled.
     page.select_option("[data-testid=example]", "example:tristable_triangle_2d")
     page.wait_for_function("designer.kind === 'multistable' && designer.conformations.length === 3")

@@ -309,6 +309,12 @@ def test_formats_are_listed_and_errors_name_the_problem(client, designed):
     formats = {f["name"]: f for f in client.get("/v1/export/formats").json()}
     assert {"vtk", "xdmf", "graphml", "node_link_json", "dxf", "cut_svg", "stl", "kit_csv", "gif", "svg_animation"} <= set(formats)
     assert all(f["available"] for name, f in formats.items() if name != "mp4")
+    # `map` says which formats write a module's map: exactly those a designed frame cannot take.
+    for name, f in formats.items():
+        if not f["motion"]:
+            r = client.post("/v1/export", json={"format": name, "document": designed["outward_2d"]})
+            assert (r.status_code == 422) == f["map"], (name, r.status_code)
+    assert {name for name, f in formats.items() if f["map"]} == {"map_csv", "map_svg", "map_png"}
     cases = [
         ({"format": "ply", "document": designed["outward_2d"]}, "invalid_request"),
         ({"format": "vtk"}, "invalid_request"),

@@ -44,11 +44,11 @@ def post_export(request: ExportRequest) -> Response:
 
 @router.get("/export/formats", response_model=list[ExportFormatInfo])
 def get_export_formats() -> list[dict]:
-    """Every export format: media type, file suffix, whether it shows a finite motion, and
-    whether this service can write it (mp4 needs ffmpeg)."""
+    """Every export format: media type, file suffix, whether it shows a finite motion, whether
+    this service can write it (mp4 needs ffmpeg), and whether it writes a module's map."""
     videos = video_formats()
     return [
         {"name": name, "media_type": f.media_type, "suffix": f.suffix, "motion": f.motion,
-         "available": name != "mp4" or "mp4" in videos, "description": f.description}
+         "available": name != "mp4" or "mp4" in videos, "description": f.description, "map": f.map}
         for name, f in FORMATS.items()
     ]

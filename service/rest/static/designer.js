@@ -942,8 +942,8 @@ async function design(event) {
     enableActions();
     if (own) {
       showOwnMotion(own.motion);
-      // Rods and springs, and a chain, export as designs do (springs as their own cells).
-      await Promise.all([response.landscape || response.chain ? listDownloads() : null, checkMap(response)]);
+      // Rods and springs, a chain and a given module's map export as designs do (springs as their own cells).
+      await Promise.all([response.landscape || response.map ? listDownloads() : null, checkMap(response)]);
       return;
     }
     say(`designed: ${state.frame.positions.length} nodes, ${state.frame.edges.length} bars; tracing the finite motion …`);
@@ -1377,19 +1377,23 @@ async function listDownloads() {
   box.replaceChildren();
   if (!state.formats) state.formats = await (await api("GET", "/v1/export/formats")).json();
   if (state.response !== response) return;  // cleared or replaced meanwhile: no buttons for it
-  for (const f of state.formats.filter((f) => f.available)) {
+  // A module's map formats (map_csv, …) write a given module's map only (a /v1/map answer).
+  for (const f of state.formats.filter((f) => f.available && (!f.map || givenMap()))) {
     const button = el("button", { type: "button", "data-format": f.name, "data-testid": `download-${f.name}`, title: f.description }, box, true);
     button.textContent = formatLabel(f);
     button.addEventListener("click", () => download(f));
   }
 }
 
+// A given module mapped as it is (Chain tab, "Map a given one"): its /v1/map answer, no chain.
+const givenMap = () => Boolean(state.response && state.response.map && !state.response.chain);
+
 // The format's human name: ours, else the service's description up to its first stop.
 const formatLabel = (f) => FORMAT_LABELS[f.name] || f.description.split(/[.:;(]/)[0].trim();
 
 async function download(format) {
   if (!state.response) return;
-  const body = { format: format.name, document: state.response, motion: { mode: 0 } };
+  const body = { format: format.name, document: givenMap() ? state.response.map : state.response, motion: { mode: 0 } };
   if (state.motionPath) { body.path = state.motionPath.path; body.parameter = state.motionPath.parameter; }
   say(`exporting ${formatLabel(format)} …`);
   try {

@@ -91,3 +91,4 @@ class ExportFormatInfo(BaseModel):
     motion: bool = Field(description="The format shows a finite motion (traced when the document has none).")
     available: bool = Field(description="False for mp4 where ffmpeg is not installed.")
     description: str
+    map: bool = Field(False, description="The format writes a module's map: only a /v1/map answer (or request) has one.")
