@@ -781,7 +781,7 @@ function placeUnspecified(w, crossing) {
   }
   state.placed.push({ x: best });
   draw();
-  checkPlaced().catch((e) => say(e.message, true));
+  checkPlaced();
 }
 
 // 3D: the node where the ray through the clicked pixel first meets the surface inside its box
@@ -807,7 +807,7 @@ function placeUnspecified3d(event) {
   }
   state.placed.push({ x: p, u: SolutionSpace.motionAt(space, p) });
   draw();
-  checkPlaced().catch((e) => say(e.message, true));
+  checkPlaced();
 }
 
 // The frame built by hand: the specified nodes, the placed nodes, a bar from each placed node to
@@ -820,8 +820,13 @@ function handBuiltFrame() {
 
 // The frame built by hand analysed by the service: does it leave only the drawn motions?
 async function checkPlaced() {
-  const placed = state.placed.length, a = await post("/v1/analyze", { frame: handBuiltFrame() });
-  if (state.placed.length !== placed) return;  // another node placed meanwhile: its answer follows
+  // Another node placed meanwhile (its answer follows), or Design pressed (its answer is the
+  // news): this answer, or its refusal, says nothing.
+  const placed = state.placed.length, seq = state.designs;
+  const current = () => state.placed.length === placed && state.designs === seq;
+  let a;
+  try { a = await post("/v1/analyze", { frame: handBuiltFrame() }); } catch (e) { if (current()) say(e.message, true); return; }
+  if (!current()) return;
   say(`built by hand: ${a.nodes} nodes, ${a.edges} bars, ${a.nontrivial_zero_modes} non-rigid zero mode${a.nontrivial_zero_modes === 1 ? "" : "s"}, ${a.self_stresses} self-stress${a.self_stresses === 1 ? "" : "es"} `
       + (sketchDim() === 3 ? "(Design uses this frame; Clear placed lets it place nodes judiciously)." : "(Design places nodes judiciously instead)."));
 }
